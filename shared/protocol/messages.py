@@ -257,4 +257,3 @@ def request(msg_type: MsgType, body: Body) -> Message:
 def topic(msg_type: MsgType, body: Body) -> Message:
     """A state message as MotoROS sends it: comm type TOPIC, reply type INVALID (0)."""
     return Message(int(msg_type), CommType.TOPIC, ReplyType.INVALID, body)
-

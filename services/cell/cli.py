@@ -1,0 +1,46 @@
+"""The ``motocell`` command."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+from collections.abc import Sequence
+
+from services.cell import demo, launcher
+from shared.service import add_zenoh_arguments
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="motocell", description=__doc__)
+    commands = parser.add_subparsers(dest="command", required=True)
+
+    up = commands.add_parser("up", help="run a whole cell in the foreground")
+    up.add_argument("--config", help="cell TOML file (default: one 6-axis arm on a YRC1000)")
+    up.add_argument("--host", help="address the TCP ports listen on (default 127.0.0.1)")
+    up.add_argument("--port-base", type=int, help="motion port (default 50240); state +1, I/O +2")
+    up.add_argument("--byte-order", choices=("little", "big"),
+                    help="override the controller's (FS100 big, others little)")
+    add_zenoh_arguments(up)
+    up.set_defaults(run=launcher.up)
+
+    run_demo = commands.add_parser(
+        "demo", help="start a cell and drive it like motoman_driver does, then stop it"
+    )
+    run_demo.add_argument("--host", default="127.0.0.1")
+    run_demo.add_argument("--port-base", type=int, help="use a running cell at this port base")
+    run_demo.add_argument("--config", help="cell TOML file for the cell the demo starts")
+    run_demo.add_argument("--points", type=int, default=20)
+    run_demo.add_argument("--duration", type=float, default=2.0, help="trajectory seconds")
+    run_demo.set_defaults(run=demo.run)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    args = build_parser().parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s motocell %(levelname)s %(message)s")
+    sys.exit(args.run(args))
+
+
+if __name__ == "__main__":
+    main()

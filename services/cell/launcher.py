@@ -1,0 +1,193 @@
+"""``motocell up``: a whole cell as child processes on this machine, in the foreground.
+
+The launcher runs a Zenoh router on loopback that every service connects to (multicast
+scouting stays off). The first cell on a machine takes the well-known port 7447, so observers
+find it with no arguments; a later cell runs its router on a free port and links it to 7447,
+so one observer sees every cell. A child that dies is logged and restarted; meanwhile the
+controller sees its liveliness token gone and the cell answers NOT_READY.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ctypes
+import logging
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from dataclasses import dataclass, field
+
+import zenoh
+
+from shared.bus.session import open_session
+from shared.config import Cell, ConfigError, load_cell
+
+log = logging.getLogger("motocell")
+
+WELL_KNOWN_PORT = 7447
+STOP_GRACE_S = 4.0
+"""SIGTERM, then SIGKILL after this; the whole stop stays within 5 s."""
+RESTART_DELAY_S = 1.0
+
+PR_SET_PDEATHSIG = 1
+
+
+def _die_with_parent() -> None:
+    """Children get SIGTERM if the launcher itself dies, so no half cell is ever left."""
+    libc = ctypes.CDLL(None, use_errno=True)
+    libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
+
+
+@dataclass
+class Child:
+    name: str
+    argv: list[str]
+    process: subprocess.Popen[bytes] | None = None
+    restarts: int = 0
+    restart_at: float = 0.0
+    env: dict[str, str] = field(default_factory=dict)
+
+    def start(self) -> None:
+        self.process = subprocess.Popen(
+            self.argv, preexec_fn=_die_with_parent, env={**os.environ, **self.env}
+        )
+
+    def alive(self) -> bool:
+        return self.process is not None and self.process.poll() is None
+
+
+def free_port(host: str = "127.0.0.1") -> int:
+    with socket.socket() as probe:
+        probe.bind((host, 0))
+        port: int = probe.getsockname()[1]
+        return port
+
+
+def free_port_block(count: int, host: str = "127.0.0.1") -> int:
+    """A base port with ``count`` consecutive free ports (for the motion/state/I/O trio)."""
+    while True:
+        base = free_port(host)
+        if base + count <= 65535 and all(port_free(base + i, host) for i in range(count)):
+            return base
+
+
+def port_free(port: int, host: str = "127.0.0.1") -> bool:
+    with socket.socket() as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            probe.bind((host, port))
+        except OSError:
+            return False
+        return True
+
+
+def open_hub(listen: list[str], connect: list[str]) -> tuple[zenoh.Session, str]:
+    """The cell's router. Returns it and the endpoint its services should connect to."""
+    if not listen:
+        if port_free(WELL_KNOWN_PORT):
+            listen = [f"tcp/127.0.0.1:{WELL_KNOWN_PORT}"]
+        else:
+            listen = [f"tcp/127.0.0.1:{free_port()}"]
+            connect = connect or [f"tcp/127.0.0.1:{WELL_KNOWN_PORT}"]
+    session = open_session("router", connect, listen)
+    return session, listen[0]
+
+
+def child_commands(cell: Cell, args: argparse.Namespace, endpoint: str) -> list[Child]:
+    common = ["--zenoh-connect", endpoint]
+    if args.config:
+        common += ["--config", args.config]
+    if args.zenoh_mode:
+        common += ["--zenoh-mode", args.zenoh_mode]
+    python = [sys.executable, "-m"]
+    children = [
+        Child("controller", [*python, "services.controller", *common]),
+        Child("executor", [*python, "services.executor", *common]),
+        Child("broadcaster", [*python, "services.broadcaster", *common]),
+    ]
+    children += [
+        Child(f"interpolator/{g.index}",
+              [*python, "services.interpolator", *common, "--group", str(g.index)])
+        for g in cell.groups
+    ]
+    gateway = [*python, "services.gateway", *common]
+    if args.host:
+        gateway += ["--host", args.host]
+    if args.port_base:
+        gateway += ["--port-base", str(args.port_base)]
+    if args.byte_order:
+        gateway += ["--byte-order", args.byte_order]
+    children.append(Child("gateway", gateway))
+    return children
+
+
+def supervise(children: list[Child], stop: threading.Event) -> None:
+    for child in children:
+        child.start()
+    while not stop.wait(0.2):
+        now = time.monotonic()
+        for child in children:
+            if child.alive():
+                continue
+            if child.restart_at == 0.0:
+                code = child.process.returncode if child.process else None
+                log.error("%s exited (code %s); restarting in %.0f s; the cell is NOT_READY "
+                          "until it is back", child.name, code, RESTART_DELAY_S)
+                child.restart_at = now + RESTART_DELAY_S
+            elif now >= child.restart_at:
+                child.restarts += 1
+                child.restart_at = 0.0
+                child.start()
+
+
+def stop_children(children: list[Child]) -> None:
+    running = [c for c in children if c.alive()]
+    for child in running:
+        assert child.process is not None
+        child.process.send_signal(signal.SIGTERM)
+    deadline = time.monotonic() + STOP_GRACE_S
+    for child in running:
+        assert child.process is not None
+        try:
+            child.process.wait(timeout=max(0.0, deadline - time.monotonic()))
+        except subprocess.TimeoutExpired:
+            log.warning("%s did not stop in time; killing it", child.name)
+            child.process.kill()
+            child.process.wait()
+
+
+def up(args: argparse.Namespace) -> int:
+    try:
+        cell = load_cell(args.config)
+    except ConfigError as exc:
+        print(f"motocell up: {exc}", file=sys.stderr)
+        return 2
+    stop = threading.Event()
+
+    def on_signal(signum: int, _frame: object) -> None:
+        stop.set()
+
+    signal.signal(signal.SIGTERM, on_signal)
+    signal.signal(signal.SIGINT, on_signal)
+    hub: zenoh.Session | None = None
+    if args.zenoh_connect:
+        endpoint = args.zenoh_connect[0]
+    else:
+        hub, endpoint = open_hub(args.zenoh_listen, [])
+    children = child_commands(cell, args, endpoint)
+    host = args.host or cell.host
+    port = args.port_base or cell.port_base
+    log.info("cell %s: %d group(s), ports %s:%d-%d, Zenoh at %s", cell.name, len(cell.groups),
+             host, port, port + 2, endpoint)
+    try:
+        supervise(children, stop)
+    finally:
+        stop_children(children)
+        if hub is not None:
+            hub.close()
+        log.info("cell %s stopped", cell.name)
+    return 0

@@ -1,0 +1,146 @@
+"""The executor's state as a function of (state, input): rings, epochs, one tick. No clock, no I/O.
+
+Each group has a 200-entry ring (MotoROS Q_SIZE, motoros1-behaviour.md §3.1). Entries arrive in
+numbered batches; the ring's *epoch* changes whenever it is cleared, so batches produced for a
+cleared trajectory are recognised and dropped instead of moving the robot.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass, field
+from enum import Enum
+
+import numpy as np
+
+from shared.bus.schemas import GroupTick, IncrementBatch, QueueState
+from shared.protocol.constants import MAX_AXES
+
+RING_CAPACITY = 200
+
+ZERO = (0,) * MAX_AXES
+
+
+@dataclass(frozen=True)
+class Entry:
+    increments: tuple[int, ...]
+    partial: bool
+    tool: int
+
+
+class BatchOutcome(Enum):
+    ACCEPTED = "accepted"
+    STALE = "stale"
+    """For an older epoch: the trajectory it belongs to was cleared."""
+    DUPLICATE = "duplicate"
+    GAP = "gap"
+    """Entries are missing before this batch: motion must stop (DESIGN invariant)."""
+    OVERFLOW = "overflow"
+    NOT_READY = "not ready"
+
+
+@dataclass
+class GroupRing:
+    epoch: int
+    received: int = 0
+    entries: deque[Entry] = field(default_factory=deque)
+
+
+class ExecutorCore:
+    def __init__(self, command_pulses: list[list[int]], first_epoch: int) -> None:
+        self.command = [list(p) for p in command_pulses]
+        self.rings = [GroupRing(first_epoch + g) for g in range(len(command_pulses))]
+        self._next_epoch = first_epoch + len(command_pulses)
+        self.ready = False
+        self.tick = 0
+        self.last_increment: list[tuple[int, ...]] = [ZERO] * len(command_pulses)
+
+    def accept(self, group: int, batch: IncrementBatch) -> BatchOutcome:
+        ring = self.rings[group]
+        if batch.epoch != ring.epoch:
+            return BatchOutcome.STALE
+        if not self.ready:
+            # Nothing may be queued while motion is not ready (§3.3); renewing the epoch makes
+            # the interpolator drop the rest of this trajectory instead of leaving a gap.
+            self._clear(ring)
+            return BatchOutcome.NOT_READY
+        if batch.first_seq + batch.count <= ring.received:
+            return BatchOutcome.DUPLICATE
+        if batch.first_seq != ring.received:
+            return BatchOutcome.GAP
+        if len(ring.entries) + batch.count > RING_CAPACITY:
+            return BatchOutcome.OVERFLOW
+        rows = np.frombuffer(batch.increments, dtype="<i4").reshape(batch.count, MAX_AXES)
+        partial = set(batch.partial)
+        for index, row in enumerate(rows.tolist()):
+            ring.entries.append(Entry(tuple(row), index in partial, batch.tool))
+        ring.received += batch.count
+        return BatchOutcome.ACCEPTED
+
+    def _clear(self, ring: GroupRing) -> None:
+        ring.entries.clear()
+        ring.epoch = self._next_epoch
+        ring.received = 0
+        self._next_epoch += 1
+
+    def clear_all(self) -> None:
+        for ring in self.rings:
+            self._clear(ring)
+
+    def set_ready(self, ready: bool) -> None:
+        """Motion-ready from the controller; dropping it clears every ring (§3.3)."""
+        if self.ready and not ready:
+            self.clear_all()
+        self.ready = ready
+
+    def step(self) -> None:
+        """One interpolation period: at most one (merged) increment per group, all applied
+        together, like MotoROS's single IncMove call per tick (§5.3)."""
+        self.tick += 1
+        for group, ring in enumerate(self.rings):
+            increment = self._pop_period(ring) if self.ready else ZERO
+            self.last_increment[group] = increment
+            if increment is not ZERO:
+                command = self.command[group]
+                for axis in range(MAX_AXES):
+                    command[axis] += increment[axis]
+
+    @staticmethod
+    def _pop_period(ring: GroupRing) -> tuple[int, ...]:
+        """Pop the head entry and, while the last popped is a partial period (an off-grid
+        waypoint), the next one too, so every tick moves one full period (§5.3 merge)."""
+        if not ring.entries:
+            return ZERO
+        entry = ring.entries.popleft()
+        total = list(entry.increments)
+        while entry.partial and ring.entries and ring.entries[0].tool == entry.tool:
+            entry = ring.entries.popleft()
+            for axis in range(MAX_AXES):
+                total[axis] += entry.increments[axis]
+        return tuple(total)
+
+    def queue_state(self, group: int) -> QueueState:
+        ring = self.rings[group]
+        return QueueState(
+            epoch=ring.epoch,
+            received=ring.received,
+            depth=len(ring.entries),
+            capacity=RING_CAPACITY,
+            command_pulses=list(self.command[group]),
+            tick=self.tick,
+        )
+
+    def group_ticks(self) -> list[GroupTick]:
+        # The simulated servo is ideal: feedback equals command at the end of the tick.
+        return [
+            GroupTick(
+                command_pulses=list(self.command[g]),
+                feedback_pulses=list(self.command[g]),
+                increment=list(self.last_increment[g]),
+                depth=len(ring.entries),
+            )
+            for g, ring in enumerate(self.rings)
+        ]
+
+    def queue_count(self, group: int) -> int:
+        return len(self.rings[group].entries)

@@ -1,0 +1,106 @@
+"""The gateway: Simple Message over TCP on the motion, state and I/O ports, forwarded over Zenoh."""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Sequence
+
+from services.gateway.cell_view import CellView, decode_state
+from services.gateway.io import IoHandler
+from services.gateway.motion import Answer, MotionHandler
+from services.gateway.tcp import RequestServer, StateServer, listen
+from shared.bus.schemas import State
+from shared.bus.session import Inbox
+from shared.protocol.codec import ByteOrder, Role, encode
+from shared.protocol.constants import MAX_JOINTS, MsgType, ValidFields
+from shared.protocol.errors import PeerProtocolError
+from shared.protocol.messages import JointFeedback, JointFeedbackEx, Message, RobotStatus
+from shared.protocol.replies import invalid_reply, io_error_reply, state_message
+from shared.service import argument_parser, running_service
+
+log = logging.getLogger("gateway")
+
+FEEDBACK_FIELDS = int(ValidFields.POSITION | ValidFields.VELOCITY)
+"""MotoROS 1.9 sends 6 when it can read speed feedback (the 2012 spec's 2 is superseded)."""
+
+
+def _joints(values: list[float]) -> tuple[float, ...]:
+    return (*values, *([0.0] * (MAX_JOINTS - len(values))))
+
+
+def state_frames(state: State, byte_order: ByteOrder) -> bytes:
+    """One state cycle as MotoROS sends it (§6): JOINT_FEEDBACK per group, then
+    JOINT_FEEDBACK_EX when there are 2+ groups (always 4 slots), then ROBOT_STATUS."""
+    zeros = (0.0,) * MAX_JOINTS
+    feedback = [
+        JointFeedback(g.group_no, FEEDBACK_FIELDS, 0.0, _joints(g.positions),
+                      _joints(g.velocities), zeros)
+        for g in state.groups
+    ]
+    messages = [state_message(MsgType.JOINT_FEEDBACK, body) for body in feedback]
+    if len(feedback) >= 2:
+        messages.append(state_message(MsgType.MOTO_JOINT_FEEDBACK_EX,
+                                      JointFeedbackEx(len(feedback), tuple(feedback))))
+    s = state.status
+    messages.append(state_message(MsgType.ROBOT_STATUS, RobotStatus(
+        s.drives_powered, s.e_stopped, s.error_code, s.in_error, s.in_motion, s.mode,
+        s.motion_possible)))
+    return b"".join(encode(m, byte_order, Role.CONTROLLER) for m in messages)
+
+
+def _motion_error(error: PeerProtocolError) -> Message:
+    return invalid_reply(error)
+
+
+def _io_error(error: PeerProtocolError) -> Message:
+    return io_error_reply(error.subcode)
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    parser = argument_parser("gateway", "Simple Message TCP servers of one controller.")
+    parser.add_argument("--host", help="address to listen on (default: the cell file's)")
+    parser.add_argument("--port-base", type=int, help="motion port; state and I/O follow")
+    parser.add_argument("--byte-order", choices=("little", "big"))
+    args = parser.parse_args(argv)
+    with running_service("gateway", "0", args) as ctx:
+        cell = ctx.cell
+        host = args.host or cell.host
+        port_base = args.port_base or cell.port_base
+        byte_order = ByteOrder(args.byte_order or cell.byte_order)
+        view = CellView(cell, ctx.keys, ctx.session)
+        io = IoHandler(view)
+        motion = MotionHandler(view, io)
+
+        def io_answer(request: object) -> Answer:
+            return Answer(io.handle(request))  # type: ignore[arg-type]
+
+        motion_server = RequestServer("motion", listen(host, port_base), byte_order,
+                                      motion.handle, _motion_error, view.moving,
+                                      on_disconnect=motion.stop_motion)
+        io_server = RequestServer("io", listen(host, port_base + 2), byte_order, io_answer,
+                                  _io_error, view.moving)
+        state_server = StateServer(listen(host, port_base + 1), view.moving)
+        inbox = Inbox(maxsize=100)
+        subscriber = ctx.session.declare_subscriber(ctx.keys.state, inbox.feed("state", decode_state))
+        for server in (motion_server, io_server, state_server):
+            server.start()
+        log.info("listening on %s:%d-%d (%s-endian)", host, port_base, port_base + 2, byte_order)
+
+        def fan_out() -> None:
+            while not ctx.stop.is_set():
+                item = inbox.get(timeout=0.2)
+                if item is not None and state_server.client_count():
+                    state_server.broadcast(state_frames(item[1], byte_order))
+
+        fan_out_thread = threading.Thread(target=fan_out, name="state-fan-out", daemon=True)
+        fan_out_thread.start()
+        ctx.stop.wait()
+        subscriber.undeclare()
+        for server in (motion_server, io_server, state_server):
+            server.close()
+        fan_out_thread.join(timeout=1.0)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,129 @@
+"""What the gateway knows of the rest of the cell, kept current by Zenoh subscriptions, and the
+few things it asks of other services.
+
+Callbacks only store the newest sample; handlers read it. The pending-slot credits live here:
+the gateway numbers every point it publishes to a group, the interpolator reports the highest
+number it has taken, and the slot is free when the two agree.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import zenoh
+
+from shared.bus.keys import CellKeys, group_of
+from shared.bus.schemas import (
+    CommandReply,
+    CommandRequest,
+    ControllerStatus,
+    Decoder,
+    Point,
+    QueueState,
+    Slot,
+    State,
+    encode,
+)
+from shared.bus.session import Liveness, call, publisher
+from shared.config import Cell
+from shared.protocol.constants import NotReadySubcode
+
+_status_decoder = Decoder(ControllerStatus)
+_queue_decoder = Decoder(QueueState)
+_slot_decoder = Decoder(Slot)
+
+
+class CellView:
+    def __init__(self, cell: Cell, keys: CellKeys, session: zenoh.Session) -> None:
+        self.cell = cell
+        self.keys = keys
+        self.session = session
+        groups = len(cell.groups)
+        self.status: ControllerStatus | None = None
+        self.queues: list[QueueState | None] = [None] * groups
+        self.taken = [0] * groups
+        self.published = [0] * groups
+        self.not_ready_count = 0
+        """Counts not-ready statuses seen; a trajectory started before a change is over."""
+        self._slots_changed = threading.Condition()
+        self._controller_key = keys.alive("controller", "0")
+        self._alive = Liveness(session, self._controller_key)
+        self._point_pubs = [publisher(session, keys.group_point(g), realtime=True)
+                            for g in range(groups)]
+        self._entities = [
+            session.declare_subscriber(keys.controller_status, self._on_status),
+            session.declare_subscriber(keys.group_queue_all, self._on_queue),
+            session.declare_subscriber(keys.group_slot_all, self._on_slot),
+        ]
+
+    def _on_status(self, sample: zenoh.Sample) -> None:
+        status = _status_decoder.decode(sample.payload.to_bytes())
+        if not status.motion_ready:
+            self.not_ready_count += 1
+        self.status = status
+
+    def _on_queue(self, sample: zenoh.Sample) -> None:
+        group = group_of(str(sample.key_expr))
+        if 0 <= group < len(self.queues):
+            self.queues[group] = _queue_decoder.decode(sample.payload.to_bytes())
+
+    def _on_slot(self, sample: zenoh.Sample) -> None:
+        group = group_of(str(sample.key_expr))
+        if 0 <= group < len(self.taken):
+            slot = _slot_decoder.decode(sample.payload.to_bytes())
+            with self._slots_changed:
+                self.taken[group] = slot.taken_id
+                self._slots_changed.notify_all()
+
+    def readiness(self) -> tuple[bool, int]:
+        """Motion-ready and the NOT_READY subcode, from the controller's last status. Without a
+        live controller nothing can move: INC_MOVE_ERROR, as for any missing service."""
+        status = self.status
+        if status is None or self._controller_key not in self._alive.present():
+            return False, int(NotReadySubcode.INC_MOVE_ERROR)
+        return status.motion_ready, status.not_ready_subcode
+
+    def slot_free(self, group: int) -> bool:
+        return self.taken[group] >= self.published[group]
+
+    def command_pulses(self, group: int) -> list[int] | None:
+        queue = self.queues[group]
+        return None if queue is None else queue.command_pulses
+
+    def moving(self) -> bool:
+        """Something is queued for the robot (the motion and state ports refuse newcomers)."""
+        return any(q is not None and q.depth > 0 for q in self.queues) or not all(
+            self.slot_free(g) for g in range(len(self.taken))
+        )
+
+    def publish_point(self, group: int, sequence: int, time_s: float,
+                      positions: list[float], velocities: list[float]) -> None:
+        self.published[group] += 1
+        point = Point(self.published[group], sequence, time_s, positions, velocities)
+        self._point_pubs[group].put(encode(point))
+
+    def wait_slots_free(self, timeout: float) -> bool:
+        deadline = time.monotonic() + timeout
+        with self._slots_changed:
+            while not all(self.slot_free(g) for g in range(len(self.taken))):
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    return False
+                self._slots_changed.wait(remaining)
+        return True
+
+    def controller(self, verb: str, request: CommandRequest | None = None,
+                   timeout: float = 2.0) -> CommandReply | None:
+        return call(self.session, self.keys.controller_cmd(verb), request, timeout)
+
+    def executor(self, verb: str, request: CommandRequest | None = None,
+                 timeout: float = 1.0) -> CommandReply | None:
+        return call(self.session, self.keys.executor_cmd(verb), request, timeout)
+
+
+_state_decoder = Decoder(State)
+
+
+def decode_state(sample: zenoh.Sample) -> State:
+    return _state_decoder.decode(sample.payload.to_bytes())

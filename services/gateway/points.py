@@ -1,0 +1,80 @@
+"""Trajectory-point checks in MotoROS's order (motoros1-behaviour.md §2.4-2.6). Pure.
+
+The gateway answers a point from state it already holds (motion-ready, commanded position,
+the pending slot) because a Zenoh round trip alone costs more than a real controller's whole
+0.34 ms reply (DESIGN "Timing and flow"). These functions decide the reply.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from shared.motion.kinematics import AxisMap
+from shared.protocol.constants import REQUIRED_POINT_FIELDS, InvalidSubcode, Result
+
+MAX_TRAJECTORY_TIME_S = 14400.0
+"""4 h: beyond this float32 seconds lose millisecond precision (§2.4 step 4, 3016)."""
+START_TOLERANCE_PULSES = 30
+"""Sequence-0 start position vs the *commanded* position, per axis (§2.6, since v1.8.2)."""
+
+Verdict = tuple[int, int]
+OK: Verdict = (int(Result.SUCCESS), 0)
+
+
+def invalid(subcode: InvalidSubcode) -> Verdict:
+    return int(Result.INVALID), int(subcode)
+
+
+@dataclass(frozen=True)
+class PointData:
+    """One group's part of a point: what 14 and each block of 2016 carry."""
+
+    group_no: int
+    valid_fields: int
+    time: float
+    positions: Sequence[float]
+    velocities: Sequence[float]
+
+
+def check_fields(point: PointData) -> Verdict | None:
+    """§2.4 step 3: time, position and velocity must all be present (3015)."""
+    if point.valid_fields & REQUIRED_POINT_FIELDS != REQUIRED_POINT_FIELDS:
+        return invalid(InvalidSubcode.DATA_INSUFFICIENT)
+    return None
+
+
+def check_time_limit(point: PointData) -> Verdict | None:
+    """§2.4 step 4 (3016). Also refuses NaN/infinite times, which MotoROS lets through."""
+    if not math.isfinite(point.time) or point.time >= MAX_TRAJECTORY_TIME_S:
+        return invalid(InvalidSubcode.DATA_TIME)
+    return None
+
+
+def check_values(point: PointData, axis_map: AxisMap) -> Verdict | None:
+    """Finite positions (3012) and velocities within the axis limits (3013).
+
+    MotoROS compares ``abs()`` of the *integer-truncated* velocity [quirk, §2.6]: 2.9 rad/s
+    passes a 2.0 limit there. We compare the real value; NaN is refused too (it would pass any
+    ``>`` comparison).
+    """
+    axes = axis_map.axes
+    positions = point.positions[:axes]
+    if not all(math.isfinite(p) for p in positions):
+        return invalid(InvalidSubcode.DATA_POSITION)
+    for velocity, limit in zip(point.velocities[:axes], axis_map.max_speed_ros.tolist(), strict=True):
+        if not abs(velocity) <= limit:
+            return invalid(InvalidSubcode.DATA_SPEED)
+    return None
+
+
+def check_start(point: PointData, axis_map: AxisMap, command_pulses: Sequence[int]) -> Verdict | None:
+    """§2.6: every axis within 30 pulses of the commanded position (3011)."""
+    requested = axis_map.ros_to_pulses(np.array(point.positions[: axis_map.axes], dtype=np.float64))
+    commanded = np.array(command_pulses[: axis_map.axes], dtype=np.int64)
+    if np.any(np.abs(requested - commanded) > START_TOLERANCE_PULSES):
+        return invalid(InvalidSubcode.DATA_START_POS)
+    return None

@@ -1,0 +1,242 @@
+"""The gateway's TCP servers: thin blocking-socket shells around the pure codec and handlers.
+
+A thread per connection keeps the reply path short: recv, decode, decide, send, with no event
+loop hop in between. Connection limits and take-over follow MotoROS 1.9.4+ (§2.1, §6, §8).
+"""
+
+from __future__ import annotations
+
+import logging
+import socket
+import threading
+from collections import deque
+from collections.abc import Callable
+
+from services.gateway.motion import Answer
+from shared.protocol.codec import CLOSED, NEED_DATA, ByteOrder, Role, SimpleMessageCodec
+from shared.protocol.errors import PeerProtocolError
+from shared.protocol.messages import Message, UnknownMessage
+
+log = logging.getLogger("gateway")
+
+RECV_BYTES = 65536
+STATE_BACKLOG_FRAMES = 64
+"""Frames buffered per state client; a slower client loses the oldest, never stalls others."""
+CLOSE_DELAY_S = 0.05
+"""MotoROS sleeps 50 ms before it closes a motion connection (§2.1)."""
+
+Respond = Callable[[Message | UnknownMessage], Answer]
+ErrorReply = Callable[[PeerProtocolError], Message]
+
+
+def listen(host: str, port: int) -> socket.socket:
+    server = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    server.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        server.bind((host, port))
+    except OSError as exc:
+        server.close()
+        raise SystemExit(f"motocell-gateway: cannot listen on {host}:{port}: {exc.strerror}") from exc
+    server.listen(socket.SOMAXCONN)
+    return server
+
+
+def configure(client: socket.socket) -> None:
+    client.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+    client.setsockopt(socket.SOL_SOCKET, socket.SO_KEEPALIVE, 1)
+
+
+def serve_requests(client: socket.socket, byte_order: ByteOrder, respond: Respond,
+                   error_reply: ErrorReply) -> None:
+    """Answer every request exactly once, in order, until the peer closes or a handler says
+    to close. Garbage gets its INVALID reply and the connection is kept."""
+    codec = SimpleMessageCodec(Role.CONTROLLER, byte_order)
+    while True:
+        try:
+            data = client.recv(RECV_BYTES)
+        except OSError:
+            return
+        codec.receive_data(data)
+        while True:
+            try:
+                event = codec.next_event()
+            except PeerProtocolError as error:
+                client.sendall(codec.send(error_reply(error)))
+                continue
+            if event is NEED_DATA:
+                break
+            if event is CLOSED:
+                return
+            assert isinstance(event, Message | UnknownMessage)
+            answer = respond(event)
+            if answer.reply is not None:
+                client.sendall(codec.send(answer.reply))
+            if answer.close:
+                return
+
+
+class Connection:
+    def __init__(self, sock: socket.socket, thread: threading.Thread) -> None:
+        self.sock = sock
+        self.thread = thread
+
+    def close(self) -> None:
+        try:
+            self.sock.shutdown(socket.SHUT_RDWR)
+        except OSError:
+            pass
+        self.thread.join(timeout=5.0)
+
+
+class RequestServer:
+    """The motion port or the I/O port: one client at a time (§2.1, §8).
+
+    A newcomer replaces an idle client; while the robot moves it is refused. The old client's
+    clean-up (``on_disconnect``) finishes before the newcomer is served, so a new motion client
+    never inherits increments queued by the old one.
+    """
+
+    def __init__(self, name: str, server: socket.socket, byte_order: ByteOrder, respond: Respond,
+                 error_reply: ErrorReply, moving: Callable[[], bool],
+                 on_disconnect: Callable[[], None] = lambda: None) -> None:
+        self.name = name
+        self.server = server
+        self.byte_order = byte_order
+        self.respond = respond
+        self.error_reply = error_reply
+        self.moving = moving
+        self.on_disconnect = on_disconnect
+        self.current: Connection | None = None
+        self.thread = threading.Thread(target=self._accept_loop, name=f"{name}-accept", daemon=True)
+
+    def start(self) -> None:
+        self.thread.start()
+
+    def _accept_loop(self) -> None:
+        while True:
+            try:
+                client, peer = self.server.accept()
+            except OSError:
+                return
+            configure(client)
+            if self.current is not None and self.current.thread.is_alive():
+                if self.moving():
+                    log.warning("%s: refused %s:%d, the robot is moving", self.name, *peer)
+                    client.close()
+                    continue
+                log.info("%s: %s:%d replaces the idle client", self.name, *peer)
+                self.current.close()
+            log.info("%s: client %s:%d connected", self.name, *peer)
+            thread = threading.Thread(target=self._serve, args=(client, peer),
+                                      name=f"{self.name}-client", daemon=True)
+            self.current = Connection(client, thread)
+            thread.start()
+
+    def _serve(self, client: socket.socket, peer: tuple[str, int]) -> None:
+        try:
+            serve_requests(client, self.byte_order, self.respond, self.error_reply)
+        except OSError as exc:
+            log.info("%s: %s:%d: %s", self.name, *peer, exc)
+        finally:
+            threading.Event().wait(CLOSE_DELAY_S)
+            client.close()
+            self.on_disconnect()
+            log.info("%s: client %s:%d gone", self.name, *peer)
+
+    def close(self) -> None:
+        self.server.close()
+        if self.current is not None:
+            self.current.close()
+
+
+class StateClient:
+    def __init__(self, sock: socket.socket, peer: tuple[str, int]) -> None:
+        self.sock = sock
+        self.peer = peer
+        self.frames: deque[bytes] = deque(maxlen=STATE_BACKLOG_FRAMES)
+        self.ready = threading.Condition()
+        self.closed = False
+        self.thread = threading.Thread(target=self._write_loop, name="state-client", daemon=True)
+        self.thread.start()
+
+    def push(self, data: bytes) -> None:
+        with self.ready:
+            self.frames.append(data)
+            self.ready.notify()
+
+    def _write_loop(self) -> None:
+        while True:
+            with self.ready:
+                while not self.frames and not self.closed:
+                    self.ready.wait()
+                if self.closed:
+                    return
+                data = b"".join(self.frames)
+                self.frames.clear()
+            try:
+                self.sock.sendall(data)
+            except OSError:
+                self.close()
+                return
+
+    def close(self) -> None:
+        with self.ready:
+            self.closed = True
+            self.ready.notify()
+        try:
+            self.sock.shutdown(socket.SHUT_RDWR)
+        except OSError:
+            pass
+        self.sock.close()
+
+
+class StateServer:
+    """Port 50241: up to 4 clients (§6). A 5th is refused while the robot moves, otherwise it
+    takes slot 0. The server never reads; a client goes when a send fails."""
+
+    MAX_CLIENTS = 4
+
+    def __init__(self, server: socket.socket, moving: Callable[[], bool]) -> None:
+        self.server = server
+        self.moving = moving
+        self.clients: list[StateClient] = []
+        self.lock = threading.Lock()
+        self.thread = threading.Thread(target=self._accept_loop, name="state-accept", daemon=True)
+
+    def start(self) -> None:
+        self.thread.start()
+
+    def _accept_loop(self) -> None:
+        while True:
+            try:
+                sock, peer = self.server.accept()
+            except OSError:
+                return
+            configure(sock)
+            with self.lock:
+                self.clients = [c for c in self.clients if not c.closed]
+                if len(self.clients) >= self.MAX_CLIENTS:
+                    if self.moving():
+                        log.warning("state: refused %s:%d, 4 clients and the robot moves", *peer)
+                        sock.close()
+                        continue
+                    self.clients.pop(0).close()
+                self.clients.append(StateClient(sock, peer))
+            log.info("state: client %s:%d connected", *peer)
+
+    def broadcast(self, data: bytes) -> None:
+        with self.lock:
+            clients = list(self.clients)
+        for client in clients:
+            if not client.closed:
+                client.push(data)
+
+    def client_count(self) -> int:
+        with self.lock:
+            return sum(not c.closed for c in self.clients)
+
+    def close(self) -> None:
+        self.server.close()
+        with self.lock:
+            for client in self.clients:
+                client.close()

@@ -1,0 +1,132 @@
+"""The interpolator's logic without I/O: points in, numbered increment batches out, with
+credit-based flow control against the executor's ring."""
+
+from __future__ import annotations
+
+import logging
+from collections import deque
+from collections.abc import Callable
+
+import numpy as np
+
+from shared.bus.schemas import IncrementBatch, Point, QueueState, Slot
+from shared.config import Group
+from shared.motion.interpolation import Entries, Knot, Segment, Trajectory, time_to_ns
+from shared.motion.kinematics import AxisMap, IntArray
+from shared.protocol.constants import MAX_AXES
+
+log = logging.getLogger("interpolator")
+
+MAX_BATCH = 50
+"""Entries per message: 200 ms of motion at 4 ms, about 1.7 kB."""
+
+
+class Feeder:
+    def __init__(self, group: Group, period_ns: int, send: Callable[[IncrementBatch], None]) -> None:
+        self.axis_map = AxisMap(group)
+        self.period_ns = period_ns
+        self.send = send
+        self.tool = 0
+        self.queue: QueueState | None = None
+        self.sent = 0
+        """Entries sent in the current epoch (the next batch's first_seq)."""
+        self.trajectory: Trajectory | None = None
+        self.segment: Segment | None = None
+        self.segment_point_id = 0
+        self.received_id = 0
+        self.taken_id = 0
+        self.points_accepted = 0
+        self.increments_sent = 0
+
+    def on_queue(self, state: QueueState) -> None:
+        if self.queue is not None and state.epoch != self.queue.epoch:
+            # The executor cleared the ring (stop, fault, not ready): this trajectory is over.
+            # Dropping it also frees the pending slot, as MotoROS 1.9.10 does (§3.3).
+            if self.trajectory is not None or self.segment is not None:
+                log.info("queue cleared by the executor; trajectory dropped")
+            self.trajectory = None
+            self.segment = None
+            self.sent = 0
+            self.taken_id = self.received_id
+        self.queue = state
+
+    def room(self) -> int:
+        queue = self.queue
+        if queue is None:
+            return 0
+        in_flight = self.sent - queue.received
+        return queue.capacity - queue.depth - in_flight
+
+    def progress(self, points: deque[Point]) -> None:
+        """Send what the ring has room for and take new points while the slot is free."""
+        while self.queue is not None:
+            if self.segment is not None:
+                room = self.room()
+                if room <= 0:
+                    return
+                self._send(self.segment.take(min(room, MAX_BATCH)))
+                if self.segment.remaining == 0:
+                    self.segment = None
+                    self.taken_id = self.segment_point_id
+                continue
+            if not points:
+                return
+            self._take(points.popleft())
+
+    def _take(self, point: Point) -> None:
+        assert self.queue is not None
+        self.received_id = max(self.received_id, point.point_id)
+        knot = Knot(
+            time_to_ns(point.time),
+            np.array(point.positions, dtype=np.float64),
+            np.array(point.velocities, dtype=np.float64),
+        )
+        if point.sequence == 0:
+            self.trajectory = Trajectory(self.axis_map, self.period_ns, knot, self._start_pulses())
+            self.taken_id = point.point_id
+            self.points_accepted += 1
+            return
+        if self.trajectory is None:
+            log.warning("point %d (sequence %d) without a trajectory start; dropped",
+                        point.point_id, point.sequence)
+            self.taken_id = point.point_id
+            return
+        try:
+            self.segment = self.trajectory.segment_to(knot)
+        except ValueError as exc:
+            log.warning("point %d dropped: %s", point.point_id, exc)
+            self.taken_id = point.point_id
+            return
+        self.segment_point_id = point.point_id
+        self.points_accepted += 1
+
+    def _start_pulses(self) -> IntArray:
+        """The base of the new trajectory's increments: where the commanded position will be
+        once everything already sent has been applied (exact, so no pulse is lost)."""
+        assert self.queue is not None
+        if self.trajectory is not None and self.sent > 0:
+            return self.trajectory.pulses
+        return np.array(self.queue.command_pulses[: self.axis_map.axes], dtype=np.int64)
+
+    def _send(self, entries: Entries) -> None:
+        assert self.queue is not None
+        count = len(entries)
+        rows = np.zeros((count, MAX_AXES), dtype="<i4")
+        rows[:, : self.axis_map.axes] = entries.increments
+        self.send(
+            IncrementBatch(
+                epoch=self.queue.epoch,
+                first_seq=self.sent,
+                count=count,
+                increments=rows.tobytes(),
+                partial=np.flatnonzero(entries.partial).tolist(),
+                tool=self.tool,
+                times_ns=entries.times_ns.tolist(),
+            )
+        )
+        self.sent += count
+        self.increments_sent += count
+
+    def slot(self) -> Slot:
+        epoch = self.queue.epoch if self.queue is not None else 0
+        return Slot(self.taken_id, epoch, self.points_accepted, self.increments_sent)

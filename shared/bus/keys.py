@@ -1,0 +1,57 @@
+"""Zenoh key expressions of a cell. Everything lives under ``motocell/<cell>/``; entity kinds
+and ids sit at fixed positions so ``*`` selects one level, and no key carries a sequence
+number or a timestamp (those travel in the payload). See ARCHITECTURE.md for the full map.
+"""
+
+from __future__ import annotations
+
+ROOT = "motocell"
+ALIVE_ROOT = "@motocell"
+"""Liveliness tokens start with '@' so a plain ``**`` data subscriber does not see them."""
+
+
+class CellKeys:
+    def __init__(self, cell: str) -> None:
+        self.cell = cell
+        self.prefix = f"{ROOT}/{cell}"
+        self.controller_status = f"{self.prefix}/controller/status"
+        self.executor_tick = f"{self.prefix}/executor/tick"
+        self.state = f"{self.prefix}/state"
+        self.group_queue_all = f"{self.prefix}/group/*/queue"
+        self.group_slot_all = f"{self.prefix}/group/*/slot"
+        self.alive_all = f"{ALIVE_ROOT}/{cell}/alive/**"
+
+    def controller_cmd(self, verb: str) -> str:
+        return f"{self.prefix}/controller/cmd/{verb}"
+
+    def controller_fault(self, kind: str) -> str:
+        return f"{self.prefix}/controller/fault/{kind}"
+
+    def executor_cmd(self, verb: str) -> str:
+        return f"{self.prefix}/executor/cmd/{verb}"
+
+    def group_point(self, group: int) -> str:
+        return f"{self.prefix}/group/{group}/point"
+
+    def group_slot(self, group: int) -> str:
+        return f"{self.prefix}/group/{group}/slot"
+
+    def group_increments(self, group: int) -> str:
+        return f"{self.prefix}/group/{group}/increments"
+
+    def group_queue(self, group: int) -> str:
+        return f"{self.prefix}/group/{group}/queue"
+
+    def alive(self, service: str, instance: str) -> str:
+        return f"{ALIVE_ROOT}/{self.cell}/alive/{service}/{instance}"
+
+
+def group_of(key: str) -> int:
+    """The group number in ``motocell/<cell>/group/<g>/...``."""
+    return int(key.split("/")[3])
+
+
+def service_of_alive(key: str) -> str:
+    """``@motocell/<cell>/alive/<service>/<instance>`` -> ``<service>/<instance>``."""
+    parts = key.split("/")
+    return "/".join(parts[3:5])

@@ -1,0 +1,187 @@
+"""Payloads that travel on Zenoh: msgspec Structs encoded as msgpack arrays.
+
+One decoder per key. Schemas evolve only by appending fields with defaults, so an older
+subscriber keeps decoding newer payloads. Pulse lists are Motoman axis order, 8 slots; joint
+lists are ROS order, one entry per axis of the group.
+"""
+
+from __future__ import annotations
+
+from typing import Generic, TypeVar
+
+import msgspec
+
+
+class Alarm(msgspec.Struct, array_like=True, frozen=True):
+    code: int
+    subcode: int = 0
+
+
+class ControllerStatus(msgspec.Struct, array_like=True, frozen=True):
+    """``controller/status``: the simulated controller as MotoROS's status poller sees it."""
+
+    seq: int
+    servo_on: bool
+    estop: bool
+    hold: bool
+    alarms: list[Alarm]
+    error: int
+    """Active error number (errors are not alarms: they block motion but not in_error)."""
+    play: bool
+    remote: bool
+    operating: bool
+    """A job is running (INIT_ROS parked at its WAIT counts)."""
+    job_ready: bool
+    """OT#889 latched on its rising edge (motoros1-behaviour.md §7.1)."""
+    pfl_active: bool
+    incmove_error: bool
+    eco: bool
+    missing_services: list[str]
+    motion_ready: bool
+    not_ready_subcode: int
+    """The NOT_READY subcode (§7.2) when not ready, else 0."""
+    tools: list[int]
+    """Selected tool per group."""
+
+
+class Point(msgspec.Struct, array_like=True, frozen=True):
+    """``group/<g>/point``: a point the gateway accepted, for the group's interpolator.
+
+    ``point_id`` counts every point the gateway published to this group, so the interpolator's
+    ``Slot.taken_id`` tells the gateway whether the pending slot is free.
+    """
+
+    point_id: int
+    sequence: int
+    time: float
+    positions: list[float]
+    velocities: list[float]
+
+
+class Slot(msgspec.Struct, array_like=True, frozen=True):
+    """``group/<g>/slot``: the interpolator's pending-point slot, published on every change."""
+
+    taken_id: int
+    """Highest point id fully interpolated into the executor's queue (or dropped)."""
+    epoch: int
+    points_accepted: int = 0
+    increments_sent: int = 0
+
+
+class IncrementBatch(msgspec.Struct, array_like=True, frozen=True):
+    """``group/<g>/increments``: consecutive queue entries for one group.
+
+    ``first_seq`` numbers entries within ``epoch``; the executor accepts a batch only if it
+    continues exactly where the previous one ended (a gap stops motion with an alarm).
+    ``increments`` is little-endian int32, ``count`` rows x 8 Motoman axes.
+    """
+
+    epoch: int
+    first_seq: int
+    count: int
+    increments: bytes
+    partial: list[int]
+    """Row indices of partial-period entries (merged with the next entry by the executor)."""
+    tool: int
+    times_ns: list[int]
+
+
+class QueueState(msgspec.Struct, array_like=True, frozen=True):
+    """``group/<g>/queue``: the executor's ring for one group, published every tick.
+
+    ``epoch`` changes whenever the ring is cleared; ``received`` is the next entry sequence the
+    executor expects in this epoch, so the interpolator knows how many entries are in flight.
+    ``command_pulses`` is exact whenever ``depth`` is 0 and nothing is in flight.
+    """
+
+    epoch: int
+    received: int
+    depth: int
+    capacity: int
+    command_pulses: list[int]
+    tick: int
+
+
+class GroupTick(msgspec.Struct, array_like=True, frozen=True):
+    command_pulses: list[int]
+    feedback_pulses: list[int]
+    increment: list[int]
+    depth: int
+
+
+class Tick(msgspec.Struct, array_like=True, frozen=True):
+    """``executor/tick``: what the motion system did this period."""
+
+    tick: int
+    deadline_ns: int
+    """The tick's scheduled time on CLOCK_MONOTONIC."""
+    lateness_ns: int
+    missed: int
+    """Periods missed since start (each is caught up, so simulated motion never slips)."""
+    motion_ready: bool
+    groups: list[GroupTick]
+
+
+class GroupState(msgspec.Struct, array_like=True, frozen=True):
+    group_no: int
+    positions: list[float]
+    velocities: list[float]
+    command_positions: list[float]
+
+
+class RobotStatusFields(msgspec.Struct, array_like=True, frozen=True):
+    drives_powered: int
+    e_stopped: int
+    error_code: int
+    in_error: int
+    in_motion: int
+    mode: int
+    motion_possible: int
+
+
+class State(msgspec.Struct, array_like=True, frozen=True):
+    """``state``: one state snapshot, what the gateway sends on port 50241."""
+
+    seq: int
+    tick: int
+    tick_ns: int
+    """CLOCK_MONOTONIC of the tick the feedback comes from (for feedback-age measurements)."""
+    groups: list[GroupState]
+    status: RobotStatusFields
+
+
+class CommandRequest(msgspec.Struct, array_like=True, frozen=True):
+    """Payload of ``*/cmd/<verb>`` queries."""
+
+    group: int = 0
+    value: int = 0
+    args: list[int] = msgspec.field(default_factory=list)
+
+
+class CommandReply(msgspec.Struct, array_like=True, frozen=True):
+    """Reply of ``*/cmd/<verb>`` queries: MotoROS result and subcode (and a value if any)."""
+
+    result: int
+    subcode: int = 0
+    value: int = 0
+    detail: str = ""
+    pulses: list[list[int]] = msgspec.field(default_factory=list)
+
+
+T = TypeVar("T")
+
+_encoder = msgspec.msgpack.Encoder()
+
+
+def encode(payload: msgspec.Struct) -> bytes:
+    return _encoder.encode(payload)
+
+
+class Decoder(Generic[T]):
+    """One prebuilt decoder per payload type."""
+
+    def __init__(self, payload_type: type[T]) -> None:
+        self._decoder = msgspec.msgpack.Decoder(payload_type)
+
+    def decode(self, data: bytes | bytearray | memoryview) -> T:
+        return self._decoder.decode(data)

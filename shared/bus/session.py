@@ -1,0 +1,184 @@
+"""Opening Zenoh sessions the same way in every process, and the small patterns all use.
+
+Multicast scouting is always off: two cells (or two test runs) on one machine must never find
+each other by accident (zenoh-facts §8.1). Processes meet through explicit endpoints instead: a
+local cell's launcher runs a router on loopback that every service connects to; in containers
+the services are clients of a zenohd router.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import queue
+import threading
+from collections.abc import Callable, Iterable, Sequence
+from typing import Any, TypeVar
+
+import msgspec
+import zenoh
+
+from shared.bus.schemas import CommandReply, CommandRequest, Decoder, encode
+
+log = logging.getLogger(__name__)
+
+T = TypeVar("T")
+
+LEASE_MS = 1000
+"""Transport lease: a hung (not crashed) process is noticed after about this long (§1.4)."""
+
+
+def bus_config(
+    mode: str = "peer",
+    connect: Sequence[str] = (),
+    listen: Sequence[str] = ("tcp/127.0.0.1:0",),
+) -> zenoh.Config:
+    config = zenoh.Config()
+    config.insert_json5("mode", json.dumps(mode))
+    config.insert_json5("connect/endpoints", json.dumps(list(connect)))
+    config.insert_json5("listen/endpoints", json.dumps(list(listen)))
+    config.insert_json5("scouting/multicast/enabled", "false")
+    config.insert_json5("transport/link/tx/lease", str(LEASE_MS))
+    if mode == "client":
+        # Wait for the router instead of failing at once, so start order does not matter.
+        config.insert_json5("connect/timeout_ms", "-1")
+    if mode == "peer" and connect:
+        # A peer retries an absent endpoint in the background; keep doing so forever.
+        config.insert_json5("connect/timeout_ms", "-1")
+    return config
+
+
+def open_session(
+    mode: str = "peer", connect: Sequence[str] = (), listen: Sequence[str] | None = None
+) -> zenoh.Session:
+    if listen is None:
+        listen = () if mode == "client" else ("tcp/127.0.0.1:0",)
+    try:
+        return zenoh.open(bus_config(mode, connect, listen))
+    except zenoh.ZError as exc:
+        raise ConnectionError(f"cannot open Zenoh session ({mode}, connect={connect}): {exc}") from exc
+
+
+def publisher(session: zenoh.Session, key: str, *, realtime: bool = False) -> zenoh.Publisher:
+    """A reliable publisher that blocks rather than drops (the default DROP loses data under
+    load even on loopback, zenoh-facts §3)."""
+    return session.declare_publisher(
+        key,
+        congestion_control=zenoh.CongestionControl.BLOCK,
+        priority=zenoh.Priority.REAL_TIME if realtime else zenoh.Priority.DATA,
+    )
+
+
+class Inbox:
+    """One queue that several Zenoh callbacks feed, drained by the service's own thread.
+
+    Zenoh callbacks run on Zenoh's threads; they only append here (STYLE §10), so no service
+    logic ever runs on them. Bounded: a producer that outruns the consumer is logged and
+    dropped rather than growing memory without limit.
+    """
+
+    def __init__(self, maxsize: int = 10_000) -> None:
+        self._queue: queue.Queue[tuple[str, Any]] = queue.Queue(maxsize)
+        self.dropped = 0
+
+    def feed(self, tag: str, transform: Callable[[Any], Any] = lambda x: x) -> Callable[[Any], None]:
+        def callback(item: Any) -> None:
+            try:
+                self._queue.put_nowait((tag, transform(item)))
+            except queue.Full:
+                self.dropped += 1
+            except (msgspec.DecodeError, ValueError) as exc:
+                log.warning("undecodable %s payload dropped: %s", tag, exc)
+
+        return callback
+
+    def put(self, tag: str, item: Any) -> None:
+        self._queue.put((tag, item))
+
+    def get(self, timeout: float | None) -> tuple[str, Any] | None:
+        try:
+            return self._queue.get(timeout=timeout)
+        except queue.Empty:
+            return None
+
+    def get_nowait(self) -> tuple[str, Any] | None:
+        try:
+            return self._queue.get_nowait()
+        except queue.Empty:
+            return None
+
+
+def payload_of(decoder: Decoder[T]) -> Callable[[zenoh.Sample], T]:
+    def decode(sample: zenoh.Sample) -> T:
+        return decoder.decode(sample.payload.to_bytes())
+
+    return decode
+
+
+_reply_decoder = Decoder(CommandReply)
+
+
+def call(
+    session: zenoh.Session,
+    key: str,
+    request: CommandRequest | None = None,
+    timeout: float = 2.0,
+) -> CommandReply | None:
+    """One command query; ``None`` when nobody answered in time."""
+    payload = encode(request or CommandRequest())
+    for reply in session.get(key, payload=payload, timeout=timeout):
+        if reply.ok is not None:
+            try:
+                return _reply_decoder.decode(reply.ok.payload.to_bytes())
+            except msgspec.DecodeError:
+                log.warning("undecodable reply on %s", key)
+    return None
+
+
+_request_decoder = Decoder(CommandRequest)
+
+
+def command_of(query: zenoh.Query) -> CommandRequest:
+    payload = query.payload
+    if payload is None:
+        return CommandRequest()
+    return _request_decoder.decode(payload.to_bytes())
+
+
+def answer(query: zenoh.Query, reply: CommandReply) -> None:
+    query.reply(query.key_expr, encode(reply))
+
+
+class Liveness:
+    """Tracks which liveliness tokens under a key expression are present."""
+
+    def __init__(
+        self,
+        session: zenoh.Session,
+        key_expr: str,
+        on_change: Callable[[], None] | None = None,
+    ) -> None:
+        self._present: set[str] = set()
+        self._lock = threading.Lock()
+        self._on_change = on_change
+        self._subscriber = session.liveliness().declare_subscriber(
+            key_expr, self._on_sample, history=True
+        )
+
+    def _on_sample(self, sample: zenoh.Sample) -> None:
+        key = str(sample.key_expr)
+        with self._lock:
+            if sample.kind == zenoh.SampleKind.PUT:
+                self._present.add(key)
+            else:
+                self._present.discard(key)
+        if self._on_change is not None:
+            self._on_change()
+
+    def present(self) -> frozenset[str]:
+        with self._lock:
+            return frozenset(self._present)
+
+    def contains(self, keys: Iterable[str]) -> bool:
+        with self._lock:
+            return all(key in self._present for key in keys)

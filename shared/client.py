@@ -1,0 +1,236 @@
+"""A blocking Simple Message client: the codec in the client role over a socket.
+
+Used by the demo, the tests and the benchmarks to talk to a cell exactly as motoman_driver
+does: one request, then the next frame on the socket is its reply.
+"""
+
+from __future__ import annotations
+
+import math
+import socket
+import threading
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+from shared.protocol.codec import CLOSED, NEED_DATA, ByteOrder, Role, SimpleMessageCodec
+from shared.protocol.constants import Command, Result
+from shared.protocol.messages import (
+    JointFeedback,
+    JointFeedbackEx,
+    Message,
+    MotoMotionReply,
+    RobotStatus,
+    UnknownMessage,
+)
+from shared.protocol.replies import motion_ctrl, traj_point
+
+
+class ConnectionClosed(ConnectionError):
+    pass
+
+
+def connect(host: str, port: int, timeout: float = 5.0) -> socket.socket:
+    sock = socket.create_connection((host, port), timeout=timeout)
+    sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+    return sock
+
+
+class FrameReader:
+    """Frames off a socket, one at a time."""
+
+    def __init__(self, sock: socket.socket, byte_order: ByteOrder) -> None:
+        self.sock = sock
+        self.codec = SimpleMessageCodec(Role.CLIENT, byte_order)
+
+    def next(self) -> Message | UnknownMessage:
+        while True:
+            event = self.codec.next_event()
+            if event is NEED_DATA:
+                self.codec.receive_data(self.sock.recv(65536))
+                continue
+            if event is CLOSED:
+                raise ConnectionClosed("the controller closed the connection")
+            assert isinstance(event, Message | UnknownMessage)
+            return event
+
+
+class MotionClient:
+    """Port 50240 (or 50242 for I/O): request, then read exactly one reply."""
+
+    def __init__(self, host: str, port: int, byte_order: ByteOrder = ByteOrder.LITTLE,
+                 timeout: float = 10.0) -> None:
+        self.sock = connect(host, port, timeout)
+        self.reader = FrameReader(self.sock, byte_order)
+
+    def send(self, message: Message) -> None:
+        self.sock.sendall(self.reader.codec.send(message))
+
+    def request(self, message: Message) -> Message | UnknownMessage:
+        self.send(message)
+        return self.reader.next()
+
+    def motion(self, message: Message) -> MotoMotionReply:
+        reply = self.request(message)
+        if not isinstance(reply, Message) or not isinstance(reply.body, MotoMotionReply):
+            raise AssertionError(f"expected a MOTO_MOTION_REPLY, got {reply}")
+        return reply.body
+
+    def command(self, command: Command, group: int = 0) -> MotoMotionReply:
+        return self.motion(motion_ctrl(command, group))
+
+    def close(self) -> None:
+        self.sock.close()
+
+    def __enter__(self) -> MotionClient:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+@dataclass
+class Feedback:
+    received_ns: int
+    groups: dict[int, JointFeedback] = field(default_factory=dict)
+    status: RobotStatus | None = None
+    ex: JointFeedbackEx | None = None
+
+
+class StateListener:
+    """Port 50241: reads every frame in a thread and keeps the history of state cycles."""
+
+    def __init__(self, host: str, port: int, byte_order: ByteOrder = ByteOrder.LITTLE,
+                 keep: int = 100_000) -> None:
+        self.sock = connect(host, port)
+        self.sock.settimeout(None)
+        self.reader = FrameReader(self.sock, byte_order)
+        self.cycles: list[Feedback] = []
+        self.frames: list[Message] = []
+        self.keep = keep
+        self.changed = threading.Condition()
+        self._current = Feedback(0)
+        self.closed = False
+        self.thread = threading.Thread(target=self._run, name="state-listener", daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        try:
+            while True:
+                frame = self.reader.next()
+                if isinstance(frame, Message):
+                    self._take(frame)
+        except (ConnectionError, OSError):
+            with self.changed:
+                self.closed = True
+                self.changed.notify_all()
+
+    def _take(self, frame: Message) -> None:
+        body = frame.body
+        with self.changed:
+            if len(self.frames) < self.keep:
+                self.frames.append(frame)
+            if isinstance(body, JointFeedback):
+                self._current.groups[body.group_no] = body
+            elif isinstance(body, JointFeedbackEx):
+                self._current.ex = body
+            elif isinstance(body, RobotStatus):
+                # ROBOT_STATUS ends a cycle (§6 order: feedback, feedback_ex, status).
+                self._current.status = body
+                self._current.received_ns = time.monotonic_ns()
+                if len(self.cycles) < self.keep:
+                    self.cycles.append(self._current)
+                self._current = Feedback(0)
+                self.changed.notify_all()
+
+    def latest(self) -> Feedback | None:
+        with self.changed:
+            return self.cycles[-1] if self.cycles else None
+
+    def wait_for(self, predicate: Callable[[Feedback], bool], timeout: float) -> Feedback:
+        """The first state cycle, from now on, that satisfies ``predicate``."""
+        deadline = time.monotonic() + timeout
+        with self.changed:
+            start = max(0, len(self.cycles) - 1)
+            while True:
+                for cycle in self.cycles[start:]:
+                    if predicate(cycle):
+                        return cycle
+                start = len(self.cycles)
+                remaining = deadline - time.monotonic()
+                if remaining <= 0 or self.closed:
+                    raise TimeoutError(f"no matching state within {timeout} s")
+                self.changed.wait(remaining)
+
+    def close(self) -> None:
+        try:
+            self.sock.shutdown(socket.SHUT_RDWR)
+        except OSError:
+            pass
+        self.sock.close()
+        self.thread.join(timeout=2.0)
+
+    def __enter__(self) -> StateListener:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+@dataclass(frozen=True)
+class PlannedPoint:
+    time: float
+    positions: tuple[float, ...]
+    velocities: tuple[float, ...]
+
+
+def smooth_move(start: Sequence[float], goal: Sequence[float], duration: float,
+                points: int) -> list[PlannedPoint]:
+    """A rest-to-rest move with a cosine velocity profile, sampled at ``points`` instants:
+    what a planner such as MoveIt hands motoman_driver (positions and velocities, time from
+    the start)."""
+    result = []
+    for i in range(points):
+        t = duration * i / (points - 1)
+        s = (1 - math.cos(math.pi * t / duration)) / 2
+        ds = math.pi / (2 * duration) * math.sin(math.pi * t / duration)
+        result.append(PlannedPoint(
+            t,
+            tuple(a + (b - a) * s for a, b in zip(start, goal, strict=True)),
+            tuple((b - a) * ds for a, b in zip(start, goal, strict=True)),
+        ))
+    return result
+
+
+@dataclass
+class StreamResult:
+    points: int = 0
+    busy: int = 0
+    last_reply: MotoMotionReply | None = None
+    first_sent_ns: int = 0
+    last_accepted_ns: int = 0
+
+
+BUSY_RETRY_S = 0.005
+"""motoman_driver sleeps 5 ms at the top of each streaming pass, which is its BUSY retry."""
+
+
+def stream(client: MotionClient, trajectory: Sequence[PlannedPoint], group: int = 0) -> StreamResult:
+    """Stream like MotomanJointTrajectoryStreamer: resend on BUSY, stop at any other failure."""
+    result = StreamResult(first_sent_ns=time.monotonic_ns())
+    for sequence, point in enumerate(trajectory):
+        message = traj_point(group, sequence, point.time, point.positions, point.velocities)
+        while True:
+            reply = client.motion(message)
+            result.last_reply = reply
+            if reply.result == Result.BUSY:
+                result.busy += 1
+                time.sleep(BUSY_RETRY_S)
+                continue
+            break
+        if reply.result != Result.SUCCESS:
+            return result
+        result.points += 1
+        result.last_accepted_ns = time.monotonic_ns()
+    return result
+

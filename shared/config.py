@@ -1,0 +1,254 @@
+"""Cell configuration: one TOML file, decoded into typed structs, with defaults that need no file.
+
+A cell is one controller: its model (byte order, group limit), interpolation period, ports,
+state period, Zenoh endpoints and up to four control groups, each naming a robot model from the
+catalogue in ``models.toml``. Bad files are refused with a message naming the field.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass
+from enum import StrEnum
+from importlib import resources
+from pathlib import Path
+from typing import Any, Literal
+
+import msgspec
+
+from shared.protocol.constants import MAX_AXES, MAX_GROUPS
+
+
+class ConfigError(ValueError):
+    """A cell or model file that cannot be used; the message names the field and the problem."""
+
+
+class ControllerModel(StrEnum):
+    DX100 = "DX100"
+    FS100 = "FS100"
+    DX200 = "DX200"
+    YRC1000 = "YRC1000"
+    YRC1000MICRO = "YRC1000micro"
+
+
+@dataclass(frozen=True)
+class ControllerProfile:
+    byte_order: Literal["little", "big"]
+    max_groups: int
+
+
+# FS100 is PowerPC and so big-endian; the others are x86 (motoros1-behaviour.md §1.1).
+# DX100 caps the group count at 3 (§0 step 5).
+PROFILES: dict[ControllerModel, ControllerProfile] = {
+    ControllerModel.DX100: ControllerProfile("little", 3),
+    ControllerModel.FS100: ControllerProfile("big", 4),
+    ControllerModel.DX200: ControllerProfile("little", 4),
+    ControllerModel.YRC1000: ControllerProfile("little", 4),
+    ControllerModel.YRC1000MICRO: ControllerProfile("little", 4),
+}
+
+
+class RobotModel(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
+    """One mechanism type. Lists are in ROS joint order."""
+
+    kind: Literal["robot", "base", "station"]
+    axis_types: list[Literal["rotary", "linear"]]
+    pulses_per_unit: list[float]
+    max_speed: list[float]
+    max_accel: list[float]
+    initial_position: list[float]
+    dh: list[list[float]]
+    seven_axis: bool = False
+    description: str = ""
+
+    @property
+    def axes(self) -> int:
+        return len(self.axis_types)
+
+
+class GroupConfig(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
+    name: str = "R1"
+    model: str = "arm6"
+    initial_position: list[float] | None = None
+    """Overrides the model's initial position (ROS order)."""
+
+
+class ZenohConfig(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
+    mode: Literal["peer", "client", "router"] = "peer"
+    connect: list[str] = msgspec.field(default_factory=list)
+    listen: list[str] = msgspec.field(default_factory=lambda: ["tcp/127.0.0.1:0"])
+
+
+class CellFile(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
+    """The TOML file as written; ``Cell`` is the resolved form the services use."""
+
+    name: str = "cell1"
+    controller: ControllerModel = ControllerModel.YRC1000
+    byte_order: Literal["little", "big"] | None = None
+    interpolation_period_ms: float = 4.0
+    state_period_ms: float = 10.0
+    host: str = "127.0.0.1"
+    port_base: int = 50240
+    groups: list[GroupConfig] = msgspec.field(default_factory=lambda: [GroupConfig()])
+    zenoh: ZenohConfig = msgspec.field(default_factory=ZenohConfig)
+    models: dict[str, RobotModel] = msgspec.field(default_factory=dict)
+    """Extra robot models for this cell, added to (or replacing) the catalogue's."""
+
+
+@dataclass(frozen=True)
+class Group:
+    index: int
+    name: str
+    model_name: str
+    model: RobotModel
+    initial_position: tuple[float, ...]
+
+    @property
+    def axes(self) -> int:
+        return self.model.axes
+
+
+@dataclass(frozen=True)
+class Cell:
+    name: str
+    controller: ControllerModel
+    byte_order: Literal["little", "big"]
+    period_ns: int
+    state_period_ns: int
+    host: str
+    port_base: int
+    groups: tuple[Group, ...]
+    zenoh: ZenohConfig
+
+    @property
+    def period_s(self) -> float:
+        return self.period_ns / 1e9
+
+    @property
+    def motion_port(self) -> int:
+        return self.port_base
+
+    @property
+    def state_port(self) -> int:
+        return self.port_base + 1
+
+    @property
+    def io_port(self) -> int:
+        return self.port_base + 2
+
+
+def load_catalogue() -> dict[str, RobotModel]:
+    text = resources.files("shared").joinpath("models.toml").read_text()
+    return _decode_models(tomllib.loads(text).get("models", {}), "models.toml")
+
+
+def _decode_models(raw: dict[str, Any], where: str) -> dict[str, RobotModel]:
+    try:
+        models = msgspec.convert(raw, dict[str, RobotModel])
+    except msgspec.ValidationError as exc:
+        raise ConfigError(f"{where}: models{_field_path(exc)}") from exc
+    for name, model in models.items():
+        _check_model(f"{where}: models.{name}", model)
+    return models
+
+
+def _field_path(exc: msgspec.ValidationError) -> str:
+    # msgspec says "Expected `int`, got `str` - at `$.groups[0].name`"; turn "$" into the
+    # TOML-ish path so the message names the field.
+    text = str(exc)
+    return text.replace("`$.", "`").replace("`$", "`") if "$" in text else f": {text}"
+
+
+def _check_model(where: str, model: RobotModel) -> None:
+    n = model.axes
+    if not 1 <= n <= MAX_AXES:
+        raise ConfigError(f"{where}.axis_types: {n} axes, a group has 1 to {MAX_AXES}")
+    if model.seven_axis and n != 7:
+        raise ConfigError(f"{where}.seven_axis: set, but the model has {n} axes, not 7")
+    for field in ("pulses_per_unit", "max_speed", "max_accel", "initial_position"):
+        values: list[float] = getattr(model, field)
+        if len(values) != n:
+            raise ConfigError(f"{where}.{field}: {len(values)} values for {n} axes")
+        if not all(math.isfinite(v) for v in values):
+            raise ConfigError(f"{where}.{field}: values must be finite numbers")
+    for field in ("pulses_per_unit", "max_speed"):
+        if any(v <= 0 for v in getattr(model, field)):
+            raise ConfigError(f"{where}.{field}: values must be > 0")
+    if len(model.dh) > n or any(len(link) != 4 for link in model.dh):
+        raise ConfigError(f"{where}.dh: at most {n} links of [theta, d, a, alpha]")
+
+
+def load_cell(path: str | Path | None = None) -> Cell:
+    """Read and resolve a cell file; ``None`` gives the default one-arm YRC1000 cell."""
+    if path is None:
+        return resolve(CellFile())
+    where = str(path)
+    try:
+        raw = tomllib.loads(Path(path).read_text())
+    except OSError as exc:
+        raise ConfigError(f"{where}: cannot read: {exc.strerror}") from exc
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{where}: not valid TOML: {exc}") from exc
+    return parse_cell(raw, where)
+
+
+def parse_cell(raw: dict[str, Any], where: str = "cell") -> Cell:
+    extra_models = _decode_models(raw.pop("models", {}), where) if "models" in raw else {}
+    try:
+        cell_file = msgspec.convert(raw, CellFile)
+    except msgspec.ValidationError as exc:
+        raise ConfigError(f"{where}: {_field_path(exc)}") from exc
+    return resolve(cell_file, extra_models, where)
+
+
+def resolve(
+    cell_file: CellFile, extra_models: dict[str, RobotModel] | None = None, where: str = "cell"
+) -> Cell:
+    models = {**load_catalogue(), **(extra_models or {})}
+    profile = PROFILES[cell_file.controller]
+    if not cell_file.name or not all(c.isalnum() or c in "-_" for c in cell_file.name):
+        raise ConfigError(f"{where}: name: {cell_file.name!r} must be letters, digits, - or _")
+    if not 1 <= len(cell_file.groups) <= profile.max_groups:
+        raise ConfigError(
+            f"{where}: groups: {len(cell_file.groups)} groups, a {cell_file.controller} "
+            f"has 1 to {profile.max_groups}"
+        )
+    period_ns = round(cell_file.interpolation_period_ms * 1e6)
+    if not 500_000 <= period_ns <= 100_000_000:
+        raise ConfigError(f"{where}: interpolation_period_ms: must be 0.5 to 100")
+    state_period_ns = round(cell_file.state_period_ms * 1e6)
+    if not period_ns <= state_period_ns <= 1_000_000_000:
+        raise ConfigError(
+            f"{where}: state_period_ms: must be from one interpolation period to 1000"
+        )
+    if not 1 <= cell_file.port_base <= 65533:
+        raise ConfigError(f"{where}: port_base: must be 1 to 65533")
+    groups = []
+    names: set[str] = set()
+    for index, group in enumerate(cell_file.groups):
+        field = f"{where}: groups[{index}]"
+        if group.name in names:
+            raise ConfigError(f"{field}.name: {group.name!r} is used twice")
+        names.add(group.name)
+        model = models.get(group.model)
+        if model is None:
+            known = ", ".join(sorted(models))
+            raise ConfigError(f"{field}.model: unknown model {group.model!r} (known: {known})")
+        initial = group.initial_position or model.initial_position
+        if len(initial) != model.axes or not all(math.isfinite(v) for v in initial):
+            raise ConfigError(
+                f"{field}.initial_position: needs {model.axes} finite values, got {initial}"
+            )
+        groups.append(Group(index, group.name, group.model, model, tuple(initial)))
+    return Cell(
+        name=cell_file.name,
+        controller=cell_file.controller,
+        byte_order=cell_file.byte_order or profile.byte_order,
+        period_ns=period_ns,
+        state_period_ns=state_period_ns,
+        host=cell_file.host,
+        port_base=cell_file.port_base,
+        groups=tuple(groups),
+        zenoh=cell_file.zenoh,
+    )
