@@ -6,6 +6,7 @@ does: one request, then the next frame on the socket is its reply.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import socket
 import threading
@@ -26,7 +27,7 @@ from shared.protocol.messages import (
 from shared.protocol.replies import motion_ctrl, traj_point
 
 
-class ConnectionClosed(ConnectionError):
+class ConnectionClosedError(ConnectionError):
     pass
 
 
@@ -50,7 +51,7 @@ class FrameReader:
                 self.codec.receive_data(self.sock.recv(65536))
                 continue
             if event is CLOSED:
-                raise ConnectionClosed("the controller closed the connection")
+                raise ConnectionClosedError("the controller closed the connection")
             assert isinstance(event, Message | UnknownMessage)
             return event
 
@@ -58,8 +59,9 @@ class FrameReader:
 class MotionClient:
     """Port 50240 (or 50242 for I/O): request, then read exactly one reply."""
 
-    def __init__(self, host: str, port: int, byte_order: ByteOrder = ByteOrder.LITTLE,
-                 timeout: float = 10.0) -> None:
+    def __init__(
+        self, host: str, port: int, byte_order: ByteOrder = ByteOrder.LITTLE, timeout: float = 10.0
+    ) -> None:
         self.sock = connect(host, port, timeout)
         self.reader = FrameReader(self.sock, byte_order)
 
@@ -100,8 +102,9 @@ class Feedback:
 class StateListener:
     """Port 50241: reads every frame in a thread and keeps the history of state cycles."""
 
-    def __init__(self, host: str, port: int, byte_order: ByteOrder = ByteOrder.LITTLE,
-                 keep: int = 100_000) -> None:
+    def __init__(
+        self, host: str, port: int, byte_order: ByteOrder = ByteOrder.LITTLE, keep: int = 100_000
+    ) -> None:
         self.sock = connect(host, port)
         self.sock.settimeout(None)
         self.reader = FrameReader(self.sock, byte_order)
@@ -163,10 +166,8 @@ class StateListener:
                 self.changed.wait(remaining)
 
     def close(self) -> None:
-        try:
+        with contextlib.suppress(OSError):
             self.sock.shutdown(socket.SHUT_RDWR)
-        except OSError:
-            pass
         self.sock.close()
         self.thread.join(timeout=2.0)
 
@@ -184,8 +185,9 @@ class PlannedPoint:
     velocities: tuple[float, ...]
 
 
-def smooth_move(start: Sequence[float], goal: Sequence[float], duration: float,
-                points: int) -> list[PlannedPoint]:
+def smooth_move(
+    start: Sequence[float], goal: Sequence[float], duration: float, points: int
+) -> list[PlannedPoint]:
     """A rest-to-rest move with a cosine velocity profile, sampled at ``points`` instants:
     what a planner such as MoveIt hands motoman_driver (positions and velocities, time from
     the start)."""
@@ -194,11 +196,13 @@ def smooth_move(start: Sequence[float], goal: Sequence[float], duration: float,
         t = duration * i / (points - 1)
         s = (1 - math.cos(math.pi * t / duration)) / 2
         ds = math.pi / (2 * duration) * math.sin(math.pi * t / duration)
-        result.append(PlannedPoint(
-            t,
-            tuple(a + (b - a) * s for a, b in zip(start, goal, strict=True)),
-            tuple((b - a) * ds for a, b in zip(start, goal, strict=True)),
-        ))
+        result.append(
+            PlannedPoint(
+                t,
+                tuple(a + (b - a) * s for a, b in zip(start, goal, strict=True)),
+                tuple((b - a) * ds for a, b in zip(start, goal, strict=True)),
+            )
+        )
     return result
 
 
@@ -215,7 +219,9 @@ BUSY_RETRY_S = 0.005
 """motoman_driver sleeps 5 ms at the top of each streaming pass, which is its BUSY retry."""
 
 
-def stream(client: MotionClient, trajectory: Sequence[PlannedPoint], group: int = 0) -> StreamResult:
+def stream(
+    client: MotionClient, trajectory: Sequence[PlannedPoint], group: int = 0
+) -> StreamResult:
     """Stream like MotomanJointTrajectoryStreamer: resend on BUSY, stop at any other failure."""
     result = StreamResult(first_sent_ns=time.monotonic_ns())
     for sequence, point in enumerate(trajectory):
@@ -233,4 +239,3 @@ def stream(client: MotionClient, trajectory: Sequence[PlannedPoint], group: int 
         result.points += 1
         result.last_accepted_ns = time.monotonic_ns()
     return result
-

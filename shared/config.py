@@ -17,7 +17,7 @@ from typing import Any, Literal
 
 import msgspec
 
-from shared.protocol.constants import MAX_AXES, MAX_GROUPS
+from shared.protocol.constants import MAX_AXES
 
 
 class ConfigError(ValueError):

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import ctypes
 import logging
 import os
 import signal
+import sys
 import threading
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -16,6 +18,10 @@ import zenoh
 from shared.bus.keys import CellKeys
 from shared.bus.session import open_session
 from shared.config import Cell, ConfigError, load_cell
+
+PARENT_PID_ENV = "MOTOCELL_PARENT_PID"
+"""Set by ``motocell up`` for its children: they stop when that process goes away."""
+PR_SET_PDEATHSIG = 1
 
 REQUIRED_SERVICES = ("controller", "executor", "broadcaster", "gateway")
 """Services a cell needs besides one interpolator per group; see ``required_alive_keys``."""
@@ -41,11 +47,17 @@ def add_zenoh_arguments(parser: argparse.ArgumentParser) -> None:
         "--zenoh-mode", choices=("peer", "client"), help="default: the cell file's, else peer"
     )
     parser.add_argument(
-        "--zenoh-connect", action="append", default=[], metavar="ENDPOINT",
+        "--zenoh-connect",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
         help="endpoint to connect to, e.g. tcp/127.0.0.1:7447 (repeatable)",
     )
     parser.add_argument(
-        "--zenoh-listen", action="append", default=[], metavar="ENDPOINT",
+        "--zenoh-listen",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
         help="endpoint to listen on (default for peers: tcp/127.0.0.1:0)",
     )
 
@@ -63,6 +75,17 @@ class ServiceContext:
     keys: CellKeys
     session: zenoh.Session
     stop: threading.Event
+
+
+def die_with_launcher() -> None:
+    """Ask the kernel for SIGTERM when the launcher dies; if it is already gone, stop now."""
+    parent = os.environ.get(PARENT_PID_ENV)
+    if parent is None or not sys.platform.startswith("linux"):
+        return
+    libc = ctypes.CDLL(None, use_errno=True)
+    libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
+    if os.getppid() != int(parent):
+        raise SystemExit("motocell: the launcher is gone")
 
 
 def stop_on_signals() -> threading.Event:
@@ -87,6 +110,7 @@ def running_service(
     except ConfigError as exc:
         raise SystemExit(f"motocell-{service}: {exc}") from exc
     stop = stop_on_signals()
+    die_with_launcher()
     mode = args.zenoh_mode or cell.zenoh.mode
     connect: Sequence[str] = args.zenoh_connect or cell.zenoh.connect
     listen: Sequence[str] | None = args.zenoh_listen or (

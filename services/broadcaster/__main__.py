@@ -12,6 +12,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Sequence
+from typing import Generic, TypeVar
 
 import zenoh
 
@@ -31,14 +32,21 @@ from shared.service import ServiceContext, argument_parser, running_service
 
 log = logging.getLogger("broadcaster")
 
+T = TypeVar("T")
+
 IN_MOTION_PULSES = 30
 """in_motion also while |feedback - command| exceeds 30 pulses on any axis (§6, v1.8.1)."""
 
 
-def robot_status(status: ControllerStatus | None, tick: Tick, controller_alive: bool) -> RobotStatusFields:
+def robot_status(
+    status: ControllerStatus | None, tick: Tick, controller_alive: bool
+) -> RobotStatusFields:
     in_motion = any(
         g.depth > 0
-        or any(abs(f - c) > IN_MOTION_PULSES for f, c in zip(g.feedback_pulses, g.command_pulses, strict=True))
+        or any(
+            abs(f - c) > IN_MOTION_PULSES
+            for f, c in zip(g.feedback_pulses, g.command_pulses, strict=True)
+        )
         for g in tick.groups
     )
     if status is None or not controller_alive:
@@ -79,11 +87,11 @@ class Snapshotter:
         return result
 
 
-class Latest:
+class Latest(Generic[T]):
     """Keeps the newest sample of a key; the Zenoh callback only stores it."""
 
-    def __init__(self, session: zenoh.Session, key: str, decoder: Decoder[object]) -> None:
-        self.value: object | None = None
+    def __init__(self, session: zenoh.Session, key: str, decoder: Decoder[T]) -> None:
+        self.value: T | None = None
         self._decoder = decoder
         self._subscriber = session.declare_subscriber(key, self._store)
 
@@ -96,8 +104,8 @@ def run(ctx: ServiceContext) -> None:
     session = ctx.session
     snapshotter = Snapshotter(ctx.cell)
     state_pub = publisher(session, keys.state, realtime=True)
-    ticks = Latest(session, keys.executor_tick, Decoder(Tick))  # type: ignore[arg-type]
-    statuses = Latest(session, keys.controller_status, Decoder(ControllerStatus))  # type: ignore[arg-type]
+    ticks = Latest(session, keys.executor_tick, Decoder(Tick))
+    statuses = Latest(session, keys.controller_status, Decoder(ControllerStatus))
     controller_key = keys.alive("controller", "0")
     alive = Liveness(session, controller_key)
     period = ctx.cell.state_period_ns
@@ -111,10 +119,9 @@ def run(ctx: ServiceContext) -> None:
         else:
             deadline = now  # fell behind: restart the grid rather than burst
         tick = ticks.value
-        if not isinstance(tick, Tick):
+        if tick is None:
             continue
         status = statuses.value
-        assert status is None or isinstance(status, ControllerStatus)
         seq += 1
         state = State(
             seq=seq,

@@ -19,10 +19,26 @@ def build_parser() -> argparse.ArgumentParser:
     up.add_argument("--config", help="cell TOML file (default: one 6-axis arm on a YRC1000)")
     up.add_argument("--host", help="address the TCP ports listen on (default 127.0.0.1)")
     up.add_argument("--port-base", type=int, help="motion port (default 50240); state +1, I/O +2")
-    up.add_argument("--byte-order", choices=("little", "big"),
-                    help="override the controller's (FS100 big, others little)")
+    up.add_argument(
+        "--byte-order",
+        choices=("little", "big"),
+        help="override the controller's (FS100 big, others little)",
+    )
     add_zenoh_arguments(up)
     up.set_defaults(run=launcher.up)
+
+    router = commands.add_parser(
+        "router", help="a Zenoh router (a stand-in for zenohd where its image is not available)"
+    )
+    router.add_argument(
+        "--listen",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="default tcp/127.0.0.1:7447",
+    )
+    router.add_argument("--connect", action="append", default=[], metavar="ENDPOINT")
+    router.set_defaults(run=launcher.router)
 
     run_demo = commands.add_parser(
         "demo", help="start a cell and drive it like motoman_driver does, then stop it"

@@ -28,20 +28,32 @@ GOAL_TOLERANCE_RAD = 1e-4
 
 
 def start_cell(cell_config: str | None, port_base: int) -> subprocess.Popen[bytes]:
-    command = [sys.executable, "-m", "services.cell.cli", "up", "--port-base", str(port_base),
-               "--zenoh-listen", f"tcp/127.0.0.1:{free_port()}"]
+    command = [
+        sys.executable,
+        "-m",
+        "services.cell.cli",
+        "up",
+        "--port-base",
+        str(port_base),
+        "--zenoh-listen",
+        f"tcp/127.0.0.1:{free_port()}",
+    ]
     if cell_config:
         command += ["--config", cell_config]
     env = {**os.environ, "MOTOCELL_LOG": os.environ.get("MOTOCELL_LOG", "WARNING")}
     return subprocess.Popen(command, env=env)
 
 
-def wait_for_state_port(host: str, port: int, byte_order: ByteOrder, timeout: float) -> StateListener:
+def wait_for_state_port(
+    host: str, port: int, byte_order: ByteOrder, timeout: float
+) -> StateListener:
     deadline = time.monotonic() + timeout
     while True:
         try:
             listener = StateListener(host, port, byte_order)
-            listener.wait_for(lambda f: f.status is not None, timeout=max(0.1, deadline - time.monotonic()))
+            listener.wait_for(
+                lambda f: f.status is not None, timeout=max(0.1, deadline - time.monotonic())
+            )
             return listener
         except (OSError, TimeoutError):
             if time.monotonic() >= deadline:
@@ -58,8 +70,10 @@ def drive(cell: Cell, host: str, port_base: int, points: int, duration: float) -
         motion = stack.enter_context(MotionClient(host, port_base, byte_order))
         started = time.monotonic()
         reply = motion.command(Command.START_TRAJ_MODE)
-        print(f"START_TRAJ_MODE -> {Result(reply.result).name} {reply.subcode} "
-              f"({(time.monotonic() - started) * 1e3:.0f} ms)")
+        print(
+            f"START_TRAJ_MODE -> {Result(reply.result).name} {reply.subcode} "
+            f"({(time.monotonic() - started) * 1e3:.0f} ms)"
+        )
         reply = motion.command(Command.CHECK_MOTION_READY)
         print(f"CHECK_MOTION_READY -> {Result(reply.result).name} {reply.subcode}")
         if reply.result != Result.SUCCESS:
@@ -75,9 +89,14 @@ def drive(cell: Cell, host: str, port_base: int, points: int, duration: float) -
             print(f"streaming stopped at point {result.points}: {result.last_reply}")
             return 1
         arrived = state.wait_for(
-            lambda f: f.status is not None and f.status.in_motion == 0
-            and all(abs(a - b) <= GOAL_TOLERANCE_RAD
-                    for a, b in zip(f.groups[0].positions[:axes], goal, strict=True)),
+            lambda f: (
+                f.status is not None
+                and f.status.in_motion == 0
+                and all(
+                    abs(a - b) <= GOAL_TOLERANCE_RAD
+                    for a, b in zip(f.groups[0].positions[:axes], goal, strict=True)
+                )
+            ),
             timeout=duration + 10.0,
         )
         elapsed = (arrived.received_ns - result.first_sent_ns) / 1e9
@@ -86,8 +105,10 @@ def drive(cell: Cell, host: str, port_base: int, points: int, duration: float) -
         reply = motion.command(Command.STOP_TRAJ_MODE)
         print(f"points sent:      {result.points}")
         print(f"BUSY replies:     {result.busy}")
-        print(f"duration:         {elapsed:.3f} s (nominal {duration:.3f} s, "
-              f"+{(elapsed - duration) * 1e3:.0f} ms incl. state sampling)")
+        print(
+            f"duration:         {elapsed:.3f} s (nominal {duration:.3f} s, "
+            f"+{(elapsed - duration) * 1e3:.0f} ms incl. state sampling)"
+        )
         print(f"final error:      {int(error.max())} pulse(s) (max over {axes} axes)")
         print(f"STOP_TRAJ_MODE -> {Result(reply.result).name} {reply.subcode}")
         return 0 if reply.result == Result.SUCCESS and error.max() == 0 else 1

@@ -10,7 +10,6 @@ controller sees its liveliness token gone and the cell answers NOT_READY.
 from __future__ import annotations
 
 import argparse
-import ctypes
 import logging
 import os
 import signal
@@ -25,6 +24,7 @@ import zenoh
 
 from shared.bus.session import open_session
 from shared.config import Cell, ConfigError, load_cell
+from shared.service import PARENT_PID_ENV
 
 log = logging.getLogger("motocell")
 
@@ -32,14 +32,6 @@ WELL_KNOWN_PORT = 7447
 STOP_GRACE_S = 4.0
 """SIGTERM, then SIGKILL after this; the whole stop stays within 5 s."""
 RESTART_DELAY_S = 1.0
-
-PR_SET_PDEATHSIG = 1
-
-
-def _die_with_parent() -> None:
-    """Children get SIGTERM if the launcher itself dies, so no half cell is ever left."""
-    libc = ctypes.CDLL(None, use_errno=True)
-    libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
 
 
 @dataclass
@@ -52,9 +44,10 @@ class Child:
     env: dict[str, str] = field(default_factory=dict)
 
     def start(self) -> None:
-        self.process = subprocess.Popen(
-            self.argv, preexec_fn=_die_with_parent, env={**os.environ, **self.env}
-        )
+        # The child arranges to get SIGTERM if the launcher dies (shared.service), so no
+        # half cell outlives a killed launcher.
+        env = {**os.environ, **self.env, PARENT_PID_ENV: str(os.getpid())}
+        self.process = subprocess.Popen(self.argv, env=env)
 
     def alive(self) -> bool:
         return self.process is not None and self.process.poll() is None
@@ -110,8 +103,10 @@ def child_commands(cell: Cell, args: argparse.Namespace, endpoint: str) -> list[
         Child("broadcaster", [*python, "services.broadcaster", *common]),
     ]
     children += [
-        Child(f"interpolator/{g.index}",
-              [*python, "services.interpolator", *common, "--group", str(g.index)])
+        Child(
+            f"interpolator/{g.index}",
+            [*python, "services.interpolator", *common, "--group", str(g.index)],
+        )
         for g in cell.groups
     ]
     gateway = [*python, "services.gateway", *common]
@@ -135,8 +130,13 @@ def supervise(children: list[Child], stop: threading.Event) -> None:
                 continue
             if child.restart_at == 0.0:
                 code = child.process.returncode if child.process else None
-                log.error("%s exited (code %s); restarting in %.0f s; the cell is NOT_READY "
-                          "until it is back", child.name, code, RESTART_DELAY_S)
+                log.error(
+                    "%s exited (code %s); restarting in %.0f s; the cell is NOT_READY "
+                    "until it is back",
+                    child.name,
+                    code,
+                    RESTART_DELAY_S,
+                )
                 child.restart_at = now + RESTART_DELAY_S
             elif now >= child.restart_at:
                 child.restarts += 1
@@ -181,8 +181,15 @@ def up(args: argparse.Namespace) -> int:
     children = child_commands(cell, args, endpoint)
     host = args.host or cell.host
     port = args.port_base or cell.port_base
-    log.info("cell %s: %d group(s), ports %s:%d-%d, Zenoh at %s", cell.name, len(cell.groups),
-             host, port, port + 2, endpoint)
+    log.info(
+        "cell %s: %d group(s), ports %s:%d-%d, Zenoh at %s",
+        cell.name,
+        len(cell.groups),
+        host,
+        port,
+        port + 2,
+        endpoint,
+    )
     try:
         supervise(children, stop)
     finally:
@@ -190,4 +197,17 @@ def up(args: argparse.Namespace) -> int:
         if hub is not None:
             hub.close()
         log.info("cell %s stopped", cell.name)
+    return 0
+
+
+def router(args: argparse.Namespace) -> int:
+    """``motocell router``: a Zenoh router in this process until SIGINT/SIGTERM."""
+    stop = threading.Event()
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    signal.signal(signal.SIGINT, lambda *_: stop.set())
+    listen = args.listen or [f"tcp/127.0.0.1:{WELL_KNOWN_PORT}"]
+    session = open_session("router", args.connect, listen)
+    log.info("Zenoh router listening on %s", ", ".join(listen))
+    stop.wait()
+    session.close()
     return 0

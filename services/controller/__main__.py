@@ -13,9 +13,9 @@ import zenoh
 
 from services.controller.io_table import IoTable
 from services.controller.model import START_TIMEOUT_S, Controller
+from shared.bus.keys import service_of_alive
 from shared.bus.schemas import CommandReply, CommandRequest, Decoder, Tick, encode
 from shared.bus.session import Inbox, Liveness, answer, command_of, payload_of, publisher
-from shared.bus.keys import service_of_alive
 from shared.protocol.constants import InvalidSubcode, Result
 from shared.service import ServiceContext, argument_parser, required_alive_keys, running_service
 
@@ -27,9 +27,19 @@ REFRESH_S = 0.1
 """Status is also republished this often, for subscribers that join late."""
 
 COMMANDS = (
-    "start_servos", "stop_servos", "reset_alarm", "start_traj_mode", "stop_traj_mode",
-    "select_tool", "positions",
-    "read_bit", "write_bit", "read_group", "write_group", "read_register", "write_register",
+    "start_servos",
+    "stop_servos",
+    "reset_alarm",
+    "start_traj_mode",
+    "stop_traj_mode",
+    "select_tool",
+    "positions",
+    "read_bit",
+    "write_bit",
+    "read_group",
+    "write_group",
+    "read_register",
+    "write_register",
 )
 FAULTS = ("estop", "hold", "alarm", "error", "servo", "play", "remote", "pfl")
 
@@ -86,8 +96,9 @@ class ControllerService:
         ]
         # The executor tells of a broken increment path with a plain put, no reply needed.
         self.entities.append(
-            session.declare_subscriber(keys.controller_cmd("incmove_error"),
-                                       self.inbox.feed("incmove_error"))
+            session.declare_subscriber(
+                keys.controller_cmd("incmove_error"), self.inbox.feed("incmove_error")
+            )
         )
         self.entities.append(
             session.declare_subscriber(
@@ -153,8 +164,9 @@ class ControllerService:
         elif verb == "start_servos":
             model.eco = False
             model.set_servo(True, now)
-            self._await(query, now, lambda m: m.servo_on, _failure,
-                        impossible=not model.servo_possible())
+            self._await(
+                query, now, lambda m: m.servo_on, _failure, impossible=not model.servo_possible()
+            )
         elif verb == "stop_servos":
             model.set_servo(False, now)
             answer(query, CommandReply(Result.SUCCESS))

@@ -46,7 +46,8 @@ def enter_realtime() -> bool:
         log.warning(
             "running WITHOUT real-time priority (SCHED_FIFO %d refused: %s); expect missed "
             "periods under load. Run as root or grant CAP_SYS_NICE and an rtprio limit.",
-            RT_PRIORITY, exc,
+            RT_PRIORITY,
+            exc,
         )
         return False
     log.info("clock thread runs SCHED_FIFO priority %d", RT_PRIORITY)
@@ -57,10 +58,13 @@ def initial_pulses(ctx: ServiceContext) -> list[list[int]]:
     """Where the robot is: the controller remembers the last commanded pulses across an
     executor restart; without it, the cell file's initial positions."""
     reply = call(ctx.session, ctx.keys.controller_cmd("positions"), timeout=1.0)
-    if reply is not None and reply.result == Result.SUCCESS:
-        if len(reply.pulses) == len(ctx.cell.groups):
-            log.info("resuming from the controller's last commanded position")
-            return reply.pulses
+    if (
+        reply is not None
+        and reply.result == Result.SUCCESS
+        and len(reply.pulses) == len(ctx.cell.groups)
+    ):
+        log.info("resuming from the controller's last commanded position")
+        return reply.pulses
     pulses = []
     for group in ctx.cell.groups:
         axis_map = AxisMap(group)
@@ -79,8 +83,9 @@ class Executor:
         session = ctx.session
         keys = ctx.keys
         self.tick_pub = publisher(session, keys.executor_tick, realtime=True)
-        self.queue_pubs = [publisher(session, keys.group_queue(g.index), realtime=True)
-                           for g in cell.groups]
+        self.queue_pubs = [
+            publisher(session, keys.group_queue(g.index), realtime=True) for g in cell.groups
+        ]
         batch_decoder = Decoder(IncrementBatch)
         self.subscribers = [
             session.declare_subscriber(
@@ -184,12 +189,15 @@ class Executor:
             self.tick_pub.put(encode(tick))
             self._publish_queues(states)
             deadline += period
-        log.info("stopped after %d ticks, %d missed, realtime=%s", self.core.tick, self.missed,
-                 realtime)
+        log.info(
+            "stopped after %d ticks, %d missed, realtime=%s", self.core.tick, self.missed, realtime
+        )
 
 
 def main(argv: Sequence[str] | None = None) -> None:
-    args = argument_parser("executor", "The interpolation clock of one controller.").parse_args(argv)
+    args = argument_parser("executor", "The interpolation clock of one controller.").parse_args(
+        argv
+    )
     with running_service("executor", "0", args) as ctx:
         Executor(ctx).run()
 

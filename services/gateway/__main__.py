@@ -34,18 +34,33 @@ def state_frames(state: State, byte_order: ByteOrder) -> bytes:
     JOINT_FEEDBACK_EX when there are 2+ groups (always 4 slots), then ROBOT_STATUS."""
     zeros = (0.0,) * MAX_JOINTS
     feedback = [
-        JointFeedback(g.group_no, FEEDBACK_FIELDS, 0.0, _joints(g.positions),
-                      _joints(g.velocities), zeros)
+        JointFeedback(
+            g.group_no, FEEDBACK_FIELDS, 0.0, _joints(g.positions), _joints(g.velocities), zeros
+        )
         for g in state.groups
     ]
     messages = [state_message(MsgType.JOINT_FEEDBACK, body) for body in feedback]
     if len(feedback) >= 2:
-        messages.append(state_message(MsgType.MOTO_JOINT_FEEDBACK_EX,
-                                      JointFeedbackEx(len(feedback), tuple(feedback))))
+        messages.append(
+            state_message(
+                MsgType.MOTO_JOINT_FEEDBACK_EX, JointFeedbackEx(len(feedback), tuple(feedback))
+            )
+        )
     s = state.status
-    messages.append(state_message(MsgType.ROBOT_STATUS, RobotStatus(
-        s.drives_powered, s.e_stopped, s.error_code, s.in_error, s.in_motion, s.mode,
-        s.motion_possible)))
+    messages.append(
+        state_message(
+            MsgType.ROBOT_STATUS,
+            RobotStatus(
+                s.drives_powered,
+                s.e_stopped,
+                s.error_code,
+                s.in_error,
+                s.in_motion,
+                s.mode,
+                s.motion_possible,
+            ),
+        )
+    )
     return b"".join(encode(m, byte_order, Role.CONTROLLER) for m in messages)
 
 
@@ -75,14 +90,28 @@ def main(argv: Sequence[str] | None = None) -> None:
         def io_answer(request: object) -> Answer:
             return Answer(io.handle(request))  # type: ignore[arg-type]
 
-        motion_server = RequestServer("motion", listen(host, port_base), byte_order,
-                                      motion.handle, _motion_error, view.moving,
-                                      on_disconnect=motion.stop_motion)
-        io_server = RequestServer("io", listen(host, port_base + 2), byte_order, io_answer,
-                                  _io_error, view.moving)
+        motion_server = RequestServer(
+            name="motion",
+            server=listen(host, port_base),
+            byte_order=byte_order,
+            respond=motion.handle,
+            error_reply=_motion_error,
+            moving=view.moving,
+            on_disconnect=motion.stop_motion,
+        )
+        io_server = RequestServer(
+            name="io",
+            server=listen(host, port_base + 2),
+            byte_order=byte_order,
+            respond=io_answer,
+            error_reply=_io_error,
+            moving=view.moving,
+        )
         state_server = StateServer(listen(host, port_base + 1), view.moving)
         inbox = Inbox(maxsize=100)
-        subscriber = ctx.session.declare_subscriber(ctx.keys.state, inbox.feed("state", decode_state))
+        subscriber = ctx.session.declare_subscriber(
+            ctx.keys.state, inbox.feed("state", decode_state)
+        )
         for server in (motion_server, io_server, state_server):
             server.start()
         log.info("listening on %s:%d-%d (%s-endian)", host, port_base, port_base + 2, byte_order)

@@ -49,8 +49,9 @@ class CellView:
         self._slots_changed = threading.Condition()
         self._controller_key = keys.alive("controller", "0")
         self._alive = Liveness(session, self._controller_key)
-        self._point_pubs = [publisher(session, keys.group_point(g), realtime=True)
-                            for g in range(groups)]
+        self._point_pubs = [
+            publisher(session, keys.group_point(g), realtime=True) for g in range(groups)
+        ]
         self._entities = [
             session.declare_subscriber(keys.controller_status, self._on_status),
             session.declare_subscriber(keys.group_queue_all, self._on_queue),
@@ -97,8 +98,14 @@ class CellView:
             self.slot_free(g) for g in range(len(self.taken))
         )
 
-    def publish_point(self, group: int, sequence: int, time_s: float,
-                      positions: list[float], velocities: list[float]) -> None:
+    def publish_point(
+        self,
+        group: int,
+        sequence: int,
+        time_s: float,
+        positions: list[float],
+        velocities: list[float],
+    ) -> None:
         self.published[group] += 1
         point = Point(self.published[group], sequence, time_s, positions, velocities)
         self._point_pubs[group].put(encode(point))
@@ -113,12 +120,14 @@ class CellView:
                 self._slots_changed.wait(remaining)
         return True
 
-    def controller(self, verb: str, request: CommandRequest | None = None,
-                   timeout: float = 2.0) -> CommandReply | None:
+    def controller(
+        self, verb: str, request: CommandRequest | None = None, timeout: float = 2.0
+    ) -> CommandReply | None:
         return call(self.session, self.keys.controller_cmd(verb), request, timeout)
 
-    def executor(self, verb: str, request: CommandRequest | None = None,
-                 timeout: float = 1.0) -> CommandReply | None:
+    def executor(
+        self, verb: str, request: CommandRequest | None = None, timeout: float = 1.0
+    ) -> CommandReply | None:
         return call(self.session, self.keys.executor_cmd(verb), request, timeout)
 
 

@@ -42,7 +42,10 @@ class IoHandler:
             case ReadMRegister():
                 verb, command = "read_register", CommandRequest(value=body.register)
             case WriteMRegister():
-                verb, command = "write_register", CommandRequest(value=body.register, args=[body.value])
+                verb, command = (
+                    "write_register",
+                    CommandRequest(value=body.register, args=[body.value]),
+                )
             case _:
                 # The I/O port handles only 2003-2013; PING and the motion types included get
                 # the "unknown type" error reply here, as MotoROS does.
@@ -50,7 +53,9 @@ class IoHandler:
         reply = self.view.controller(verb, command, timeout=IO_TIMEOUT_S)
         if reply is None:
             is_write = request.msg_type in (
-                MsgType.MOTO_WRITE_IO_BIT, MsgType.MOTO_WRITE_IO_GROUP, MsgType.MOTO_WRITE_MREGISTER,
+                MsgType.MOTO_WRITE_IO_BIT,
+                MsgType.MOTO_WRITE_IO_GROUP,
+                MsgType.MOTO_WRITE_MREGISTER,
             )
             code = IoResult.WRITE_API_ERROR if is_write else IoResult.READ_API_ERROR
             return io_reply(request, code)

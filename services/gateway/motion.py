@@ -138,8 +138,9 @@ class MotionHandler:
         ready, subcode = self.view.readiness()
         if not ready:
             return int(Result.NOT_READY), subcode
-        data = PointData(body.group_no, body.valid_fields, body.time, body.positions,
-                         body.velocities)
+        data = PointData(
+            body.group_no, body.valid_fields, body.time, body.positions, body.velocities
+        )
         if not 0 <= data.group_no < self.groups:
             return invalid(InvalidSubcode.GROUPNO)
         verdict = check_fields(data) or check_time_limit(data)
@@ -149,7 +150,9 @@ class MotionHandler:
             self._publish(data, body.sequence)
         return verdict
 
-    def _check_sequenced(self, data: PointData, sequence: int, busy_check_on_start: bool) -> Verdict:
+    def _check_sequenced(
+        self, data: PointData, sequence: int, busy_check_on_start: bool
+    ) -> Verdict:
         group = data.group_no
         axis_map = self.maps[group]
         track = self._track(group)
@@ -181,8 +184,12 @@ class MotionHandler:
 
     def _duplicate(self, data: PointData, sequence: int) -> bool:
         track = self.trajectories[data.group_no]
-        return (track.active and sequence > 0 and sequence == track.last_sequence
-                and data.time == track.last_time)
+        return (
+            track.active
+            and sequence > 0
+            and sequence == track.last_sequence
+            and data.time == track.last_time
+        )
 
     def _publish(self, data: PointData, sequence: int) -> None:
         group = data.group_no
@@ -193,8 +200,9 @@ class MotionHandler:
             track.not_ready_count = self.view.not_ready_count
         track.last_sequence = sequence
         track.last_time = data.time
-        self.view.publish_point(group, sequence, data.time, list(data.positions[:axes]),
-                                list(data.velocities[:axes]))
+        self.view.publish_point(
+            group, sequence, data.time, list(data.positions[:axes]), list(data.velocities[:axes])
+        )
 
     def point_ex(self, request: Message, body: JointTrajPtFullEx) -> Message:
         """§2.5: all or nothing across the listed groups, one reply per message. Unlike MotoROS
@@ -204,15 +212,20 @@ class MotionHandler:
         ready, subcode = self.view.readiness()
         if not ready:
             return motion_reply(request, Result.NOT_READY, subcode, last_group)
-        blocks = [PointData(g.group_no, g.valid_fields, g.time, g.positions, g.velocities)
-                  for g in body.groups]
+        blocks = [
+            PointData(g.group_no, g.valid_fields, g.time, g.positions, g.velocities)
+            for g in body.groups
+        ]
         seen: set[int] = set()
         for data in blocks:
             if not 0 <= data.group_no < self.groups or data.group_no in seen:
                 return motion_reply(request, Result.INVALID, InvalidSubcode.GROUPNO, data.group_no)
             seen.add(data.group_no)
-            verdict = (check_fields(data) or check_time_limit(data)
-                       or self._check_sequenced(data, body.sequence, busy_check_on_start=True))
+            verdict = (
+                check_fields(data)
+                or check_time_limit(data)
+                or self._check_sequenced(data, body.sequence, busy_check_on_start=True)
+            )
             if verdict != OK:
                 return motion_reply(request, *verdict, data.group_no)
         for data in blocks:
@@ -231,28 +244,37 @@ class MotionHandler:
         match command:
             case Command.CHECK_MOTION_READY:
                 ready, subcode = self.view.readiness()
-                result = (Result.TRUE, 0) if ready else (Result.FALSE, subcode)
-                return motion_reply(request, *result)
+                if ready:
+                    return motion_reply(request, Result.TRUE, 0)
+                return motion_reply(request, Result.FALSE, subcode)
             case Command.CHECK_QUEUE_CNT:
                 reply = self.view.executor("queue_count", CommandRequest(group=body.group_no))
                 if reply is None or reply.result != Result.SUCCESS:
                     return motion_reply(request, Result.FAILURE, -1)
                 return motion_reply(request, Result.SUCCESS, reply.subcode)
             case Command.STOP_MOTION:
-                return motion_reply(request, Result.SUCCESS if self.stop_motion() else Result.FAILURE, 0)
+                return motion_reply(
+                    request, Result.SUCCESS if self.stop_motion() else Result.FAILURE, 0
+                )
             case Command.START_SERVOS | Command.RESET_ALARM:
                 verb = "start_servos" if command is Command.START_SERVOS else "reset_alarm"
-                return motion_reply(request, *self._controller(verb, timeout=START_TRAJ_MODE_TIMEOUT_S))
+                return motion_reply(
+                    request, *self._controller(verb, timeout=START_TRAJ_MODE_TIMEOUT_S)
+                )
             case Command.STOP_SERVOS:
                 self.stop_motion()
                 return motion_reply(request, *self._controller("stop_servos"))
             case Command.START_TRAJ_MODE:
-                result, subcode = self._controller("start_traj_mode", timeout=START_TRAJ_MODE_TIMEOUT_S)
+                result, subcode = self._controller(
+                    "start_traj_mode", timeout=START_TRAJ_MODE_TIMEOUT_S
+                )
                 if result == Result.FAILURE:
                     result, subcode = int(Result.NOT_READY), self.view.readiness()[1]
                 return motion_reply(request, result, subcode)
             case Command.STOP_TRAJ_MODE:
-                return motion_reply(request, Result.SUCCESS if self.stop_traj_mode() else Result.FAILURE, 0)
+                return motion_reply(
+                    request, Result.SUCCESS if self.stop_traj_mode() else Result.FAILURE, 0
+                )
             case Command.DISCONNECT:
                 if self.stop_traj_mode():
                     return CLOSE  # 1.9.4+: closed without sending the reply (§2.3)
@@ -290,7 +312,9 @@ class MotionHandler:
             return invalid(InvalidSubcode.GROUPNO)
         if not 0 <= body.tool <= 63:
             return invalid(InvalidSubcode.DATA_TOOLNO)
-        return self._controller_with("select_tool", CommandRequest(group=body.group_no, value=body.tool))
+        return self._controller_with(
+            "select_tool", CommandRequest(group=body.group_no, value=body.tool)
+        )
 
     def _controller_with(self, verb: str, request: CommandRequest) -> Verdict:
         reply = self.view.controller(verb, request)
@@ -307,4 +331,3 @@ class MotionHandler:
                     links[link] = DhLink(*values)
             groups.append(tuple(links))
         return GetDhParametersReply(tuple(groups))
-

@@ -65,13 +65,17 @@ def check_values(point: PointData, axis_map: AxisMap) -> Verdict | None:
     positions = point.positions[:axes]
     if not all(math.isfinite(p) for p in positions):
         return invalid(InvalidSubcode.DATA_POSITION)
-    for velocity, limit in zip(point.velocities[:axes], axis_map.max_speed_ros.tolist(), strict=True):
+    for velocity, limit in zip(
+        point.velocities[:axes], axis_map.max_speed_ros.tolist(), strict=True
+    ):
         if not abs(velocity) <= limit:
             return invalid(InvalidSubcode.DATA_SPEED)
     return None
 
 
-def check_start(point: PointData, axis_map: AxisMap, command_pulses: Sequence[int]) -> Verdict | None:
+def check_start(
+    point: PointData, axis_map: AxisMap, command_pulses: Sequence[int]
+) -> Verdict | None:
     """§2.6: every axis within 30 pulses of the commanded position (3011)."""
     requested = axis_map.ros_to_pulses(np.array(point.positions[: axis_map.axes], dtype=np.float64))
     commanded = np.array(command_pulses[: axis_map.axes], dtype=np.int64)

@@ -6,6 +6,7 @@ loop hop in between. Connection limits and take-over follow MotoROS 1.9.4+ (§2.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import socket
 import threading
@@ -36,7 +37,9 @@ def listen(host: str, port: int) -> socket.socket:
         server.bind((host, port))
     except OSError as exc:
         server.close()
-        raise SystemExit(f"motocell-gateway: cannot listen on {host}:{port}: {exc.strerror}") from exc
+        raise SystemExit(
+            f"motocell-gateway: cannot listen on {host}:{port}: {exc.strerror}"
+        ) from exc
     server.listen(socket.SOMAXCONN)
     return server
 
@@ -46,8 +49,9 @@ def configure(client: socket.socket) -> None:
     client.setsockopt(socket.SOL_SOCKET, socket.SO_KEEPALIVE, 1)
 
 
-def serve_requests(client: socket.socket, byte_order: ByteOrder, respond: Respond,
-                   error_reply: ErrorReply) -> None:
+def serve_requests(
+    client: socket.socket, byte_order: ByteOrder, respond: Respond, error_reply: ErrorReply
+) -> None:
     """Answer every request exactly once, in order, until the peer closes or a handler says
     to close. Garbage gets its INVALID reply and the connection is kept."""
     codec = SimpleMessageCodec(Role.CONTROLLER, byte_order)
@@ -81,10 +85,8 @@ class Connection:
         self.thread = thread
 
     def close(self) -> None:
-        try:
+        with contextlib.suppress(OSError):
             self.sock.shutdown(socket.SHUT_RDWR)
-        except OSError:
-            pass
         self.thread.join(timeout=5.0)
 
 
@@ -96,9 +98,17 @@ class RequestServer:
     never inherits increments queued by the old one.
     """
 
-    def __init__(self, name: str, server: socket.socket, byte_order: ByteOrder, respond: Respond,
-                 error_reply: ErrorReply, moving: Callable[[], bool],
-                 on_disconnect: Callable[[], None] = lambda: None) -> None:
+    def __init__(
+        self,
+        *,
+        name: str,
+        server: socket.socket,
+        byte_order: ByteOrder,
+        respond: Respond,
+        error_reply: ErrorReply,
+        moving: Callable[[], bool],
+        on_disconnect: Callable[[], object] = lambda: None,
+    ) -> None:
         self.name = name
         self.server = server
         self.byte_order = byte_order
@@ -127,8 +137,9 @@ class RequestServer:
                 log.info("%s: %s:%d replaces the idle client", self.name, *peer)
                 self.current.close()
             log.info("%s: client %s:%d connected", self.name, *peer)
-            thread = threading.Thread(target=self._serve, args=(client, peer),
-                                      name=f"{self.name}-client", daemon=True)
+            thread = threading.Thread(
+                target=self._serve, args=(client, peer), name=f"{self.name}-client", daemon=True
+            )
             self.current = Connection(client, thread)
             thread.start()
 
@@ -183,10 +194,8 @@ class StateClient:
         with self.ready:
             self.closed = True
             self.ready.notify()
-        try:
+        with contextlib.suppress(OSError):
             self.sock.shutdown(socket.SHUT_RDWR)
-        except OSError:
-            pass
         self.sock.close()
 
 

@@ -22,7 +22,9 @@ MAX_BATCH = 50
 
 
 class Feeder:
-    def __init__(self, group: Group, period_ns: int, send: Callable[[IncrementBatch], None]) -> None:
+    def __init__(
+        self, group: Group, period_ns: int, send: Callable[[IncrementBatch], None]
+    ) -> None:
         self.axis_map = AxisMap(group)
         self.period_ns = period_ns
         self.send = send
@@ -87,8 +89,11 @@ class Feeder:
             self.points_accepted += 1
             return
         if self.trajectory is None:
-            log.warning("point %d (sequence %d) without a trajectory start; dropped",
-                        point.point_id, point.sequence)
+            log.warning(
+                "point %d (sequence %d) without a trajectory start; dropped",
+                point.point_id,
+                point.sequence,
+            )
             self.taken_id = point.point_id
             return
         try:

@@ -56,7 +56,9 @@ def open_session(
     try:
         return zenoh.open(bus_config(mode, connect, listen))
     except zenoh.ZError as exc:
-        raise ConnectionError(f"cannot open Zenoh session ({mode}, connect={connect}): {exc}") from exc
+        raise ConnectionError(
+            f"cannot open Zenoh session ({mode}, connect={connect}): {exc}"
+        ) from exc
 
 
 def publisher(session: zenoh.Session, key: str, *, realtime: bool = False) -> zenoh.Publisher:
@@ -81,7 +83,9 @@ class Inbox:
         self._queue: queue.Queue[tuple[str, Any]] = queue.Queue(maxsize)
         self.dropped = 0
 
-    def feed(self, tag: str, transform: Callable[[Any], Any] = lambda x: x) -> Callable[[Any], None]:
+    def feed(
+        self, tag: str, transform: Callable[[Any], Any] = lambda x: x
+    ) -> Callable[[Any], None]:
         def callback(item: Any) -> None:
             try:
                 self._queue.put_nowait((tag, transform(item)))

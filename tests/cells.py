@@ -1,0 +1,143 @@
+"""Running real cells for tests: real processes, real TCP, real Zenoh, on free loopback ports.
+
+Each cell gets its own Zenoh router on a free port (never the well-known 7447, never
+multicast), so tests cannot see each other's cells. Teardown stops the launcher and then
+proves that no process it started is left.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+
+from services.cell.launcher import free_port, free_port_block
+from shared.client import MotionClient, StateListener
+from shared.config import Cell, load_cell
+from shared.protocol.codec import ByteOrder
+
+REPO = Path(__file__).resolve().parent.parent
+START_TIMEOUT_S = 30.0
+
+
+def descendants(pid: int) -> set[int]:
+    """Every process below ``pid``, from /proc (children of children included)."""
+    found: set[int] = set()
+    frontier = [pid]
+    while frontier:
+        parent = frontier.pop()
+        for task in Path(f"/proc/{parent}/task").glob("*"):
+            try:
+                children = (task / "children").read_text().split()
+            except OSError:
+                continue
+            for child in map(int, children):
+                if child not in found:
+                    found.add(child)
+                    frontier.append(child)
+    return found
+
+
+def alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().split(")")[-1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+def wait_until(predicate: Callable[[], bool], timeout: float, what: str) -> None:
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        if time.monotonic() >= deadline:
+            raise TimeoutError(f"timed out after {timeout} s waiting for {what}")
+        time.sleep(0.02)
+
+
+@dataclass
+class RunningCell:
+    cell: Cell
+    host: str
+    port_base: int
+    zenoh_endpoint: str
+    process: subprocess.Popen[bytes]
+
+    @property
+    def byte_order(self) -> ByteOrder:
+        return ByteOrder(self.cell.byte_order)
+
+    def motion(self) -> MotionClient:
+        return MotionClient(self.host, self.port_base, self.byte_order)
+
+    def io(self) -> MotionClient:
+        return MotionClient(self.host, self.port_base + 2, self.byte_order)
+
+    def state(self) -> StateListener:
+        return StateListener(self.host, self.port_base + 1, self.byte_order)
+
+    def children(self) -> set[int]:
+        return descendants(self.process.pid)
+
+
+def wait_for_motion_possible(state: StateListener, timeout: float = START_TIMEOUT_S) -> None:
+    """All services up: ROBOT_STATUS arrives (motion_possible needs START_TRAJ_MODE)."""
+    state.wait_for(lambda f: f.status is not None, timeout)
+
+
+@contextmanager
+def running_cell(config: str | None = None, extra: Sequence[str] = ()) -> Iterator[RunningCell]:
+    cell = load_cell(config)
+    port_base = free_port_block(3)
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    command = [
+        sys.executable,
+        "-m",
+        "services.cell.cli",
+        "up",
+        "--port-base",
+        str(port_base),
+        "--zenoh-listen",
+        endpoint,
+        *extra,
+    ]
+    if config:
+        command += ["--config", config]
+    env = {**os.environ, "MOTOCELL_LOG": "WARNING"}
+    process = subprocess.Popen(command, cwd=REPO, env=env)
+    running = RunningCell(cell, "127.0.0.1", port_base, endpoint, process)
+    started: set[int] = set()
+    try:
+        wait_until(
+            lambda: len(running.children()) >= 4 + len(cell.groups),
+            START_TIMEOUT_S,
+            "every service process to start",
+        )
+        started = running.children()
+        wait_until(lambda: _connectable(running), START_TIMEOUT_S, "the state port to listen")
+        with running.state() as state:
+            wait_for_motion_possible(state)
+        yield running
+    finally:
+        started |= running.children()
+        process.send_signal(signal.SIGTERM)
+        try:
+            process.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+            raise AssertionError("motocell up did not stop within 10 s of SIGTERM") from None
+        wait_until(
+            lambda: not any(alive(pid) for pid in started), 5.0, "every service process to exit"
+        )
+
+
+def _connectable(running: RunningCell) -> bool:
+    with socket.socket() as probe:
+        return probe.connect_ex((running.host, running.port_base + 1)) == 0

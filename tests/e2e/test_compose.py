@@ -1,0 +1,132 @@
+"""The services exactly as compose.yaml runs them: same commands, same cell file, Zenoh client
+mode through a router. Only what must differ on a shared test machine is rewritten: the router
+endpoint (a free loopback port instead of the zenohd container), paths inside the image, and
+the gateway's listen address and port base."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from services.cell.launcher import free_port, free_port_block
+from shared.client import MotionClient, StateListener, smooth_move, stream
+from shared.config import load_cell
+from shared.motion.kinematics import AxisMap
+from shared.protocol.codec import ByteOrder
+from shared.protocol.constants import Command, Result
+from tests.cells import REPO, alive, wait_until
+
+pytestmark = pytest.mark.cell
+
+
+def compose_commands(router: str, port_base: int) -> dict[str, list[str]]:
+    compose = yaml.safe_load((REPO / "compose.yaml").read_text())
+    commands = {}
+    for name, service in compose["services"].items():
+        if name == "zenohd":
+            assert service["image"] == "eclipse/zenoh:1.10.2"
+            continue
+        command = [str(part) for part in service["command"]]
+        assert command[:2] == ["python", "-m"], f"{name}: runs a motocell module"
+        rewritten = [sys.executable, "-m"]
+        for original in command[2:]:
+            part = original.replace("tcp/zenohd:7447", router)
+            part = part.replace("/etc/motocell/cells/", f"{REPO}/deploy/cells/")
+            rewritten.append({"0.0.0.0": "127.0.0.1", "50240": str(port_base)}.get(part, part))
+        assert (
+            "--zenoh-mode" in rewritten
+            and rewritten[rewritten.index("--zenoh-mode") + 1] == "client"
+        )
+        commands[name] = rewritten
+    return commands
+
+
+@pytest.fixture
+def compose_cell() -> Iterator[int]:
+    router = f"tcp/127.0.0.1:{free_port()}"
+    port_base = free_port_block(3)
+    env = {**os.environ, "MOTOCELL_LOG": "WARNING"}
+    processes = [
+        subprocess.Popen(
+            [sys.executable, "-m", "services.cell.cli", "router", "--listen", router],
+            cwd=REPO,
+            env=env,
+        )
+    ]
+    try:
+        for command in compose_commands(router, port_base).values():
+            processes.append(subprocess.Popen(command, cwd=REPO, env=env))
+        yield port_base
+    finally:
+        for process in processes:
+            process.send_signal(signal.SIGTERM)
+        for process in processes:
+            try:
+                process.wait(timeout=5)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.wait()
+                raise AssertionError(f"{process.args!r} ignored SIGTERM") from None
+        wait_until(lambda: not any(alive(p.pid) for p in processes), 5.0, "services to exit")
+
+
+def test_compose_services_execute_a_trajectory(compose_cell: int) -> None:
+    cell = load_cell(REPO / "deploy/cells/single-arm.toml")
+    axis_map = AxisMap(cell.groups[0])
+    byte_order = ByteOrder(cell.byte_order)
+
+    def state_port_up() -> bool:
+        try:
+            StateListener("127.0.0.1", compose_cell + 1, byte_order).close()
+        except OSError:
+            return False
+        return True
+
+    wait_until(state_port_up, 30.0, "the gateway's state port")
+    with (
+        StateListener("127.0.0.1", compose_cell + 1, byte_order) as state,
+        MotionClient("127.0.0.1", compose_cell, byte_order) as motion,
+    ):
+        state.wait_for(lambda f: f.status is not None, 30.0)
+        reply = motion.command(Command.START_TRAJ_MODE)
+        assert (reply.result, reply.subcode) == (Result.SUCCESS, 0)
+        latest = state.latest()
+        assert latest is not None
+        start = latest.groups[0].positions[:6]
+        goal = tuple(p + 0.2 for p in start)
+        result = stream(motion, smooth_move(start, goal, 0.5, 6))
+        assert result.points == 6, result.last_reply
+        goal_pulses = axis_map.ros_to_pulses(np.array(goal))
+        state.wait_for(
+            lambda f: (
+                f.status is not None
+                and f.status.in_motion == 0
+                and np.array_equal(
+                    axis_map.ros_to_pulses(np.array(f.groups[0].positions[:6])), goal_pulses
+                )
+            ),
+            10.0,
+        )
+        reply = motion.command(Command.STOP_TRAJ_MODE)
+        assert (reply.result, reply.subcode) == (Result.SUCCESS, 0)
+
+
+def test_compose_file_names_every_service_once() -> None:
+    commands = compose_commands("tcp/127.0.0.1:1", 1)
+    modules = sorted(command[2] for command in commands.values())
+    assert modules == [
+        "services.broadcaster",
+        "services.controller",
+        "services.executor",
+        "services.gateway",
+        "services.interpolator",
+    ]
+    assert Path(REPO / "deploy/Dockerfile").exists()
