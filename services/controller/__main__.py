@@ -79,6 +79,7 @@ class ControllerService:
         self.io = IoTable(ctx.cell.controller, self.model.outputs, self.model.set_output)
         self.inbox = Inbox()
         self.pending: list[PendingReply] = []
+        self.outbox: list[tuple[zenoh.Query, CommandReply]] = []
         self.command_pulses: list[list[int]] = []
         keys = ctx.keys
         session = ctx.session
@@ -106,10 +107,15 @@ class ControllerService:
             )
         )
 
+    def reply(self, query: zenoh.Query, reply: CommandReply) -> None:
+        """Replies wait until the status they depend on has been published (see ``run``)."""
+        self.outbox.append((query, reply))
+
     def run(self) -> None:
         published = None
         next_refresh = 0.0
-        sequence = 0
+        # Sequence numbers grow across controller restarts too, so "seq >= n" stays meaningful.
+        sequence = time.time_ns() // 1000
         self._update_missing()
         while not self.ctx.stop.is_set():
             item = self.inbox.get(timeout=POLL_S)
@@ -125,6 +131,9 @@ class ControllerService:
                 self.status_pub.put(encode(msgspec.structs.replace(status, seq=sequence)))
                 published = status
                 next_refresh = now + REFRESH_S
+            for query, reply in self.outbox:
+                answer(query, msgspec.structs.replace(reply, status_seq=sequence))
+            self.outbox.clear()
 
     def _update_missing(self) -> None:
         present = self.alive.present()
@@ -152,15 +161,15 @@ class ControllerService:
         elif tag.startswith("fault/"):
             assert isinstance(item, zenoh.Query)
             self.fault(tag[6:], command_of(item), now)
-            answer(item, CommandReply(Result.SUCCESS))
+            self.reply(item, CommandReply(Result.SUCCESS))
 
     def command(self, verb: str, query: zenoh.Query, now: float) -> None:
         model = self.model
         request = command_of(query)
         if verb == "positions":
-            answer(query, CommandReply(Result.SUCCESS, pulses=self.command_pulses))
+            self.reply(query, CommandReply(Result.SUCCESS, pulses=self.command_pulses))
         elif verb == "reset_alarm":
-            answer(query, CommandReply(model.reset_alarm()))
+            self.reply(query, CommandReply(model.reset_alarm()))
         elif verb == "start_servos":
             model.eco = False
             model.set_servo(True, now)
@@ -169,30 +178,30 @@ class ControllerService:
             )
         elif verb == "stop_servos":
             model.set_servo(False, now)
-            answer(query, CommandReply(Result.SUCCESS))
+            self.reply(query, CommandReply(Result.SUCCESS))
         elif verb == "start_traj_mode":
             decided = model.begin_start_traj_mode(now)
             if decided is not None:
-                answer(query, CommandReply(*decided))
+                self.reply(query, CommandReply(*decided))
             else:
                 self._await(query, now, Controller.motion_ready, _not_ready)
         elif verb == "stop_traj_mode":
             model.stop_traj_mode()
-            answer(query, CommandReply(Result.SUCCESS))
+            self.reply(query, CommandReply(Result.SUCCESS))
         elif verb in IO_READS:
             value, code = IO_READS[verb](self.io, request.value)
-            answer(query, CommandReply(code, value=value))
+            self.reply(query, CommandReply(code, value=value))
         elif verb in IO_WRITES:
             value = request.args[0] if request.args else -1
-            answer(query, CommandReply(IO_WRITES[verb](self.io, request.value, value)))
+            self.reply(query, CommandReply(IO_WRITES[verb](self.io, request.value, value)))
         elif verb == "select_tool":
             if not 0 <= request.group < model.groups:
-                answer(query, CommandReply(Result.INVALID, InvalidSubcode.GROUPNO))
+                self.reply(query, CommandReply(Result.INVALID, InvalidSubcode.GROUPNO))
             elif not 0 <= request.value <= 63:
-                answer(query, CommandReply(Result.INVALID, InvalidSubcode.DATA_TOOLNO))
+                self.reply(query, CommandReply(Result.INVALID, InvalidSubcode.DATA_TOOLNO))
             else:
                 model.select_tool(request.group, request.value)
-                answer(query, CommandReply(Result.SUCCESS))
+                self.reply(query, CommandReply(Result.SUCCESS))
 
     def _await(
         self,
@@ -213,9 +222,9 @@ class ControllerService:
         still = []
         for pending in self.pending:
             if pending.done(self.model):
-                answer(pending.query, CommandReply(Result.SUCCESS))
+                self.reply(pending.query, CommandReply(Result.SUCCESS))
             elif now >= pending.deadline:
-                answer(pending.query, CommandReply(*pending.on_timeout(self.model)))
+                self.reply(pending.query, CommandReply(*pending.on_timeout(self.model)))
             else:
                 still.append(pending)
         self.pending = still

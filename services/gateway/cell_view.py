@@ -29,6 +29,9 @@ from shared.bus.session import Liveness, call, publisher
 from shared.config import Cell
 from shared.protocol.constants import NotReadySubcode
 
+STATUS_WAIT_S = 0.5
+"""The controller publishes its status before it replies; this only bounds a lost sample."""
+
 _status_decoder = Decoder(ControllerStatus)
 _queue_decoder = Decoder(QueueState)
 _slot_decoder = Decoder(Slot)
@@ -47,6 +50,7 @@ class CellView:
         self.not_ready_count = 0
         """Counts not-ready statuses seen; a trajectory started before a change is over."""
         self._slots_changed = threading.Condition()
+        self._status_changed = threading.Condition()
         self._controller_key = keys.alive("controller", "0")
         self._alive = Liveness(session, self._controller_key)
         self._point_pubs = [
@@ -60,9 +64,11 @@ class CellView:
 
     def _on_status(self, sample: zenoh.Sample) -> None:
         status = _status_decoder.decode(sample.payload.to_bytes())
-        if not status.motion_ready:
-            self.not_ready_count += 1
-        self.status = status
+        with self._status_changed:
+            if not status.motion_ready:
+                self.not_ready_count += 1
+            self.status = status
+            self._status_changed.notify_all()
 
     def _on_queue(self, sample: zenoh.Sample) -> None:
         group = group_of(str(sample.key_expr))
@@ -123,7 +129,15 @@ class CellView:
     def controller(
         self, verb: str, request: CommandRequest | None = None, timeout: float = 2.0
     ) -> CommandReply | None:
-        return call(self.session, self.keys.controller_cmd(verb), request, timeout)
+        """A controller command; returns once this view has the status that follows it."""
+        reply = call(self.session, self.keys.controller_cmd(verb), request, timeout)
+        if reply is not None:
+            with self._status_changed:
+                self._status_changed.wait_for(
+                    lambda: self.status is not None and self.status.seq >= reply.status_seq,
+                    timeout=STATUS_WAIT_S,
+                )
+        return reply
 
     def executor(
         self, verb: str, request: CommandRequest | None = None, timeout: float = 1.0

@@ -166,6 +166,9 @@ class CommandReply(msgspec.Struct, array_like=True, frozen=True):
     value: int = 0
     detail: str = ""
     pulses: list[list[int]] = msgspec.field(default_factory=list)
+    status_seq: int = 0
+    """The controller status published before this reply went out, which already shows the
+    command's effect; the gateway waits for it so its next answer cannot be stale."""
 
 
 T = TypeVar("T")

@@ -150,7 +150,10 @@ def command_of(query: zenoh.Query) -> CommandRequest:
 
 
 def answer(query: zenoh.Query, reply: CommandReply) -> None:
+    """Reply and finalise the query at once: the asker's ``get`` ends only when the query is
+    dropped, which a lingering Python reference would otherwise delay until its timeout."""
     query.reply(query.key_expr, encode(reply))
+    query.drop()
 
 
 class Liveness:

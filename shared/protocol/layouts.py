@@ -202,10 +202,8 @@ class FixedLayout(BodyLayout):
         return encode
 
 
-def _feedback_at(v: tuple[Any, ...], i: int) -> JointFeedback:
-    return JointFeedback(
-        v[i], v[i + 1], v[i + 2], v[i + 3 : i + 13], v[i + 13 : i + 23], v[i + 23 : i + 33]
-    )
+def _feedback(v: tuple[Any, ...]) -> JointFeedback:
+    return JointFeedback(v[0], v[1], v[2], v[3:13], v[13:23], v[23:33])
 
 
 def _ex_group_at(v: tuple[Any, ...], i: int) -> JointTrajPtExGroup:
@@ -317,7 +315,7 @@ class FeedbackExLayout(FixedLayout):
             # unpacking 33 zeros makes decoding a 2-group frame nearly twice as fast.
             if buf[at : at + JOINT_BLOCK_SIZE] == _ZERO_BLOCK:
                 return ZERO_FEEDBACK
-            return _feedback_at(unpack_slot(buf, at), 0)
+            return _feedback(unpack_slot(buf, at))
 
         def decode(buf: Buffer, offset: int, body_size: int) -> Body:
             if body_size != size:
@@ -404,7 +402,7 @@ _TRAJ_PT_FULL = FixedLayout(
     _traj_pt_full_values,
 )
 _JOINT_FEEDBACK = FixedLayout(
-    MsgType.JOINT_FEEDBACK, JointFeedback, JOINT_BLOCK, lambda v: _feedback_at(v, 0), _block_values
+    MsgType.JOINT_FEEDBACK, JointFeedback, JOINT_BLOCK, _feedback, _block_values
 )
 _MOTION_CTRL = FixedLayout(
     MsgType.MOTO_MOTION_CTRL,

@@ -1,0 +1,321 @@
+"""ExecutorCore: ordered batch acceptance per epoch, clearing, and one (merged) entry per tick.
+
+Batches are built here by hand: ``increments`` is little-endian int32, ``count`` rows of 8.
+"""
+
+from __future__ import annotations
+
+import struct
+from collections.abc import Sequence
+
+import pytest
+
+from services.executor.core import RING_CAPACITY, BatchOutcome, ExecutorCore
+from shared.bus.schemas import GroupTick, IncrementBatch, QueueState
+
+FIRST_EPOCH = 100
+START = [[10, 20, 30, 40, 50, 60, 0, 0], [-5, 5, 0, 0, 0, 0, 0, 0]]
+
+
+def batch(
+    epoch: int,
+    first_seq: int,
+    rows: Sequence[Sequence[int]],
+    partial: Sequence[int] = (),
+    tool: int = 0,
+) -> IncrementBatch:
+    data = b"".join(struct.pack("<8i", *row, *([0] * (8 - len(row)))) for row in rows)
+    return IncrementBatch(
+        epoch=epoch,
+        first_seq=first_seq,
+        count=len(rows),
+        increments=data,
+        partial=list(partial),
+        tool=tool,
+        times_ns=[4_000_000 * (first_seq + i + 1) for i in range(len(rows))],
+    )
+
+
+def unit(value: int, axis: int = 0) -> list[int]:
+    row = [0] * 8
+    row[axis] = value
+    return row
+
+
+def ready_core() -> ExecutorCore:
+    core = ExecutorCore(START, FIRST_EPOCH)
+    core.set_ready(True)
+    return core
+
+
+def applied(core: ExecutorCore, group: int = 0) -> list[int]:
+    """Axis-0 increment of each tick until the ring is empty (and one more, empty, tick)."""
+    moves = []
+    while True:
+        depth = core.queue_count(group)
+        core.step()
+        moves.append(core.last_increment[group][0])
+        if depth == 0:
+            return moves
+
+
+# -- construction and queue_state ---------------------------------------------------------
+
+
+def test_new_core_state() -> None:
+    core = ExecutorCore(START, FIRST_EPOCH)
+    assert core.ready is False
+    assert core.tick == 0
+    assert [ring.epoch for ring in core.rings] == [100, 101]
+    assert core.queue_state(0) == QueueState(
+        epoch=100, received=0, depth=0, capacity=200, command_pulses=START[0], tick=0
+    )
+    assert core.queue_state(1).epoch == 101
+    assert RING_CAPACITY == 200
+
+
+def test_queue_state_numbers_follow_accepts_and_steps() -> None:
+    core = ready_core()
+    assert core.accept(0, batch(100, 0, [unit(1)] * 5)) is BatchOutcome.ACCEPTED
+    assert core.accept(0, batch(100, 5, [unit(2)] * 3)) is BatchOutcome.ACCEPTED
+    core.step()
+    core.step()
+    state = core.queue_state(0)
+    assert state == QueueState(
+        epoch=100,
+        received=8,
+        depth=6,
+        capacity=200,
+        command_pulses=[12, 20, 30, 40, 50, 60, 0, 0],
+        tick=2,
+    )
+    assert core.queue_count(0) == 6
+    assert core.queue_state(1) == QueueState(101, 0, 0, 200, START[1], 2)
+    # The state is a snapshot: changing it does not move the robot.
+    state.command_pulses[0] = 999
+    assert core.command[0][0] == 12
+
+
+# -- accept ---------------------------------------------------------------------------------
+
+
+def test_batches_are_accepted_only_in_order() -> None:
+    core = ready_core()
+    first = batch(100, 0, [unit(1), unit(2), unit(3)])
+    assert core.accept(0, first) is BatchOutcome.ACCEPTED
+    assert core.accept(0, first) is BatchOutcome.DUPLICATE
+    assert core.accept(0, batch(100, 1, [unit(2), unit(3)])) is BatchOutcome.DUPLICATE
+    assert core.accept(0, batch(100, 4, [unit(5)])) is BatchOutcome.GAP
+    assert core.queue_state(0).received == 3
+    assert core.queue_count(0) == 3
+    assert core.accept(0, batch(100, 3, [unit(4)])) is BatchOutcome.ACCEPTED
+    assert core.accept(0, batch(100, 4, [unit(5)])) is BatchOutcome.ACCEPTED
+    assert applied(core) == [1, 2, 3, 4, 5, 0]
+
+
+def test_duplicates_and_gaps_do_not_change_the_ring() -> None:
+    core = ready_core()
+    core.accept(0, batch(100, 0, [unit(7)] * 4))
+    before = core.queue_state(0)
+    for outcome, b in [
+        (BatchOutcome.DUPLICATE, batch(100, 0, [unit(9)] * 2)),
+        (BatchOutcome.GAP, batch(100, 5, [unit(9)])),
+        (BatchOutcome.STALE, batch(99, 4, [unit(9)])),
+        (BatchOutcome.STALE, batch(101, 4, [unit(9)])),
+    ]:
+        assert core.accept(0, b) is outcome
+        assert core.queue_state(0) == before
+    assert applied(core) == [7, 7, 7, 7, 0]
+
+
+def test_stale_epoch_is_refused_even_for_the_right_sequence() -> None:
+    core = ready_core()
+    assert core.accept(1, batch(100, 0, [unit(1)])) is BatchOutcome.STALE  # group 1 is 101
+    assert core.accept(1, batch(101, 0, [unit(1)])) is BatchOutcome.ACCEPTED
+
+
+def test_ring_holds_exactly_200_entries() -> None:
+    core = ready_core()
+    for i in range(4):
+        assert core.accept(0, batch(100, 50 * i, [unit(1)] * 50)) is BatchOutcome.ACCEPTED
+    assert core.queue_count(0) == 200
+    assert core.accept(0, batch(100, 200, [unit(1)])) is BatchOutcome.OVERFLOW
+    assert core.queue_state(0).received == 200
+    assert core.queue_count(0) == 200
+    core.step()
+    assert core.accept(0, batch(100, 200, [unit(1)] * 2)) is BatchOutcome.OVERFLOW
+    assert core.accept(0, batch(100, 200, [unit(1)])) is BatchOutcome.ACCEPTED
+    assert core.queue_state(0).depth == 200
+
+
+def test_single_batch_larger_than_the_ring_overflows() -> None:
+    core = ready_core()
+    assert core.accept(0, batch(100, 0, [unit(1)] * 201)) is BatchOutcome.OVERFLOW
+    assert core.queue_state(0).received == 0
+    assert core.accept(0, batch(100, 0, [unit(1)] * 200)) is BatchOutcome.ACCEPTED
+
+
+def test_not_ready_refuses_and_renews_the_epoch() -> None:
+    core = ExecutorCore(START, FIRST_EPOCH)
+    assert core.accept(0, batch(100, 0, [unit(1)])) is BatchOutcome.NOT_READY
+    state = core.queue_state(0)
+    assert (state.epoch, state.received, state.depth) == (102, 0, 0)
+    assert core.queue_state(1).epoch == 101  # other groups untouched
+    # The rest of that trajectory is now stale, even once ready again.
+    core.set_ready(True)
+    assert core.accept(0, batch(100, 1, [unit(1)])) is BatchOutcome.STALE
+    assert core.accept(0, batch(102, 0, [unit(1)])) is BatchOutcome.ACCEPTED
+
+
+def test_not_ready_with_a_stale_epoch_is_just_stale() -> None:
+    core = ExecutorCore(START, FIRST_EPOCH)
+    assert core.accept(0, batch(7, 0, [unit(1)])) is BatchOutcome.STALE
+    assert core.queue_state(0).epoch == 100
+
+
+# -- clearing ---------------------------------------------------------------------------------
+
+
+def test_clear_all_renews_every_epoch_and_empties_the_rings() -> None:
+    core = ready_core()
+    core.accept(0, batch(100, 0, [unit(1)] * 3))
+    core.accept(1, batch(101, 0, [unit(1)] * 2))
+    core.step()
+    core.clear_all()
+    assert [core.queue_state(g).epoch for g in (0, 1)] == [102, 103]
+    assert [core.queue_state(g).received for g in (0, 1)] == [0, 0]
+    assert [core.queue_count(g) for g in (0, 1)] == [0, 0]
+    assert core.command[0][0] == 11  # what was applied stays applied
+    assert core.ready is True
+    assert core.accept(0, batch(100, 3, [unit(1)])) is BatchOutcome.STALE
+    assert core.accept(0, batch(102, 0, [unit(4)])) is BatchOutcome.ACCEPTED
+    core.clear_all()
+    assert [core.queue_state(g).epoch for g in (0, 1)] == [104, 105]
+
+
+def test_set_ready_false_clears_every_ring() -> None:
+    core = ready_core()
+    core.accept(0, batch(100, 0, [unit(1)] * 3))
+    core.accept(1, batch(101, 0, [unit(1)] * 2))
+    core.set_ready(False)
+    assert core.ready is False
+    assert [core.queue_count(g) for g in (0, 1)] == [0, 0]
+    assert [core.queue_state(g).epoch for g in (0, 1)] == [102, 103]
+    # Already not ready: no further renewal.
+    core.set_ready(False)
+    assert [core.queue_state(g).epoch for g in (0, 1)] == [102, 103]
+    # Becoming ready does not renew either.
+    core.set_ready(True)
+    assert [core.queue_state(g).epoch for g in (0, 1)] == [102, 103]
+    core.set_ready(True)
+    assert [core.queue_state(g).epoch for g in (0, 1)] == [102, 103]
+
+
+# -- step ---------------------------------------------------------------------------------
+
+
+def test_step_applies_one_entry_per_group_per_tick() -> None:
+    core = ready_core()
+    core.accept(0, batch(100, 0, [[1, 2, 3, 4, 5, 6, 0, 0], [10, 20, 30, 40, 50, 60, 0, 0]]))
+    core.accept(1, batch(101, 0, [[-1, 1, 0, 0, 0, 0, 0, 0]]))
+    core.step()
+    assert core.tick == 1
+    assert core.last_increment == [(1, 2, 3, 4, 5, 6, 0, 0), (-1, 1, 0, 0, 0, 0, 0, 0)]
+    assert core.command == [[11, 22, 33, 44, 55, 66, 0, 0], [-6, 6, 0, 0, 0, 0, 0, 0]]
+    core.step()
+    # Group 1's ring is empty: it gets zeros while group 0 keeps moving.
+    assert core.last_increment == [(10, 20, 30, 40, 50, 60, 0, 0), (0,) * 8]
+    assert core.command == [[21, 42, 63, 84, 105, 126, 0, 0], [-6, 6, 0, 0, 0, 0, 0, 0]]
+    core.step()
+    assert core.last_increment == [(0,) * 8, (0,) * 8]
+    assert core.command[0] == [21, 42, 63, 84, 105, 126, 0, 0]
+    assert core.group_ticks() == [
+        GroupTick([21, 42, 63, 84, 105, 126, 0, 0], [21, 42, 63, 84, 105, 126, 0, 0], [0] * 8, 0),
+        GroupTick([-6, 6, 0, 0, 0, 0, 0, 0], [-6, 6, 0, 0, 0, 0, 0, 0], [0] * 8, 0),
+    ]
+
+
+def test_all_eight_axes_are_applied() -> None:
+    core = ready_core()
+    core.accept(0, batch(100, 0, [[1, -2, 3, -4, 5, -6, 7, -8]]))
+    core.step()
+    assert core.command[0] == [11, 18, 33, 36, 55, 54, 7, -8]
+
+
+def test_partial_entry_is_merged_with_the_next_one() -> None:
+    core = ready_core()
+    # Entries: full, partial (off-grid waypoint), full, full.
+    assert core.accept(0, batch(100, 0, [unit(1), unit(2), unit(30), unit(400)], partial=[1])) is (
+        BatchOutcome.ACCEPTED
+    )
+    assert applied(core) == [1, 32, 400, 0]
+    assert core.command[0][0] == 10 + 433
+
+
+def test_chain_of_partials_is_merged_up_to_the_next_full_entry() -> None:
+    core = ready_core()
+    rows = [unit(1), unit(2), unit(4), unit(8), unit(16)]
+    core.accept(0, batch(100, 0, rows, partial=[0, 1, 2]))
+    assert applied(core) == [1 + 2 + 4 + 8, 16, 0]
+
+
+def test_partial_across_batches_is_merged_with_the_next_batch_head() -> None:
+    core = ready_core()
+    core.accept(0, batch(100, 0, [unit(1), unit(2)], partial=[1]))
+    core.accept(0, batch(100, 2, [unit(4), unit(8)], partial=[1]))
+    core.accept(0, batch(100, 4, [unit(16)]))
+    # Partial indices are relative to their own batch: rows 1 and 3 overall.
+    assert applied(core) == [1, 2 + 4, 8 + 16, 0]
+
+
+def test_partial_at_the_tail_is_sent_alone() -> None:
+    core = ready_core()
+    core.accept(0, batch(100, 0, [unit(1), unit(2)], partial=[1]))
+    core.step()
+    core.step()
+    assert core.last_increment[0][0] == 2  # the next entry is not queued yet
+    core.accept(0, batch(100, 2, [unit(4)]))
+    core.step()
+    assert core.last_increment[0][0] == 4
+    assert core.command[0][0] == 17
+
+
+def test_partial_is_not_merged_across_a_tool_change() -> None:
+    core = ready_core()
+    core.accept(0, batch(100, 0, [unit(1), unit(2)], partial=[1], tool=3))
+    core.accept(0, batch(100, 2, [unit(4)], tool=5))
+    assert applied(core) == [1, 2, 4, 0]
+
+
+def test_nothing_is_applied_while_not_ready() -> None:
+    core = ExecutorCore(START, FIRST_EPOCH)
+    for _ in range(3):
+        core.step()
+    assert core.tick == 3
+    assert core.command == START
+    assert core.last_increment == [(0,) * 8, (0,) * 8]
+    core.set_ready(True)
+    core.accept(0, batch(100, 0, [unit(5)] * 3))
+    core.step()
+    core.set_ready(False)
+    core.step()
+    core.step()
+    assert core.command[0][0] == 15
+    assert core.last_increment[0] == (0,) * 8
+    assert core.queue_count(0) == 0
+
+
+@pytest.mark.parametrize("rows", [1, 37, 200])
+def test_every_accepted_pulse_is_applied_exactly_once(rows: int) -> None:
+    core = ready_core()
+    increments = [[(i * 7919 + axis * 31) % 201 - 100 for axis in range(8)] for i in range(rows)]
+    partial = [i for i in range(rows) if i % 5 == 2]
+    assert core.accept(0, batch(100, 0, increments, partial)) is BatchOutcome.ACCEPTED
+    ticks = 0
+    while core.queue_count(0):
+        core.step()
+        ticks += 1
+    assert ticks == rows - sum(1 for i in partial if i < rows - 1)
+    assert core.command[0] == [
+        START[0][axis] + sum(row[axis] for row in increments) for axis in range(8)
+    ]

@@ -1,0 +1,116 @@
+"""AxisMap: ROS order/units <-> Motoman order/pulses (motoros1-behaviour.md §4.3)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from shared.config import Group, parse_cell
+from shared.motion.kinematics import AxisMap
+
+
+def group_of(model: str) -> Group:
+    return parse_cell({"groups": [{"name": "G", "model": model}]}).groups[0]
+
+
+ARM6 = AxisMap(group_of("arm6"))
+ARM7 = AxisMap(group_of("arm7"))
+TRACK = AxisMap(group_of("track1"))
+POSITIONER = AxisMap(group_of("positioner2"))
+
+
+def test_six_axis_orders_are_the_same() -> None:
+    assert ARM6.axes == 6
+    assert ARM6.ros_index_of_moto.tolist() == [0, 1, 2, 3, 4, 5]
+    assert ARM6.moto_index_of_ros.tolist() == [0, 1, 2, 3, 4, 5]
+    assert ARM6.pulses_per_unit_moto.tolist() == [58670, 58670, 58670, 32594, 32594, 21990]
+    assert ARM6.max_speed_ros.tolist() == [6.54, 5.50, 7.15, 9.60, 9.60, 13.96]
+
+
+def test_seven_axis_index_maps() -> None:
+    # moto[0]=ros[0], moto[1]=ros[1], moto[2..5]=ros[3..6], moto[6]=ros[2].
+    assert ARM7.axes == 7
+    assert ARM7.ros_index_of_moto.tolist() == [0, 1, 3, 4, 5, 6, 2]
+    assert ARM7.moto_index_of_ros.tolist() == [0, 1, 6, 2, 3, 4, 5]
+    # ROS-order pulses per radian are [65536 x 4, 36408, 36408, 24576].
+    assert ARM7.pulses_per_unit_moto.tolist() == [
+        65536, 65536, 65536, 36408, 36408, 24576, 65536
+    ]  # fmt: skip
+    # Speed limits stay in ROS order (they are checked against ROS velocities).
+    assert ARM7.max_speed_ros.tolist() == [2.96, 2.96, 2.96, 2.96, 3.49, 3.49, 6.28]
+
+
+def test_seven_axis_ros_to_pulses_puts_e_last() -> None:
+    # One distinct power-of-two-exact value per ROS joint S, L, E, U, R, B, T.
+    ros = np.array([1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]) / 8
+    pulses = ARM7.ros_to_pulses(ros)
+    assert pulses.dtype == np.int64
+    # S, L, U, R, B, T, E
+    assert pulses.tolist() == [8192, 16384, 32768, 22755, 27306, 21504, 24576]
+
+
+def test_seven_axis_pulses_to_ros_puts_e_third() -> None:
+    moto = [65536, 2 * 65536, 3 * 65536, 4 * 36408, 5 * 36408, 6 * 24576, 7 * 65536, 999]
+    # The 8th slot is not an axis of this group and is ignored.
+    assert ARM7.pulses_to_ros(moto).tolist() == [1.0, 2.0, 7.0, 3.0, 4.0, 5.0, 6.0]
+
+
+@pytest.mark.parametrize("axis_map", [ARM6, ARM7, TRACK, POSITIONER])
+def test_pulses_round_trip_exactly(axis_map: AxisMap) -> None:
+    rng = np.random.default_rng(11)
+    for _ in range(200):
+        pulses = rng.integers(-3_000_000, 3_000_000, size=axis_map.axes)
+        back = axis_map.ros_to_pulses(axis_map.pulses_to_ros(pulses))
+        assert back.tolist() == pulses.tolist()
+
+
+@pytest.mark.parametrize("axis_map", [ARM6, ARM7, TRACK, POSITIONER])
+def test_positions_round_trip_within_half_a_pulse(axis_map: AxisMap) -> None:
+    rng = np.random.default_rng(12)
+    ros = rng.uniform(-3.2, 3.2, size=(500, axis_map.axes))
+    pulses = axis_map.ros_to_pulses(ros)
+    assert pulses.shape == (500, axis_map.axes)
+    back = np.array([axis_map.pulses_to_ros(row) for row in pulses])
+    ppu_ros = axis_map.pulses_per_unit_moto[axis_map.moto_index_of_ros]
+    assert np.all(np.abs(back - ros) * ppu_ros <= 0.5 + 1e-9)
+
+
+def test_two_dimensional_input_converts_row_by_row() -> None:
+    ros = np.array([[0.0] * 7, [0.5] * 7, [-0.25] * 7])
+    rows = ARM7.ros_to_pulses(ros)
+    assert rows.tolist() == [ARM7.ros_to_pulses(r).tolist() for r in ros]
+
+
+def test_rounding_is_to_nearest_not_truncation() -> None:
+    # MotoROS truncates toward zero; AxisMap rounds to nearest (documented difference).
+    scale = 65536.0  # ARM7 axis S: pulses = rad * 65536, exact for these values
+    cases = {2.7: 3, 2.4: 2, -2.7: -3, -2.4: -2, 0.49: 0, -0.49: 0}
+    for value, expected in cases.items():
+        ros = np.zeros(7)
+        ros[0] = value / scale
+        assert ARM7.ros_to_pulses(ros)[0] == expected, value
+
+
+def test_rounding_ties_go_to_even() -> None:
+    scale = 65536.0  # exact halves are representable: rad = k.5 / 2**16
+    for value, expected in {0.5: 0, 1.5: 2, 2.5: 2, -0.5: 0, -1.5: -2, -2.5: -2}.items():
+        ros = np.zeros(7)
+        ros[0] = value / scale
+        assert ARM7.ros_to_pulses(ros)[0] == expected, value
+
+
+def test_linear_axis_is_in_metres() -> None:
+    assert TRACK.axes == 1
+    assert TRACK.ros_to_pulses(np.array([0.0015])).tolist() == [1500]
+    assert TRACK.ros_to_pulses(np.array([-1.2345674])).tolist() == [-1_234_567]
+    assert TRACK.pulses_to_ros([2_500_000, 7, 7, 7, 7, 7, 7, 7]).tolist() == [2.5]
+
+
+def test_pad_moto_fills_eight_slots() -> None:
+    assert ARM6.pad_moto(np.array([1, -2, 3, -4, 5, -6], dtype=np.int64)) == [
+        1, -2, 3, -4, 5, -6, 0, 0
+    ]  # fmt: skip
+    assert ARM7.pad_moto(np.arange(1, 8, dtype=np.int64)) == [1, 2, 3, 4, 5, 6, 7, 0]
+    assert TRACK.pad_moto(np.array([42], dtype=np.int64)) == [42, 0, 0, 0, 0, 0, 0, 0]
+    padded = ARM6.pad_moto(np.array([1, 2, 3, 4, 5, 6], dtype=np.int64))
+    assert all(type(v) is int for v in padded)
