@@ -7,7 +7,7 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from services.cell import demo, launcher
+from services.cell import demo, fault, launcher
 from shared.service import add_zenoh_arguments
 
 
@@ -26,6 +26,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     add_zenoh_arguments(up)
     up.set_defaults(run=launcher.up)
+
+    fault.add_parser(commands)
 
     router = commands.add_parser(
         "router", help="a Zenoh router (a stand-in for zenohd where its image is not available)"

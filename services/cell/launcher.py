@@ -86,7 +86,8 @@ def open_hub(listen: list[str], connect: list[str]) -> tuple[zenoh.Session, str]
         else:
             listen = [f"tcp/127.0.0.1:{free_port()}"]
             connect = connect or [f"tcp/127.0.0.1:{WELL_KNOWN_PORT}"]
-    session = open_session("router", connect, listen)
+    # Not waiting: a router retries an absent link in the background.
+    session = open_session("router", connect, listen, wait=False)
     return session, listen[0]
 
 

@@ -12,7 +12,7 @@ import msgspec
 import zenoh
 
 from services.controller.io_table import IoTable
-from services.controller.model import START_TIMEOUT_S, Controller
+from services.controller.model import OT_ROS_READY, START_TIMEOUT_S, Controller
 from shared.bus.keys import service_of_alive
 from shared.bus.schemas import CommandReply, CommandRequest, Decoder, Tick, encode
 from shared.bus.session import Inbox, Liveness, answer, command_of, payload_of, publisher
@@ -41,7 +41,7 @@ COMMANDS = (
     "read_register",
     "write_register",
 )
-FAULTS = ("estop", "hold", "alarm", "error", "servo", "play", "remote", "pfl")
+FAULTS = ("estop", "hold", "alarm", "error", "servo", "play", "remote", "pfl", "ot889")
 
 
 IO_READS: dict[str, Callable[[IoTable, int], tuple[int, int]]] = {
@@ -253,6 +253,9 @@ class ControllerService:
             model.set_remote(on)
         elif kind == "pfl":
             model.set_pfl(on)
+        elif kind == "ot889":
+            # Something (a job edit, an I/O write) drops the job's "ready for ROS" output.
+            model.set_output(OT_ROS_READY, int(on))
 
 
 def main(argv: Sequence[str] | None = None) -> None:

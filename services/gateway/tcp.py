@@ -23,6 +23,8 @@ log = logging.getLogger("gateway")
 RECV_BYTES = 65536
 STATE_BACKLOG_FRAMES = 64
 """Frames buffered per state client; a slower client loses the oldest, never stalls others."""
+HANGUP_GRACE_S = 0.3
+"""How long a newcomer waits for a previous client that is already closing."""
 CLOSE_DELAY_S = 0.05
 """MotoROS sleeps 50 ms before it closes a motion connection (§2.1)."""
 
@@ -129,6 +131,9 @@ class RequestServer:
             except OSError:
                 return
             configure(client)
+            if self.current is not None:
+                # A client that has just hung up is not a rival: let its clean-up finish.
+                self.current.thread.join(timeout=HANGUP_GRACE_S)
             if self.current is not None and self.current.thread.is_alive():
                 if self.moving():
                     log.warning("%s: refused %s:%d, the robot is moving", self.name, *peer)

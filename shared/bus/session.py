@@ -32,6 +32,8 @@ def bus_config(
     mode: str = "peer",
     connect: Sequence[str] = (),
     listen: Sequence[str] = ("tcp/127.0.0.1:0",),
+    *,
+    wait: bool = True,
 ) -> zenoh.Config:
     config = zenoh.Config()
     config.insert_json5("mode", json.dumps(mode))
@@ -39,22 +41,24 @@ def bus_config(
     config.insert_json5("listen/endpoints", json.dumps(list(listen)))
     config.insert_json5("scouting/multicast/enabled", "false")
     config.insert_json5("transport/link/tx/lease", str(LEASE_MS))
-    if mode == "client":
-        # Wait for the router instead of failing at once, so start order does not matter.
-        config.insert_json5("connect/timeout_ms", "-1")
-    if mode == "peer" and connect:
-        # A peer retries an absent endpoint in the background; keep doing so forever.
+    if wait and connect:
+        # Services wait for the router instead of failing at once, so start order does not
+        # matter; command-line tools (wait=False) fail at once instead.
         config.insert_json5("connect/timeout_ms", "-1")
     return config
 
 
 def open_session(
-    mode: str = "peer", connect: Sequence[str] = (), listen: Sequence[str] | None = None
+    mode: str = "peer",
+    connect: Sequence[str] = (),
+    listen: Sequence[str] | None = None,
+    *,
+    wait: bool = True,
 ) -> zenoh.Session:
     if listen is None:
         listen = () if mode == "client" else ("tcp/127.0.0.1:0",)
     try:
-        return zenoh.open(bus_config(mode, connect, listen))
+        return zenoh.open(bus_config(mode, connect, listen, wait=wait))
     except zenoh.ZError as exc:
         raise ConnectionError(
             f"cannot open Zenoh session ({mode}, connect={connect}): {exc}"

@@ -92,6 +92,8 @@ Encode = Callable[[Body], bytes]
 
 
 class ByteOrder(StrEnum):
+    """The controller CPU's order (§1.1): LITTLE for DX100/DX200/YRC1000, BIG for FS100."""
+
     LITTLE = "little"
     BIG = "big"
 
@@ -118,7 +120,7 @@ ZERO_JOINTS: Final[Floats] = (0.0,) * MAX_JOINTS
 JOINT_BLOCK: Final = "2i31f"
 """group_no, valid_fields, time, pos[10], vel[10], acc[10]: 15's body, 2016's and 2017's blocks."""
 JOINT_BLOCK_SIZE: Final = struct.calcsize("<" + JOINT_BLOCK)
-_BLOCK_VALUES = 33
+_BLOCK_VALUES = 33  # 3 scalars and 3 x 10 joints
 
 
 def pad_joints(values: Floats) -> Floats:
@@ -129,6 +131,8 @@ def pad_joints(values: Floats) -> Floats:
 
 
 class BodyLayout(ABC):
+    """How one body maps to bytes, with a decoder and an encoder per byte order."""
+
     msg_type: int
     body_type: type[Body]
     max_size: int
@@ -293,7 +297,10 @@ def _dh_values(b: GetDhParametersReply) -> tuple[float, ...]:
 
 
 class FeedbackExLayout(FixedLayout):
-    """2017: int32 number_of_valid_groups, then always 4 slots of 15's body (§1.2, §6)."""
+    """2017: int32 number_of_valid_groups, then always 4 slots of 15's body (§1.2, §6).
+
+    Encodes as any fixed layout; decodes slot by slot.
+    """
 
     def __init__(self) -> None:
         super().__init__(
@@ -312,7 +319,7 @@ class FeedbackExLayout(FixedLayout):
 
         def slot(buf: Buffer, at: int) -> JointFeedback:
             # Slots beyond the cell's groups are all zero (§6). Sharing one zero slot instead of
-            # unpacking 33 zeros makes decoding a 2-group frame nearly twice as fast.
+            # unpacking 33 zeros decodes a 2-group frame about 1.5 times as fast.
             if buf[at : at + JOINT_BLOCK_SIZE] == _ZERO_BLOCK:
                 return ZERO_FEEDBACK
             return _feedback(unpack_slot(buf, at))

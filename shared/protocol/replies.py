@@ -119,7 +119,7 @@ def io_reply(request: Message, result_code: int, value: int = 0) -> Message:
 
     Reply type is 1 when ``result_code`` is 0 (IoResult.OK, MotoROS 1.9.2+), else 2 (§8).
     """
-    result_code = int(result_code)
+    result_code, value = int(result_code), int(value)
     body: Body
     match request.body:
         case ReadIOBit():

@@ -40,9 +40,9 @@ def state(cell: RunningCell) -> Iterator[StateListener]:
 
 
 def current_position(state: StateListener, axes: int) -> tuple[float, ...]:
-    latest = state.latest()
-    assert latest is not None
-    return tuple(latest.groups[0].positions[:axes])
+    """Where the robot stands, once it stands still (as a client checks before planning)."""
+    still = state.wait_for(lambda f: f.status is not None and f.status.in_motion == 0, 5.0)
+    return tuple(still.groups[0].positions[:axes])
 
 
 def enable(motion: MotionClient) -> None:

@@ -136,8 +136,10 @@ def test_never_sends_more_than_the_ring_has_room_for() -> None:
     h.queue(state(received=10, depth=150))
     assert h.feeder.room() == 0
     assert len(h.sent) == 2
-    h.queue(state(received=10, depth=120))
+    h.feeder.on_queue(state(received=10, depth=120))
     assert h.feeder.room() == 30
+    h.feeder.progress(h.points)
+    assert h.feeder.room() == 0
     assert [(b.first_seq, b.count) for b in h.sent[2:]] == [(60, 30)]
 
     # Everything is in: the last 10 entries finish the segment, then point 3 is taken.
@@ -311,7 +313,9 @@ def test_streamed_trajectory_never_overflows_and_ends_exactly(
     for i in range(60):
         t += float(rng.uniform(0.0005, 0.9))
         points.append(
-            point(i + 2, i + 1, t, rng.uniform(-1, 1, 6).tolist(), rng.uniform(-0.5, 0.5, 6).tolist())
+            point(
+                i + 2, i + 1, t, rng.uniform(-1, 1, 6).tolist(), rng.uniform(-0.5, 0.5, 6).tolist()
+            )
         )
     core, sent = stream(points, start, batch_delay, state_delay)
     assert [b.first_seq for b in sent] == list(

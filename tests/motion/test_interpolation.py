@@ -9,6 +9,7 @@ increments is the last waypoint's pulses minus the start pulses, exactly.
 
 from __future__ import annotations
 
+import itertools
 import tracemalloc
 from dataclasses import dataclass
 
@@ -77,7 +78,7 @@ def expected_entries(group: Group, period: int, knots: list[Knot]) -> Expected:
     times: list[npt.NDArray[np.int64]] = []
     partial: list[npt.NDArray[np.bool_]] = []
     positions: list[FloatArray] = []
-    for start, end in zip(knots, knots[1:], strict=False):
+    for start, end in itertools.pairwise(knots):
         # Grid instants strictly inside (start, end): smallest k with anchor + k P > start ...
         first = -(-(start.time_ns - anchor + 1) // period)
         # ... and largest k with anchor + k P < end.
@@ -139,8 +140,9 @@ def check_closed_form(
 
 
 def start_pulses_of(group: Group, positions: FloatArray, offset: int = 0) -> IntArray:
-    exact = np.rint(to_pulses_float(group, positions[None, :])[0]).astype(np.int64)
-    return exact + offset
+    exact: IntArray = np.rint(to_pulses_float(group, positions[None, :])[0]).astype(np.int64)
+    result: IntArray = exact + offset
+    return result
 
 
 ARM6 = group_of("arm6")
@@ -457,4 +459,3 @@ def test_property_grid_entries_exact_end_and_half_pulse_deviation(case: Case, li
     ]
     check_closed_form(case.group, case.period, case.knots, case.start, entries)
     assert np.array_equal(trajectory.pulses, start_pulses_of(case.group, case.knots[-1].positions))
-
