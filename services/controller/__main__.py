@@ -21,6 +21,8 @@ from shared.service import ServiceContext, argument_parser, required_alive_keys,
 
 log = logging.getLogger("controller")
 
+_request_decoder = Decoder(CommandRequest)
+
 POLL_S = 0.01
 """MotoROS polls the controller status every 10 ms (§0)."""
 REFRESH_S = 0.1
@@ -95,12 +97,12 @@ class ControllerService:
             session.declare_queryable(keys.controller_fault(kind), self.inbox.feed(f"fault/{kind}"))
             for kind in FAULTS
         ]
-        # The executor tells of a broken increment path with a plain put, no reply needed.
-        self.entities.append(
-            session.declare_subscriber(
-                keys.controller_cmd("incmove_error"), self.inbox.feed("incmove_error")
+        # Notices that need no reply come as plain puts: the executor's broken increment
+        # path, the gateway's connection counts.
+        for notice in ("incmove_error", "connections"):
+            self.entities.append(
+                session.declare_subscriber(keys.controller_cmd(notice), self.inbox.feed(notice))
             )
-        )
         self.entities.append(
             session.declare_subscriber(
                 keys.executor_tick, self.inbox.feed("tick", payload_of(Decoder(Tick)))
@@ -152,6 +154,10 @@ class ControllerService:
         elif tag == "tick":
             assert isinstance(item, Tick)
             self.command_pulses = [g.command_pulses for g in item.groups]
+        elif tag == "connections":
+            assert isinstance(item, zenoh.Sample)
+            counts = _request_decoder.decode(item.payload.to_bytes()).args
+            self.model.set_connections(*[*counts, 0, 0, 0][:3])
         elif tag == "incmove_error":
             log.error("increment path broken; motion stopped (NOT_READY 5012)")
             self.model.set_incmove_error()

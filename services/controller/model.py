@@ -257,5 +257,11 @@ class Controller:
         """Set OT#890 so the job's WAIT is released and the job runs to END."""
         self.set_output(OT_ROS_DONE, 1)
 
+    def set_connections(self, motion: int, state: int, io: int) -> None:
+        """OT#893-#895: a motion, state or I/O client is connected (spec §4.2)."""
+        self.set_output(OT_MOTION_CONNECTED, int(motion > 0))
+        self.set_output(OT_STATE_CONNECTED, int(state > 0))
+        self.set_output(OT_IO_CONNECTED, int(io > 0))
+
     def select_tool(self, group: int, tool: int) -> None:
         self.tools[group] = tool

@@ -4,13 +4,15 @@ from __future__ import annotations
 
 import logging
 import threading
+import time
 from collections.abc import Sequence
 
 from services.gateway.cell_view import CellView, decode_state
 from services.gateway.io import IoHandler
 from services.gateway.motion import Answer, MotionHandler
 from services.gateway.tcp import RequestServer, StateServer, listen
-from shared.bus.schemas import State
+from shared.bus.schemas import CommandRequest, State
+from shared.bus.schemas import encode as encode_payload
 from shared.bus.session import Inbox
 from shared.protocol.codec import ByteOrder, Role, encode
 from shared.protocol.constants import MAX_JOINTS, MsgType, ValidFields
@@ -20,6 +22,8 @@ from shared.protocol.replies import invalid_reply, io_error_reply, state_message
 from shared.service import argument_parser, running_service
 
 log = logging.getLogger("gateway")
+
+CONNECTIONS_REFRESH_S = 1.0
 
 FEEDBACK_FIELDS = int(ValidFields.POSITION | ValidFields.VELOCITY)
 """MotoROS 1.9 sends 6 when it can read speed feedback (the 2012 spec's 2 is superseded)."""
@@ -112,15 +116,33 @@ def main(argv: Sequence[str] | None = None) -> None:
         subscriber = ctx.session.declare_subscriber(
             ctx.keys.state, inbox.feed("state", decode_state)
         )
+
+        def report_connections() -> None:
+            """OT#893-#895 show connected motion, state and I/O clients (spec §4.2)."""
+            counts = [
+                int(motion_server.connected()),
+                state_server.client_count(),
+                int(io_server.connected()),
+            ]
+            ctx.session.put(
+                ctx.keys.controller_cmd("connections"), encode_payload(CommandRequest(args=counts))
+            )
+
+        motion_server.on_change = io_server.on_change = report_connections
         for server in (motion_server, io_server, state_server):
             server.start()
         log.info("listening on %s:%d-%d (%s-endian)", host, port_base, port_base + 2, byte_order)
 
         def fan_out() -> None:
+            next_report = 0.0
             while not ctx.stop.is_set():
                 item = inbox.get(timeout=0.2)
                 if item is not None and state_server.client_count():
                     state_server.broadcast(state_frames(item[1], byte_order))
+                if time.monotonic() >= next_report:
+                    # Also now and then: state clients leave silently, controllers restart.
+                    report_connections()
+                    next_report = time.monotonic() + CONNECTIONS_REFRESH_S
 
         fan_out_thread = threading.Thread(target=fan_out, name="state-fan-out", daemon=True)
         fan_out_thread.start()

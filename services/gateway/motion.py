@@ -39,10 +39,12 @@ from shared.protocol.messages import (
     MotoMotionCtrl,
     ReadIOBit,
     ReadIOGroup,
+    ReadMRegister,
     SelectTool,
     UnknownMessage,
     WriteIOBit,
     WriteIOGroup,
+    WriteMRegister,
 )
 from shared.protocol.replies import invalid_reply, motion_reply, service_reply
 
@@ -115,6 +117,10 @@ class MotionHandler:
             case ReadIOBit() | WriteIOBit() | ReadIOGroup() | WriteIOGroup():
                 # Served here too for backward compatibility, by the I/O port's handler (§2.2).
                 return self.io.handle(request)
+            case ReadMRegister() | WriteMRegister():
+                # M-registers are an I/O-port service only: the motion port does not know the
+                # types, so INVALID 3003 with group and sequence -1 (§2.2, §2.7).
+                return motion_reply(request, Result.INVALID, InvalidSubcode.MSGTYPE)
         if request.msg_type == MsgType.PING:
             return service_reply(MsgType.PING, body)
         if request.msg_type == MsgType.MOTO_GET_DH_PARAMETERS:

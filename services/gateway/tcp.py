@@ -110,6 +110,7 @@ class RequestServer:
         error_reply: ErrorReply,
         moving: Callable[[], bool],
         on_disconnect: Callable[[], object] = lambda: None,
+        on_change: Callable[[], object] = lambda: None,
     ) -> None:
         self.name = name
         self.server = server
@@ -118,6 +119,7 @@ class RequestServer:
         self.error_reply = error_reply
         self.moving = moving
         self.on_disconnect = on_disconnect
+        self.on_change = on_change
         self.current: Connection | None = None
         self.thread = threading.Thread(target=self._accept_loop, name=f"{name}-accept", daemon=True)
 
@@ -147,6 +149,7 @@ class RequestServer:
             )
             self.current = Connection(client, thread)
             thread.start()
+            self.on_change()
 
     def _serve(self, client: socket.socket, peer: tuple[str, int]) -> None:
         try:
@@ -158,6 +161,10 @@ class RequestServer:
             client.close()
             self.on_disconnect()
             log.info("%s: client %s:%d gone", self.name, *peer)
+            self.on_change()
+
+    def connected(self) -> bool:
+        return self.current is not None and self.current.thread.is_alive()
 
     def close(self) -> None:
         self.server.close()
