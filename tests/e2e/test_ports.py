@@ -254,4 +254,3 @@ def test_a_client_that_connects_and_says_nothing_does_not_block_others(cell: Run
         pass
     with cell.io() as io:
         assert body(io.request(read_io_bit(10010))) == ReadIOBitReply(1, IoResult.OK)
-
