@@ -9,8 +9,8 @@ errors and mode changes do not enter motion-ready directly: they stop the job, a
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from enum import Enum
 
+from services.controller.job import Job, JobAction, JobEvent, step
 from shared.bus.schemas import Alarm, ControllerStatus
 from shared.protocol.constants import NotReadySubcode, Result
 
@@ -33,16 +33,6 @@ START_TIMEOUT_S = 5.0
 """START_TRAJ_MODE polls up to 5000 ms for motion-ready (§7.3 step 11)."""
 
 
-class Job(Enum):
-    IDLE = "idle"
-    STARTING = "starting"
-    """START_TRAJ_MODE asked for the job; it starts once the servo is on."""
-    TIMER = "timer"
-    """INIT_ROS started: OT#889/890 cleared, in its 50 ms TIMER."""
-    WAITING = "waiting"
-    """Parked at WAIT OT#890=ON with OT#889 set: the only state that accepts increments."""
-
-
 @dataclass
 class Controller:
     groups: int
@@ -56,6 +46,10 @@ class Controller:
     remote: bool = True
     eco: bool = False
     pfl: bool = False
+    """The "PFL during ROS move" latch: set by a PFL stop while ready, cleared only by
+    START_TRAJ_MODE (MotoROS 1.9.3, §7.1)."""
+    pfl_signal: bool = False
+    """The PFL stop/escape/avoiding inputs (YRC1000 family)."""
     incmove_error: bool = False
     job: Job = Job.IDLE
     job_timer_until: float = 0.0
@@ -82,7 +76,7 @@ class Controller:
             self.job_ready
             and self.operating
             and self.remote
-            and not self.pfl
+            and not self.pfl_active
             and not self.incmove_error
             and not self.missing_services
         )
@@ -100,7 +94,7 @@ class Controller:
             (not self.remote, NotReadySubcode.NOT_REMOTE),
             (not self.servo_on or self.eco, NotReadySubcode.SERVO_OFF),
             (self.hold, NotReadySubcode.HOLD),
-            (self.pfl, NotReadySubcode.PFL_ACTIVE),
+            (self.pfl_active, NotReadySubcode.PFL_ACTIVE),
             (self.incmove_error or bool(self.missing_services), NotReadySubcode.INC_MOVE_ERROR),
             (not self.operating, NotReadySubcode.NOT_STARTED),
             (not self.outputs.get(OT_ROS_READY, 0), NotReadySubcode.WAITING_ROS),
@@ -122,7 +116,7 @@ class Controller:
             remote=self.remote,
             operating=self.operating,
             job_ready=self.job_ready,
-            pfl_active=self.pfl,
+            pfl_active=self.pfl_active,
             incmove_error=self.incmove_error,
             eco=self.eco,
             missing_services=list(self.missing_services),
@@ -139,16 +133,21 @@ class Controller:
             # Readiness is latched on OT#889's rising edge and lost on its falling edge (§7.1).
             self.job_ready = bool(value)
 
-    def _start_job(self, now: float) -> None:
-        self.set_output(OT_ROS_DONE, 0)
-        self.set_output(OT_ROS_READY, 0)
-        self.job = Job.TIMER
-        self.job_timer_until = now + JOB_TIMER_S
+    def fire(self, event: JobEvent, now: float = 0.0) -> None:
+        """Move the INIT_ROS job by its transition table and carry out the step's action."""
+        self.job, action = step(self.job, event)
+        if action is JobAction.BEGIN:
+            self.set_output(OT_ROS_DONE, 0)
+            self.set_output(OT_ROS_READY, 0)
+            self.job_timer_until = now + JOB_TIMER_S
+        elif action is JobAction.READY:
+            self.set_output(OT_ROS_READY, 1)
+        elif action is JobAction.END:
+            self.set_output(OT_ROS_DONE, 0)
+            self.set_output(OT_ROS_READY, 0)
 
     def _stop_job(self) -> None:
-        """The job stops (E-stop, HOLD, alarm, servo off, mode change). OT#889 keeps its value,
-        as a real output would; motion-ready drops because the cell is no longer operating."""
-        self.job = Job.IDLE
+        self.fire(JobEvent.HALT)
 
     def advance(self, now: float) -> None:
         """Let simulated time pass: servo power-up and the job's TIMER/WAIT/END steps."""
@@ -156,16 +155,12 @@ class Controller:
             self.servo_on_at = None
             if self.servo_possible():
                 self.servo_on = True
-        if self.job is Job.STARTING and self.servo_on:
-            self._start_job(now)
+        if self.servo_on:
+            self.fire(JobEvent.SERVO_ON, now)
         if self.job is Job.TIMER and now >= self.job_timer_until:
-            self.set_output(OT_ROS_READY, 1)
-            self.job = Job.WAITING
-        if self.job is Job.WAITING and self.outputs.get(OT_ROS_DONE, 0):
-            # WAIT released: OT#890 OFF, OT#889 OFF, END.
-            self.set_output(OT_ROS_DONE, 0)
-            self.set_output(OT_ROS_READY, 0)
-            self.job = Job.IDLE
+            self.fire(JobEvent.TIMER_DONE, now)
+        if self.outputs.get(OT_ROS_DONE, 0):
+            self.fire(JobEvent.ROS_DONE, now)
 
     def servo_possible(self) -> bool:
         return not self.estop and not self.alarms
@@ -212,8 +207,15 @@ class Controller:
             self.remote = remote
             self._stop_job()
 
+    @property
+    def pfl_active(self) -> bool:
+        return self.pfl or self.pfl_signal
+
     def set_pfl(self, on: bool) -> None:
-        self.pfl = on
+        """A PFL stop while the job is ready latches until START_TRAJ_MODE (§7.1, v1.9.3)."""
+        self.pfl_signal = on
+        if on and self.job_ready:
+            self.pfl = True
 
     def set_missing_services(self, missing: list[str]) -> None:
         self.missing_services = sorted(missing)
@@ -245,12 +247,12 @@ class Controller:
         self.alarms.clear()
         if not self.play:
             return int(Result.NOT_READY), self.not_ready_subcode()
-        if self.servo_on:
-            self._start_job(now)
-        else:
+        if not self.servo_on:
             self.eco = False
             self.set_servo(True, now)
-            self.job = Job.STARTING
+        self.fire(JobEvent.START, now)
+        if self.servo_on:
+            self.fire(JobEvent.SERVO_ON, now)
         return None
 
     def stop_traj_mode(self) -> None:

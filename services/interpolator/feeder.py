@@ -35,6 +35,7 @@ class Feeder:
         self.trajectory: Trajectory | None = None
         self.segment: Segment | None = None
         self.segment_point_id = 0
+        self.segment_tool = 0
         self.received_id = 0
         self.taken_id = 0
         self.points_accepted = 0
@@ -103,6 +104,9 @@ class Feeder:
             self.taken_id = point.point_id
             return
         self.segment_point_id = point.point_id
+        # The tool is captured when a segment is interpolated, never changed mid-segment
+        # (motoros1-behaviour.md §2.7, SELECT_TOOL).
+        self.segment_tool = self.tool
         self.points_accepted += 1
 
     def _start_pulses(self) -> IntArray:
@@ -125,7 +129,7 @@ class Feeder:
                 count=count,
                 increments=rows.tobytes(),
                 partial=np.flatnonzero(entries.partial).tolist(),
-                tool=self.tool,
+                tool=self.segment_tool,
                 times_ns=entries.times_ns.tolist(),
             )
         )

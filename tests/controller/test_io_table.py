@@ -7,7 +7,8 @@ from __future__ import annotations
 import pytest
 
 from services.controller.io_table import IoTable
-from services.controller.model import OT_ROS_DONE, Controller, Job
+from services.controller.job import Job
+from services.controller.model import OT_ROS_DONE, Controller
 from shared.config import ControllerModel
 
 OK, READ_BAD, WRITE_ADDRESS_BAD, WRITE_VALUE_BAD = 0, 1001, 1002, 1003

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import pytest
 
+from services.controller.job import Job
 from services.controller.model import (
     JOB_TIMER_S,
     OT_INIT_DONE,
@@ -17,7 +18,6 @@ from services.controller.model import (
     OT_SERVER_RUNNING,
     SERVO_ON_DELAY_S,
     Controller,
-    Job,
 )
 from shared.bus.schemas import Alarm, ControllerStatus
 
@@ -196,6 +196,7 @@ def test_start_traj_mode_cancels_an_error() -> None:
 def test_start_traj_mode_clears_pfl_and_incmove_error() -> None:
     c = ready_controller()
     c.set_pfl(True)
+    c.set_pfl(False)  # the PFL stop is over, its latch is not
     c.set_incmove_error()
     assert c.not_ready_subcode() == 5011
     assert start(c, 1.0) == SUCCESS  # the job is still at its WAIT: ready at once
@@ -387,13 +388,6 @@ def test_eco_alone_does_not_enter_motion_ready() -> None:
     assert c.motion_ready()
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="PFL during a ROS move sets a latch that keeps motion-ready false until the next "
-    'START_TRAJ_MODE (motoros1-behaviour.md §7.1 \'PFL active = ... the "PFL during ROS move" '
-    "latch ...', §9 v1.9.3 'motion_possible stays false after PFL until /robot_enable'); "
-    "Controller.set_pfl(False) clears that latch, so motion-ready comes back on its own.",
-)
 def test_pfl_during_a_ros_move_latches_until_start_traj_mode() -> None:
     c = ready_controller()
     c.set_pfl(True)

@@ -251,13 +251,6 @@ def test_tool_is_stamped_on_batches() -> None:
     assert [b.tool for b in h.sent] == [12]
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="Feeder stamps the *current* tool on every batch, so a SELECT_TOOL arriving while "
-    "a segment is being streamed changes the tool mid-segment; motoros1-behaviour.md §2.7 "
-    "(SELECT_TOOL): 'The tool is captured into each queue entry when a segment is "
-    "interpolated. It is never changed mid-segment.'",
-)
 def test_tool_is_not_changed_mid_segment() -> None:
     h = Harness()
     h.feeder.tool = 1
