@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import ctypes
+import faulthandler
 import logging
 import os
 import signal
@@ -110,6 +111,8 @@ def running_service(
     except ConfigError as exc:
         raise SystemExit(f"motocell-{service}: {exc}") from exc
     stop = stop_on_signals()
+    # `kill -USR1 <pid>` prints every thread's stack: how to see where a service is stuck.
+    faulthandler.register(signal.SIGUSR1, all_threads=True)
     die_with_launcher()
     mode = args.zenoh_mode or cell.zenoh.mode
     connect: Sequence[str] = args.zenoh_connect or cell.zenoh.connect

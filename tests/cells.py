@@ -22,6 +22,7 @@ from services.cell.launcher import free_port, free_port_block
 from shared.client import MotionClient, StateListener
 from shared.config import Cell, load_cell
 from shared.protocol.codec import ByteOrder
+from shared.protocol.constants import Command, NotReadySubcode
 
 REPO = Path(__file__).resolve().parent.parent
 START_TIMEOUT_S = 30.0
@@ -86,9 +87,22 @@ class RunningCell:
         return descendants(self.process.pid)
 
 
-def wait_for_motion_possible(state: StateListener, timeout: float = START_TIMEOUT_S) -> None:
-    """All services up: ROBOT_STATUS arrives (motion_possible needs START_TRAJ_MODE)."""
-    state.wait_for(lambda f: f.status is not None, timeout)
+def wait_for_whole_cell(
+    host: str, port_base: int, byte_order: ByteOrder, timeout: float = START_TIMEOUT_S
+) -> None:
+    """Every service is up: state flows and motion-ready no longer reports a missing service
+    (INC_MOVE_ERROR); START_TRAJ_MODE can then succeed."""
+    wait_until(lambda: _connectable(host, port_base + 1), timeout, "the state port to listen")
+    with StateListener(host, port_base + 1, byte_order) as state:
+        state.wait_for(lambda f: f.status is not None and f.status.drives_powered != -1, timeout)
+    with MotionClient(host, port_base, byte_order) as motion:
+        wait_until(
+            lambda: (
+                motion.command(Command.CHECK_MOTION_READY).subcode != NotReadySubcode.INC_MOVE_ERROR
+            ),
+            timeout,
+            "every service of the cell to be alive",
+        )
 
 
 @contextmanager
@@ -120,9 +134,7 @@ def running_cell(config: str | None = None, extra: Sequence[str] = ()) -> Iterat
             "every service process to start",
         )
         started = running.children()
-        wait_until(lambda: _connectable(running), START_TIMEOUT_S, "the state port to listen")
-        with running.state() as state:
-            wait_for_motion_possible(state)
+        wait_for_whole_cell(running.host, port_base, running.byte_order)
         yield running
     finally:
         started |= running.children()
@@ -138,6 +150,6 @@ def running_cell(config: str | None = None, extra: Sequence[str] = ()) -> Iterat
         )
 
 
-def _connectable(running: RunningCell) -> bool:
+def _connectable(host: str, port: int) -> bool:
     with socket.socket() as probe:
-        return probe.connect_ex((running.host, running.port_base + 1)) == 0
+        return probe.connect_ex((host, port)) == 0

@@ -161,7 +161,14 @@ def answer(query: zenoh.Query, reply: CommandReply) -> None:
 
 
 class Liveness:
-    """Tracks which liveliness tokens under a key expression are present."""
+    """Tracks which liveliness tokens under a key expression are present.
+
+    Change events keep it current within milliseconds. A token declared while the subscriber
+    is itself being declared can be missed by both its history and its live events (seen with
+    clients of a router), so a background thread also reconciles with a liveliness query.
+    """
+
+    RECONCILE_S = 1.0
 
     def __init__(
         self,
@@ -172,9 +179,40 @@ class Liveness:
         self._present: set[str] = set()
         self._lock = threading.Lock()
         self._on_change = on_change
+        self._session = session
+        self._key_expr = key_expr
+        self._closed = threading.Event()
         self._subscriber = session.liveliness().declare_subscriber(
             key_expr, self._on_sample, history=True
         )
+        self._thread = threading.Thread(target=self._reconcile, name="liveness", daemon=True)
+        self._thread.start()
+
+    def _reconcile(self) -> None:
+        """Add what a query finds and events missed; drop only what two queries in a row miss
+        (a reply can arrive late, a missed DELETE is rarer and less harmful than a false one)."""
+        absent_before: set[str] = set()
+        while not self._closed.wait(self.RECONCILE_S):
+            try:
+                replies = self._session.liveliness().get(self._key_expr, timeout=self.RECONCILE_S)
+                tokens = {str(r.ok.key_expr) for r in replies if r.ok is not None}
+            except zenoh.ZError:
+                return  # the session is closing
+            with self._lock:
+                missed = tokens - self._present
+                absent = self._present - tokens
+                gone = absent & absent_before
+                absent_before = absent
+                self._present = (self._present | missed) - gone
+            if missed or gone:
+                log.warning(
+                    "liveliness events missed: appeared %s, gone %s", sorted(missed), sorted(gone)
+                )
+                if self._on_change is not None:
+                    self._on_change()
+
+    def close(self) -> None:
+        self._closed.set()
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
         key = str(sample.key_expr)

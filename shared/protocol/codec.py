@@ -70,6 +70,8 @@ def max_frame_length(direction: Direction) -> int:
 
 
 class SimpleMessageCodec:
+    """One connection's framing state, for the side named by ``role``."""
+
     def __init__(self, role: Role, byte_order: ByteOrder = ByteOrder.LITTLE) -> None:
         self.role = role
         self.byte_order = byte_order

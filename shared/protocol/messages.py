@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import msgspec
 
-from shared.protocol.constants import CommType, MsgType, ReplyType
-
 Floats = tuple[float, ...]
 
 
@@ -247,13 +245,3 @@ class UnknownMessage(msgspec.Struct, frozen=True):
     comm_type: int
     reply_type: int
     body: bytes
-
-
-def request(msg_type: MsgType, body: Body) -> Message:
-    """A client request: comm type SERVICE_REQUEST, reply type INVALID (0), as motoman_driver."""
-    return Message(int(msg_type), CommType.SERVICE_REQUEST, ReplyType.INVALID, body)
-
-
-def topic(msg_type: MsgType, body: Body) -> Message:
-    """A state message as MotoROS sends it: comm type TOPIC, reply type INVALID (0)."""
-    return Message(int(msg_type), CommType.TOPIC, ReplyType.INVALID, body)

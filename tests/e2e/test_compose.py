@@ -22,7 +22,7 @@ from shared.config import load_cell
 from shared.motion.kinematics import AxisMap
 from shared.protocol.codec import ByteOrder
 from shared.protocol.constants import Command, Result
-from tests.cells import REPO, alive, wait_until
+from tests.cells import REPO, alive, wait_for_whole_cell, wait_until
 
 pytestmark = pytest.mark.cell
 
@@ -66,9 +66,10 @@ def compose_cell() -> Iterator[int]:
             processes.append(subprocess.Popen(command, cwd=REPO, env=env))
         yield port_base
     finally:
-        for process in processes:
+        # As `docker compose down`: services first, the router they depend on last.
+        for process in reversed(processes):
             process.send_signal(signal.SIGTERM)
-        for process in processes:
+        for process in reversed(processes):
             try:
                 process.wait(timeout=5)
             except subprocess.TimeoutExpired:
@@ -83,14 +84,7 @@ def test_compose_services_execute_a_trajectory(compose_cell: int) -> None:
     axis_map = AxisMap(cell.groups[0])
     byte_order = ByteOrder(cell.byte_order)
 
-    def state_port_up() -> bool:
-        try:
-            StateListener("127.0.0.1", compose_cell + 1, byte_order).close()
-        except OSError:
-            return False
-        return True
-
-    wait_until(state_port_up, 30.0, "the gateway's state port")
+    wait_for_whole_cell("127.0.0.1", compose_cell, byte_order)
     with (
         StateListener("127.0.0.1", compose_cell + 1, byte_order) as state,
         MotionClient("127.0.0.1", compose_cell, byte_order) as motion,

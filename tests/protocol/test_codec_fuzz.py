@@ -168,9 +168,11 @@ def run(codec: SimpleMessageCodec, chunks: list[bytes]) -> list[Event | PeerProt
         while True:
             assert len(codec._buf) <= bound
             assert codec.buffered_bytes <= bound
+            pending = codec.buffered_bytes
             try:
                 event = codec.next_event()
             except PeerProtocolError as error:
+                assert codec.buffered_bytes < pending  # every error consumes bytes: no livelock
                 out.append(error)
                 continue
             assert isinstance(event, Message | UnknownMessage | NeedData | Closed)

@@ -7,7 +7,7 @@ import struct
 import msgspec
 import pytest
 
-from shared.protocol import messages, replies
+from shared.protocol import replies
 from shared.protocol.codec import (
     CLOSED,
     NEED_DATA,
@@ -508,15 +508,6 @@ def test_headers_of_built_messages() -> None:
     assert type(status.msg_type) is int
     failed = replies.service_reply(MsgType.MOTO_GET_DH_PARAMETERS, Empty(), success=False)
     assert (failed.comm_type, failed.reply_type) == (3, 2)
-
-
-def test_message_module_helpers_match_the_builders() -> None:
-    status = RobotStatus(1, 0, 0, 0, 0, 2, 1)
-    assert messages.topic(MsgType.ROBOT_STATUS, status) == replies.state_message(13, status)
-    ping = messages.request(MsgType.PING, Empty())
-    assert encode(ping, ByteOrder.BIG, Role.CLIENT) == encode(
-        replies.ping(), ByteOrder.BIG, Role.CLIENT
-    )
 
 
 def test_trajectory_builders_set_valid_fields_like_motoman_driver() -> None:
