@@ -11,7 +11,7 @@ import math
 import socket
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 from shared.protocol.codec import CLOSED, NEED_DATA, ByteOrder, Role, SimpleMessageCodec
@@ -24,7 +24,7 @@ from shared.protocol.messages import (
     RobotStatus,
     UnknownMessage,
 )
-from shared.protocol.replies import motion_ctrl, traj_point
+from shared.protocol.replies import ex_group, motion_ctrl, traj_point, traj_point_ex
 
 
 class ConnectionClosedError(ConnectionError):
@@ -223,9 +223,37 @@ def stream(
     client: MotionClient, trajectory: Sequence[PlannedPoint], group: int = 0
 ) -> StreamResult:
     """Stream like MotomanJointTrajectoryStreamer: resend on BUSY, stop at any other failure."""
+    messages = [
+        traj_point(group, sequence, point.time, point.positions, point.velocities)
+        for sequence, point in enumerate(trajectory)
+    ]
+    return stream_messages(client, messages)
+
+
+def stream_ex(
+    client: MotionClient, trajectories: Mapping[int, Sequence[PlannedPoint]]
+) -> StreamResult:
+    """Stream several groups' trajectories (same length and times) as one
+    MOTO_JOINT_TRAJ_PT_FULL_EX (2016) per point, as motoman_driver does for 2-4 groups."""
+    lengths = {len(points) for points in trajectories.values()}
+    assert len(lengths) == 1, "every group needs a point at every time"
+    messages = [
+        traj_point_ex(
+            sequence,
+            [
+                ex_group(group, p[sequence].time, p[sequence].positions, p[sequence].velocities)
+                for group, p in trajectories.items()
+            ],
+        )
+        for sequence in range(lengths.pop())
+    ]
+    return stream_messages(client, messages)
+
+
+def stream_messages(client: MotionClient, messages: Sequence[Message]) -> StreamResult:
+    """Send each message, resending it after 5 ms while the reply is BUSY."""
     result = StreamResult(first_sent_ns=time.monotonic_ns())
-    for sequence, point in enumerate(trajectory):
-        message = traj_point(group, sequence, point.time, point.positions, point.velocities)
+    for message in messages:
         while True:
             reply = client.motion(message)
             result.last_reply = reply

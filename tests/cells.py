@@ -12,13 +12,18 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
+import zenoh
+
 from services.cell.launcher import free_port, free_port_block
+from shared.bus.keys import CellKeys
+from shared.bus.schemas import Decoder, Tick
 from shared.client import MotionClient, StateListener
 from shared.config import Cell, load_cell
 from shared.protocol.codec import ByteOrder
@@ -153,3 +158,27 @@ def running_cell(config: str | None = None, extra: Sequence[str] = ()) -> Iterat
 def _connectable(host: str, port: int) -> bool:
     with socket.socket() as probe:
         return probe.connect_ex((host, port)) == 0
+
+
+class TickLog:
+    """Every executor tick, as any Zenoh observer sees it."""
+
+    def __init__(self, session: zenoh.Session, keys: CellKeys) -> None:
+        self.ticks: list[Tick] = []
+        self.lock = threading.Lock()
+        decoder = Decoder(Tick)
+
+        def store(sample: zenoh.Sample) -> None:
+            tick = decoder.decode(sample.payload.to_bytes())
+            with self.lock:
+                self.ticks.append(tick)
+
+        self.subscriber = session.declare_subscriber(keys.executor_tick, store)
+
+    def since(self, index: int) -> list[Tick]:
+        with self.lock:
+            return self.ticks[index:]
+
+    def __len__(self) -> int:
+        with self.lock:
+            return len(self.ticks)

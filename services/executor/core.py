@@ -26,6 +26,9 @@ class Entry:
     increments: tuple[int, ...]
     partial: bool
     tool: int
+    sync_id: int = 0
+    """Non-zero on the first entry of a trajectory that starts together with ``sync_groups``."""
+    sync_groups: tuple[int, ...] = ()
 
 
 class BatchOutcome(Enum):
@@ -73,7 +76,17 @@ class ExecutorCore:
         rows = np.frombuffer(batch.increments, dtype="<i4").reshape(batch.count, MAX_AXES)
         partial = set(batch.partial)
         for index, row in enumerate(rows.tolist()):
-            ring.entries.append(Entry(tuple(row), index in partial, batch.tool))
+            if index == 0 and batch.sync_id:
+                entry = Entry(
+                    tuple(row),
+                    index in partial,
+                    batch.tool,
+                    batch.sync_id,
+                    tuple(batch.sync_groups),
+                )
+            else:
+                entry = Entry(tuple(row), index in partial, batch.tool)
+            ring.entries.append(entry)
         ring.received += batch.count
         return BatchOutcome.ACCEPTED
 
@@ -97,13 +110,30 @@ class ExecutorCore:
         """One interpolation period: at most one (merged) increment per group, all applied
         together, like MotoROS's single IncMove call per tick (§5.3)."""
         self.tick += 1
+        held = self._waiting_for_partners()
         for group, ring in enumerate(self.rings):
-            increment = self._pop_period(ring) if self.ready else ZERO
+            increment = self._pop_period(ring) if self.ready and group not in held else ZERO
             self.last_increment[group] = increment
             if increment is not ZERO:
                 command = self.command[group]
                 for axis in range(MAX_AXES):
                     command[axis] += increment[axis]
+
+    def _waiting_for_partners(self) -> set[int]:
+        """Groups whose next entry starts a synchronized (2016) trajectory while a partner
+        group's start entry has not reached the head of its ring yet: they wait, so all start
+        in the same tick whichever interpolator was first."""
+        held = set()
+        for group, ring in enumerate(self.rings):
+            head = ring.entries[0] if ring.entries else None
+            if head is None or not head.sync_id:
+                continue
+            for partner in head.sync_groups:
+                entries = self.rings[partner].entries if 0 <= partner < len(self.rings) else ()
+                if not entries or entries[0].sync_id != head.sync_id:
+                    held.add(group)
+                    break
+        return held
 
     @staticmethod
     def _pop_period(ring: GroupRing) -> tuple[int, ...]:
@@ -113,7 +143,12 @@ class ExecutorCore:
             return ZERO
         entry = ring.entries.popleft()
         total = list(entry.increments)
-        while entry.partial and ring.entries and ring.entries[0].tool == entry.tool:
+        while (
+            entry.partial
+            and ring.entries
+            and ring.entries[0].tool == entry.tool
+            and not ring.entries[0].sync_id
+        ):
             entry = ring.entries.popleft()
             for axis in range(MAX_AXES):
                 total[axis] += entry.increments[axis]

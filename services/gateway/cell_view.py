@@ -11,6 +11,7 @@ from __future__ import annotations
 import threading
 import time
 
+import msgspec
 import zenoh
 
 from shared.bus.keys import CellKeys, group_of
@@ -47,6 +48,7 @@ class CellView:
         self.queues: list[QueueState | None] = [None] * groups
         self.taken = [0] * groups
         self.published = [0] * groups
+        self._instances = [0] * groups
         self.not_ready_count = 0
         """Counts not-ready statuses seen; a trajectory started before a change is over."""
         self._slots_changed = threading.Condition()
@@ -80,6 +82,11 @@ class CellView:
         if 0 <= group < len(self.taken):
             slot = _slot_decoder.decode(sample.payload.to_bytes())
             with self._slots_changed:
+                if slot.instance != self._instances[group]:
+                    # A (re)started interpolator, or a restarted gateway: points numbered for
+                    # another process are gone, so continue from what this one has taken.
+                    self._instances[group] = slot.instance
+                    self.published[group] = slot.taken_id
                 self.taken[group] = slot.taken_id
                 self._slots_changed.notify_all()
 
@@ -104,17 +111,11 @@ class CellView:
             self.slot_free(g) for g in range(len(self.taken))
         )
 
-    def publish_point(
-        self,
-        group: int,
-        sequence: int,
-        time_s: float,
-        positions: list[float],
-        velocities: list[float],
-    ) -> None:
+    def publish_point(self, group: int, point: Point) -> None:
+        """Publish ``point`` (its ``point_id`` is assigned here) to the group's interpolator."""
         self.published[group] += 1
-        point = Point(self.published[group], sequence, time_s, positions, velocities)
-        self._point_pubs[group].put(encode(point))
+        numbered = msgspec.structs.replace(point, point_id=self.published[group])
+        self._point_pubs[group].put(encode(numbered))
 
     def wait_slots_free(self, timeout: float) -> bool:
         deadline = time.monotonic() + timeout

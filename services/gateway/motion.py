@@ -4,6 +4,7 @@ reply, in order, or a documented close without one."""
 from __future__ import annotations
 
 import logging
+import time
 from dataclasses import dataclass
 
 from services.gateway.cell_view import CellView
@@ -18,7 +19,7 @@ from services.gateway.points import (
     check_values,
     invalid,
 )
-from shared.bus.schemas import CommandRequest
+from shared.bus.schemas import CommandRequest, Point
 from shared.motion.kinematics import AxisMap
 from shared.protocol.constants import (
     DH_LINKS,
@@ -86,6 +87,8 @@ class MotionHandler:
         self.io = io
         self.maps = [AxisMap(group) for group in view.cell.groups]
         self.trajectories = [GroupTrajectory() for _ in view.cell.groups]
+        # Unique across gateway restarts, so an executor never confuses two trajectories.
+        self._sync_ids = time.time_ns() // 1000
 
     @property
     def groups(self) -> int:
@@ -197,7 +200,9 @@ class MotionHandler:
             and data.time == track.last_time
         )
 
-    def _publish(self, data: PointData, sequence: int) -> None:
+    def _publish(
+        self, data: PointData, sequence: int, sync: tuple[int, list[int]] = (0, [])
+    ) -> None:
         group = data.group_no
         axes = self.maps[group].axes
         track = self.trajectories[group]
@@ -206,9 +211,16 @@ class MotionHandler:
             track.not_ready_count = self.view.not_ready_count
         track.last_sequence = sequence
         track.last_time = data.time
-        self.view.publish_point(
-            group, sequence, data.time, list(data.positions[:axes]), list(data.velocities[:axes])
+        point = Point(
+            0,
+            sequence,
+            data.time,
+            list(data.positions[:axes]),
+            list(data.velocities[:axes]),
+            sync_id=sync[0],
+            sync_groups=sync[1],
         )
+        self.view.publish_point(group, point)
 
     def point_ex(self, request: Message, body: JointTrajPtFullEx) -> Message:
         """§2.5: all or nothing across the listed groups, one reply per message. Unlike MotoROS
@@ -234,9 +246,14 @@ class MotionHandler:
             )
             if verdict != OK:
                 return motion_reply(request, *verdict, data.group_no)
+        sync: tuple[int, list[int]] = (0, [])
+        if body.sequence == 0 and len(blocks) > 1:
+            # The groups of one 2016 trajectory start in the same tick (executor barrier).
+            self._sync_ids += 1
+            sync = (self._sync_ids, [data.group_no for data in blocks])
         for data in blocks:
             if not self._duplicate(data, body.sequence):
-                self._publish(data, body.sequence)
+                self._publish(data, body.sequence, sync)
         return motion_reply(request, Result.SUCCESS, 0, last_group)
 
     # -- MOTO_MOTION_CTRL --------------------------------------------------------------------

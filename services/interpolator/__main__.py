@@ -33,7 +33,12 @@ def run(ctx: ServiceContext, group_index: int) -> None:
     inbox = Inbox()
     increments_pub = publisher(session, keys.group_increments(group_index), realtime=True)
     slot_pub = publisher(session, keys.group_slot(group_index), realtime=True)
-    feeder = Feeder(group, cell.period_ns, send=lambda batch: increments_pub.put(encode(batch)))
+    feeder = Feeder(
+        group,
+        cell.period_ns,
+        send=lambda batch: increments_pub.put(encode(batch)),
+        instance=time.time_ns(),
+    )
     subscribers = [
         session.declare_subscriber(
             keys.group_point(group_index), inbox.feed("point", payload_of(Decoder(Point)))

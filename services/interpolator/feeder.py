@@ -23,8 +23,13 @@ MAX_BATCH = 50
 
 class Feeder:
     def __init__(
-        self, group: Group, period_ns: int, send: Callable[[IncrementBatch], None]
+        self,
+        group: Group,
+        period_ns: int,
+        send: Callable[[IncrementBatch], None],
+        instance: int = 0,
     ) -> None:
+        self.instance = instance
         self.axis_map = AxisMap(group)
         self.period_ns = period_ns
         self.send = send
@@ -36,6 +41,8 @@ class Feeder:
         self.segment: Segment | None = None
         self.segment_point_id = 0
         self.segment_tool = 0
+        self.sync: tuple[int, list[int]] | None = None
+        """(sync id, groups) for the next batch, when a synchronized trajectory just began."""
         self.received_id = 0
         self.taken_id = 0
         self.points_accepted = 0
@@ -49,6 +56,7 @@ class Feeder:
                 log.info("queue cleared by the executor; trajectory dropped")
             self.trajectory = None
             self.segment = None
+            self.sync = None
             self.sent = 0
             self.taken_id = self.received_id
         self.queue = state
@@ -86,6 +94,7 @@ class Feeder:
         )
         if point.sequence == 0:
             self.trajectory = Trajectory(self.axis_map, self.period_ns, knot, self._start_pulses())
+            self.sync = (point.sync_id, point.sync_groups) if point.sync_groups else None
             self.taken_id = point.point_id
             self.points_accepted += 1
             return
@@ -131,11 +140,14 @@ class Feeder:
                 partial=np.flatnonzero(entries.partial).tolist(),
                 tool=self.segment_tool,
                 times_ns=entries.times_ns.tolist(),
+                sync_id=self.sync[0] if self.sync else 0,
+                sync_groups=self.sync[1] if self.sync else [],
             )
         )
+        self.sync = None
         self.sent += count
         self.increments_sent += count
 
     def slot(self) -> Slot:
         epoch = self.queue.epoch if self.queue is not None else 0
-        return Slot(self.taken_id, epoch, self.points_accepted, self.increments_sent)
+        return Slot(self.taken_id, epoch, self.points_accepted, self.increments_sent, self.instance)

@@ -56,6 +56,10 @@ class Point(msgspec.Struct, array_like=True, frozen=True):
     time: float
     positions: list[float]
     velocities: list[float]
+    sync_id: int = 0
+    sync_groups: list[int] = msgspec.field(default_factory=list)
+    """On a 2016 sequence-0 point: an id the gateway gives that message, and all its groups.
+    Their trajectories must start in the same tick (see ``IncrementBatch.sync_groups``)."""
 
 
 class Slot(msgspec.Struct, array_like=True, frozen=True):
@@ -66,6 +70,8 @@ class Slot(msgspec.Struct, array_like=True, frozen=True):
     epoch: int
     points_accepted: int = 0
     increments_sent: int = 0
+    instance: int = 0
+    """Which interpolator process this is; a new one has taken none of the earlier points."""
 
 
 class IncrementBatch(msgspec.Struct, array_like=True, frozen=True):
@@ -84,6 +90,12 @@ class IncrementBatch(msgspec.Struct, array_like=True, frozen=True):
     """Row indices of partial-period entries (merged with the next entry by the executor)."""
     tool: int
     times_ns: list[int]
+    sync_id: int = 0
+    sync_groups: list[int] = msgspec.field(default_factory=list)
+    """When set, the batch's first entry starts a trajectory shared with ``sync_groups``: the
+    executor holds it until every one of those groups has its start entry (same ``sync_id``)
+    at the head of its ring, so groups given the same timestamps start, and so arrive, in the
+    same tick."""
 
 
 class QueueState(msgspec.Struct, array_like=True, frozen=True):

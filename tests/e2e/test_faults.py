@@ -3,7 +3,6 @@ on its own; the next point is refused with the right NOT_READY subcode; recovery
 
 from __future__ import annotations
 
-import threading
 from collections.abc import Iterator
 from dataclasses import dataclass
 
@@ -11,12 +10,12 @@ import pytest
 import zenoh
 
 from shared.bus.keys import CellKeys
-from shared.bus.schemas import CommandRequest, Decoder, Tick
+from shared.bus.schemas import CommandRequest, Tick
 from shared.bus.session import call, open_session
 from shared.client import MotionClient, StateListener, smooth_move, stream
 from shared.protocol.constants import Command, NotReadySubcode, Result
 from shared.protocol.replies import traj_point
-from tests.cells import RunningCell, running_cell, wait_until
+from tests.cells import RunningCell, TickLog, running_cell, wait_until
 
 pytestmark = pytest.mark.cell
 
@@ -53,30 +52,6 @@ FAULTS = [
     Fault("pfl", CommandRequest(value=1), CommandRequest(value=0), NotReadySubcode.PFL_ACTIVE),
     Fault("ot889", CommandRequest(value=0), CommandRequest(value=1), NotReadySubcode.WAITING_ROS),
 ]
-
-
-class TickLog:
-    """Every executor tick, as any Zenoh observer sees it."""
-
-    def __init__(self, session: zenoh.Session, keys: CellKeys) -> None:
-        self.ticks: list[Tick] = []
-        self.lock = threading.Lock()
-        decoder = Decoder(Tick)
-
-        def store(sample: zenoh.Sample) -> None:
-            tick = decoder.decode(sample.payload.to_bytes())
-            with self.lock:
-                self.ticks.append(tick)
-
-        self.subscriber = session.declare_subscriber(keys.executor_tick, store)
-
-    def since(self, index: int) -> list[Tick]:
-        with self.lock:
-            return self.ticks[index:]
-
-    def __len__(self) -> int:
-        with self.lock:
-            return len(self.ticks)
 
 
 @pytest.fixture(scope="module")
