@@ -24,6 +24,13 @@ def build_parser() -> argparse.ArgumentParser:
         choices=("little", "big"),
         help="override the controller's (FS100 big, others little)",
     )
+    up.add_argument(
+        "--skip",
+        action="append",
+        metavar="SERVICE",
+        help="do not start this service here, e.g. interpolator/1 when group 1's interpolator "
+        "runs on another host (repeatable); the cell is NOT_READY until it joins",
+    )
     add_zenoh_arguments(up)
     up.set_defaults(run=launcher.up)
 

@@ -118,7 +118,14 @@ def child_commands(cell: Cell, args: argparse.Namespace, endpoint: str) -> list[
     if args.byte_order:
         gateway += ["--byte-order", args.byte_order]
     children.append(Child("gateway", gateway))
-    return children
+    skipped = set(args.skip or ())
+    unknown = skipped - {child.name for child in children}
+    if unknown:
+        raise ValueError(
+            f"--skip {', '.join(sorted(unknown))}: no such service in this cell "
+            f"(services: {', '.join(child.name for child in children)})"
+        )
+    return [child for child in children if child.name not in skipped]
 
 
 def supervise(children: list[Child], stop: threading.Event) -> None:
@@ -179,7 +186,11 @@ def up(args: argparse.Namespace) -> int:
         endpoint = args.zenoh_connect[0]
     else:
         hub, endpoint = open_hub(args.zenoh_listen, [])
-    children = child_commands(cell, args, endpoint)
+    try:
+        children = child_commands(cell, args, endpoint)
+    except ValueError as exc:
+        print(f"motocell up: {exc}", file=sys.stderr)
+        return 2
     host = args.host or cell.host
     port = args.port_base or cell.port_base
     log.info(

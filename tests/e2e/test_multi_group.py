@@ -115,7 +115,7 @@ def test_three_groups_streamed_as_2016_start_and_arrive_in_the_same_tick(
         assert arrived.ex is not None and arrived.ex.number_of_valid_groups == 3
         # A rest-to-rest move creeps its last pulses, so the tick each group "arrives" depends
         # on its resolution. Constant-velocity ramps move every group tens of pulses per tick
-        # from the first period to the last, so first and last moving ticks are exact. move every group tens of pulses per tick from the first
+        # from the first period to the last, so first and last moving ticks are exact.
         start = positions(still(state), maps)
         speeds = {0: 0.25, 1: 0.2, 2: 0.5}
         ramps = {g: ramp(start[g], speeds[g], 0.6, 5) for g in GROUPS}
