@@ -97,7 +97,7 @@ def wait_for_whole_cell(
 ) -> None:
     """Every service is up: state flows and motion-ready no longer reports a missing service
     (INC_MOVE_ERROR); START_TRAJ_MODE can then succeed."""
-    wait_until(lambda: _connectable(host, port_base + 1), timeout, "the state port to listen")
+    wait_until(lambda: connectable(host, port_base + 1), timeout, "the state port to listen")
     with StateListener(host, port_base + 1, byte_order) as state:
         state.wait_for(lambda f: f.status is not None and f.status.drives_powered != -1, timeout)
     with MotionClient(host, port_base, byte_order) as motion:
@@ -160,7 +160,7 @@ def running_cell(
         )
 
 
-def _connectable(host: str, port: int) -> bool:
+def connectable(host: str, port: int) -> bool:
     with socket.socket() as probe:
         return probe.connect_ex((host, port)) == 0
 

@@ -1,0 +1,458 @@
+"""Cell files and the robot model catalogue: the samples load, the default needs no file, and
+bad files are refused with a message that names the field and the problem."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+from shared.config import (
+    PROFILES,
+    Cell,
+    ConfigError,
+    ControllerModel,
+    load_catalogue,
+    load_cell,
+)
+from shared.protocol.constants import MAX_AXES
+
+REPO = Path(__file__).resolve().parent.parent
+CELLS = REPO / "deploy" / "cells"
+
+CATALOGUE_NAMES = ("arm6", "arm7", "positioner2", "track1")
+
+
+def write_cell(tmp_path: Path, text: str, name: str = "cell.toml") -> Path:
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def refused(tmp_path: Path, text: str) -> str:
+    """Load ``text`` as a cell file, expect ConfigError, return its message."""
+    path = write_cell(tmp_path, text)
+    with pytest.raises(ConfigError) as info:
+        load_cell(path)
+    message = str(info.value)
+    assert message.startswith(str(path)), message
+    return message
+
+
+def groups_toml(*models: str) -> str:
+    return "".join(
+        f'[[groups]]\nname = "G{i}"\nmodel = "{model}"\n\n' for i, model in enumerate(models)
+    )
+
+
+def custom_model(
+    axes: int = 2,
+    *,
+    axis_types: int | None = None,
+    pulses: list[float] | None = None,
+    pulses_count: int | None = None,
+    seven_axis: bool = False,
+) -> str:
+    """A ``[models.x]`` table; each list has ``axes`` entries unless overridden."""
+    n_types = axes if axis_types is None else axis_types
+    pulses_values = pulses if pulses is not None else [1000.0] * (pulses_count or axes)
+    lines = [
+        "[models.x]",
+        'kind = "robot"',
+        f"axis_types = {['rotary'] * n_types}".replace("'", '"'),
+        f"pulses_per_unit = {pulses_values}",
+        f"max_speed = {[1.0] * axes}",
+        f"max_accel = {[2.0] * axes}",
+        f"initial_position = {[0.0] * axes}",
+        f"dh = {[[0.0, 0.0, 0.0, 0.0]] * min(axes, MAX_AXES)}",
+    ]
+    if seven_axis:
+        lines.append("seven_axis = true")
+    return "\n".join(lines) + "\n"
+
+
+# --- the sample cells ---------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Expected:
+    name: str
+    controller: ControllerModel
+    groups: tuple[tuple[str, str, int], ...]  # (group name, model, axes)
+    byte_order: str = "little"
+    port_base: int = 50240
+    period_ns: int = 4_000_000
+    state_period_ns: int = 10_000_000
+
+
+SAMPLES = {
+    "single-arm.toml": Expected("cell1", ControllerModel.YRC1000, (("R1", "arm6", 6),)),
+    "fs100.toml": Expected("fs100", ControllerModel.FS100, (("R1", "arm6", 6),), "big"),
+    "dual-arm-positioner.toml": Expected(
+        "dual",
+        ControllerModel.YRC1000,
+        (("R1", "arm6", 6), ("R2", "arm7", 7), ("S1", "positioner2", 2)),
+    ),
+    "four-group.toml": Expected(
+        "four",
+        ControllerModel.YRC1000,
+        (("R1", "arm6", 6), ("R2", "arm6", 6), ("B1", "track1", 1), ("S1", "positioner2", 2)),
+    ),
+}
+
+
+def test_every_sample_cell_is_covered() -> None:
+    assert sorted(p.name for p in CELLS.glob("*.toml")) == sorted(SAMPLES)
+
+
+@pytest.mark.parametrize("file_name", sorted(SAMPLES))
+def test_sample_cell_loads(file_name: str) -> None:
+    expected = SAMPLES[file_name]
+    cell = load_cell(CELLS / file_name)
+    assert cell.name == expected.name
+    assert cell.controller is expected.controller
+    assert cell.byte_order == expected.byte_order
+    assert len(cell.groups) == len(expected.groups)
+    assert [(g.name, g.model_name, g.axes) for g in cell.groups] == list(expected.groups)
+    assert [g.index for g in cell.groups] == list(range(len(expected.groups)))
+    for group in cell.groups:
+        assert len(group.initial_position) == group.axes
+    assert cell.port_base == expected.port_base
+    assert (cell.motion_port, cell.state_port, cell.io_port) == (
+        expected.port_base,
+        expected.port_base + 1,
+        expected.port_base + 2,
+    )
+    assert cell.period_ns == expected.period_ns
+    assert cell.state_period_ns == expected.state_period_ns
+    assert cell.period_s == pytest.approx(expected.period_ns / 1e9)
+
+
+def test_group_initial_position_overrides_the_model() -> None:
+    cell = load_cell(CELLS / "dual-arm-positioner.toml")
+    assert cell.groups[1].initial_position == (0.0, 0.3, 0.0, -0.5, 0.0, 0.4, 0.0)
+    assert cell.groups[0].initial_position == (0.0,) * 6
+
+
+def test_default_cell_needs_no_file() -> None:
+    cell = load_cell(None)
+    assert isinstance(cell, Cell)
+    assert cell.name == "cell1"
+    assert cell.controller is ControllerModel.YRC1000
+    assert cell.byte_order == "little"
+    assert [(g.index, g.name, g.model_name, g.axes) for g in cell.groups] == [(0, "R1", "arm6", 6)]
+    assert cell.groups[0].model.kind == "robot"
+    assert cell.period_ns == 4_000_000
+    assert cell.state_period_ns == 10_000_000
+    assert (cell.host, cell.port_base) == ("127.0.0.1", 50240)
+    assert (cell.motion_port, cell.state_port, cell.io_port) == (50240, 50241, 50242)
+
+
+def test_default_equals_the_single_arm_sample() -> None:
+    assert load_cell(None) == load_cell(CELLS / "single-arm.toml")
+
+
+def test_empty_file_gives_the_default(tmp_path: Path) -> None:
+    assert load_cell(write_cell(tmp_path, "")) == load_cell(None)
+
+
+@pytest.mark.parametrize("controller", list(ControllerModel))
+def test_byte_order_follows_the_controller(tmp_path: Path, controller: ControllerModel) -> None:
+    cell = load_cell(write_cell(tmp_path, f'controller = "{controller.value}"\n'))
+    assert cell.controller is controller
+    assert cell.byte_order == ("big" if controller is ControllerModel.FS100 else "little")
+    assert cell.byte_order == PROFILES[controller].byte_order
+
+
+def test_byte_order_can_be_overridden(tmp_path: Path) -> None:
+    text = 'controller = "FS100"\nbyte_order = "little"\n'
+    assert load_cell(write_cell(tmp_path, text)).byte_order == "little"
+
+
+def test_group_limits_accept_the_maximum(tmp_path: Path) -> None:
+    dx100 = f'controller = "DX100"\n{groups_toml("arm6", "arm6", "track1")}'
+    assert len(load_cell(write_cell(tmp_path, dx100, "dx100.toml")).groups) == 3
+    yrc = f'controller = "YRC1000"\n{groups_toml("arm6", "arm6", "track1", "positioner2")}'
+    assert len(load_cell(write_cell(tmp_path, yrc, "yrc.toml")).groups) == 4
+
+
+def test_custom_model_can_be_used_by_a_group(tmp_path: Path) -> None:
+    text = f'{custom_model(2)}\n[[groups]]\nname = "S1"\nmodel = "x"\n'
+    cell = load_cell(write_cell(tmp_path, text))
+    assert cell.groups[0].model_name == "x"
+    assert cell.groups[0].axes == 2
+    assert cell.groups[0].initial_position == (0.0, 0.0)
+
+
+def test_periods_in_range_are_accepted(tmp_path: Path) -> None:
+    text = "interpolation_period_ms = 0.5\nstate_period_ms = 0.5\n"
+    cell = load_cell(write_cell(tmp_path, text))
+    assert (cell.period_ns, cell.state_period_ns) == (500_000, 500_000)
+
+
+# --- the catalogue ------------------------------------------------------------------------
+
+
+def test_catalogue_models() -> None:
+    catalogue = load_catalogue()
+    assert set(catalogue) >= set(CATALOGUE_NAMES)
+
+    arm6 = catalogue["arm6"]
+    assert (arm6.axes, arm6.kind, arm6.seven_axis) == (6, "robot", False)
+    assert set(arm6.axis_types) == {"rotary"}
+
+    arm7 = catalogue["arm7"]
+    assert (arm7.axes, arm7.kind, arm7.seven_axis) == (7, "robot", True)
+    assert set(arm7.axis_types) == {"rotary"}
+
+    positioner = catalogue["positioner2"]
+    assert (positioner.axes, positioner.kind, positioner.seven_axis) == (2, "station", False)
+
+    track = catalogue["track1"]
+    assert (track.axes, track.kind, track.seven_axis) == (1, "base", False)
+    assert track.axis_types == ["linear"]
+
+
+@pytest.mark.parametrize("model_name", CATALOGUE_NAMES)
+def test_catalogue_lists_are_consistent(model_name: str) -> None:
+    model = load_catalogue()[model_name]
+    n = model.axes
+    assert 1 <= n <= MAX_AXES
+    for values in (model.pulses_per_unit, model.max_speed, model.max_accel):
+        assert len(values) == n
+        assert all(math.isfinite(v) and v > 0 for v in values)
+    assert len(model.initial_position) == n
+    assert all(math.isfinite(v) for v in model.initial_position)
+    assert len(model.dh) == n
+    assert all(len(link) == 4 for link in model.dh)
+    assert model.description
+
+
+# --- bad files ----------------------------------------------------------------------------
+
+BAD_FILES: dict[str, tuple[str, tuple[str, ...]]] = {
+    "unknown top-level key": ("colour = 1\n", ("unknown field", "`colour`")),
+    "wrong type": ('port_base = "x"\n', ("port_base", "Expected `int`, got `str`")),
+    "wrong type in a group": (
+        "[[groups]]\nname = 1\n",
+        ("groups[0].name", "Expected `str`, got `int`"),
+    ),
+    "unknown key in a group": (
+        '[[groups]]\nname = "R1"\nspeed = 3\n',
+        ("groups[0]", "unknown field", "`speed`"),
+    ),
+    "unknown controller": ('controller = "YRC2000"\n', ("controller", "'YRC2000'", "Invalid")),
+    "unknown byte order": ('byte_order = "middle"\n', ("byte_order", "'middle'")),
+    "port_base out of range": ("port_base = 65534\n", ("port_base", "must be 1 to 65533")),
+    "too many groups for DX100": (
+        f'controller = "DX100"\n{groups_toml("arm6", "arm6", "track1", "positioner2")}',
+        ("groups", "4 groups", "DX100", "1 to 3"),
+    ),
+    "too many groups for YRC1000": (
+        f'controller = "YRC1000"\n{groups_toml("arm6", "arm6", "arm6", "track1", "positioner2")}',
+        ("groups", "5 groups", "YRC1000", "1 to 4"),
+    ),
+    "zero groups": ("groups = []\n", ("groups", "0 groups", "1 to 4")),
+    "duplicate group names": (
+        '[[groups]]\nname = "R1"\n\n[[groups]]\nname = "R1"\nmodel = "arm7"\n',
+        ("groups[1].name", "'R1'", "used twice"),
+    ),
+    "unknown model": (
+        '[[groups]]\nname = "R1"\nmodel = "arm9"\n',
+        ("groups[0].model", "unknown model 'arm9'", "known:", *CATALOGUE_NAMES),
+    ),
+    "initial_position too short": (
+        '[[groups]]\nmodel = "arm6"\ninitial_position = [0.0, 0.0, 0.0]\n',
+        ("groups[0].initial_position", "needs 6 finite values"),
+    ),
+    "initial_position too long": (
+        '[[groups]]\nmodel = "track1"\ninitial_position = [0.0, 0.0]\n',
+        ("groups[0].initial_position", "needs 1 finite values"),
+    ),
+    "initial_position nan": (
+        '[[groups]]\nmodel = "positioner2"\ninitial_position = [nan, 0.0]\n',
+        ("groups[0].initial_position", "needs 2 finite values"),
+    ),
+    "initial_position inf": (
+        '[[groups]]\nmodel = "positioner2"\ninitial_position = [0.0, -inf]\n',
+        ("groups[0].initial_position", "needs 2 finite values"),
+    ),
+    "interpolation period too short": (
+        "interpolation_period_ms = 0.1\n",
+        ("interpolation_period_ms", "must be 0.5 to 100"),
+    ),
+    "interpolation period too long": (
+        "interpolation_period_ms = 200\nstate_period_ms = 500\n",
+        ("interpolation_period_ms", "must be 0.5 to 100"),
+    ),
+    "interpolation period zero": (
+        "interpolation_period_ms = 0\n",
+        ("interpolation_period_ms", "must be 0.5 to 100"),
+    ),
+    "state period shorter than a period": (
+        "interpolation_period_ms = 8\nstate_period_ms = 4\n",
+        ("state_period_ms", "from one interpolation period"),
+    ),
+    "state period too long": (
+        "state_period_ms = 2000\n",
+        ("state_period_ms", "to 1000"),
+    ),
+    "bad cell name": ('name = "a/b"\n', ("name", "'a/b'", "letters, digits, - or _")),
+    "empty cell name": ('name = ""\n', ("name", "''", "letters, digits, - or _")),
+    "custom model list lengths differ": (
+        custom_model(2, pulses_count=1),
+        ("models.x.pulses_per_unit", "1 values for 2 axes"),
+    ),
+    "custom model with 9 axes": (
+        custom_model(9),
+        ("models.x.axis_types", "9 axes", f"1 to {MAX_AXES}"),
+    ),
+    "custom model with no axes": (
+        custom_model(0),
+        ("models.x.axis_types", "0 axes"),
+    ),
+    "seven_axis on a 6-axis model": (
+        custom_model(6, seven_axis=True),
+        ("models.x.seven_axis", "6 axes, not 7"),
+    ),
+    "zero pulses_per_unit": (
+        custom_model(2, pulses=[1000.0, 0.0]),
+        ("models.x.pulses_per_unit", "must be > 0"),
+    ),
+    "negative pulses_per_unit": (
+        custom_model(2, pulses=[-1.0, 1000.0]),
+        ("models.x.pulses_per_unit", "must be > 0"),
+    ),
+    "non-finite pulses_per_unit": (
+        custom_model(2, pulses=[1000.0, math.inf]),
+        ("models.x.pulses_per_unit", "finite"),
+    ),
+    "models not a table": ("models = 1\n", ("models", "Expected `object`, got `int`")),
+    "not valid TOML": ("name = \n", ("not valid TOML",)),
+    "duplicate TOML key": ('name = "a"\nname = "b"\n', ("not valid TOML",)),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_FILES))
+def test_bad_file_is_refused(tmp_path: Path, case: str) -> None:
+    text, fragments = BAD_FILES[case]
+    message = refused(tmp_path, text)
+    for fragment in fragments:
+        assert fragment in message, f"{fragment!r} not in {message!r}"
+
+
+def test_unused_bad_custom_model_is_refused(
+    tmp_path: Path,
+) -> None:
+    # A bad custom model is refused even when no group uses it.
+    text = f'{custom_model(2, pulses_count=3)}\n[[groups]]\nmodel = "arm6"\n'
+    assert "models.x.pulses_per_unit" in refused(tmp_path, text)
+
+
+def test_missing_file_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "nope.toml"
+    with pytest.raises(ConfigError) as info:
+        load_cell(path)
+    message = str(info.value)
+    assert str(path) in message
+    assert "cannot read" in message
+    assert "No such file" in message
+
+
+def test_directory_is_refused(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError) as info:
+        load_cell(tmp_path)
+    assert "cannot read" in str(info.value)
+
+
+# --- known bugs (xfail, strict) -----------------------------------------------------------
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="resolve() uses `group.initial_position or model.initial_position`, so an empty "
+    "list is taken as 'not given' and the model default is silently used",
+)
+def test_empty_initial_position_is_refused(tmp_path: Path) -> None:
+    message = refused(tmp_path, '[[groups]]\nmodel = "arm6"\ninitial_position = []\n')
+    assert "groups[0].initial_position" in message
+
+
+@pytest.mark.xfail(
+    strict=True,
+    raises=(ValueError, OverflowError),
+    reason="resolve() calls round(ms * 1e6) before any check: nan raises ValueError and inf "
+    "raises OverflowError ('cannot convert float ... to integer'), not ConfigError",
+)
+@pytest.mark.parametrize(
+    ("text", "field"),
+    [
+        ("interpolation_period_ms = nan\n", "interpolation_period_ms"),
+        ("interpolation_period_ms = inf\n", "interpolation_period_ms"),
+        ("state_period_ms = nan\n", "state_period_ms"),
+        ("state_period_ms = inf\n", "state_period_ms"),
+    ],
+)
+def test_non_finite_period_is_refused(tmp_path: Path, text: str, field: str) -> None:
+    assert field in refused(tmp_path, text)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="_decode_models() writes f'{where}: models{_field_path(exc)}': msgspec shows dict "
+    "keys as `[...]`, so the model's name is lost, and the text is glued on "
+    "('modelsObject missing required field `axis_types` - at `[...]`')",
+)
+def test_custom_model_decode_error_names_the_model(tmp_path: Path) -> None:
+    message = refused(tmp_path, '[models.x]\nkind = "robot"\n')
+    assert "axis_types" in message
+    assert "models.x" in message
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="for root-level msgspec errors (no `$` path) _field_path() returns ': <text>' and "
+    "parse_cell() adds its own ': ', giving 'cell.toml: : Object contains unknown field'",
+)
+def test_unknown_top_level_key_message_is_well_formed(tmp_path: Path) -> None:
+    assert ": :" not in refused(tmp_path, "colour = 1\n")
+
+
+# --- motocell up ----------------------------------------------------------------------------
+
+
+def test_up_refuses_a_bad_file_with_status_2(tmp_path: Path) -> None:
+    path = write_cell(tmp_path, '[[groups]]\nname = "R1"\nmodel = "arm9"\n')
+    started = time.monotonic()
+    result = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "services.cell.cli",
+            "up",
+            "--config",
+            str(path),
+            "--port-base",
+            "1",
+            "--zenoh-listen",
+            "tcp/127.0.0.1:1",
+        ],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=30,
+        check=False,
+    )
+    elapsed = time.monotonic() - started
+    assert result.returncode == 2, result.stderr
+    assert "groups[0].model" in result.stderr
+    assert "unknown model 'arm9'" in result.stderr
+    assert str(path) in result.stderr
+    assert "Traceback" not in result.stderr
+    assert result.stdout == ""
+    assert elapsed < 10
