@@ -143,21 +143,28 @@ def load_catalogue() -> dict[str, RobotModel]:
     return _decode_models(tomllib.loads(text).get("models", {}), "models.toml")
 
 
-def _decode_models(raw: dict[str, Any], where: str) -> dict[str, RobotModel]:
-    try:
-        models = msgspec.convert(raw, dict[str, RobotModel])
-    except msgspec.ValidationError as exc:
-        raise ConfigError(f"{where}: models{_field_path(exc)}") from exc
-    for name, model in models.items():
-        _check_model(f"{where}: models.{name}", model)
+def _decode_models(raw: object, where: str) -> dict[str, RobotModel]:
+    if not isinstance(raw, dict):
+        raise ConfigError(f"{where}: models: must be a table of [models.<name>] tables")
+    models = {}
+    for name, fields in raw.items():
+        try:
+            models[name] = msgspec.convert(fields, RobotModel)
+        except msgspec.ValidationError as exc:
+            raise ConfigError(f"{where}: {_problem(exc, f'models.{name}')}") from exc
+        _check_model(f"{where}: models.{name}", models[name])
     return models
 
 
-def _field_path(exc: msgspec.ValidationError) -> str:
-    # msgspec says "Expected `int`, got `str` - at `$.groups[0].name`"; turn "$" into the
-    # TOML-ish path so the message names the field.
-    text = str(exc)
-    return text.replace("`$.", "`").replace("`$", "`") if "$" in text else f": {text}"
+def _problem(exc: msgspec.ValidationError, prefix: str = "") -> str:
+    """msgspec says "Expected `int`, got `str` - at `$.groups[0].name`"; we say
+    "groups[0].name: Expected `int`, got `str`", naming the field first."""
+    problem, _, at = str(exc).partition(" - at `")
+    path = at.rstrip("`").removeprefix("$").removeprefix(".")
+    if prefix and path:
+        path = prefix + ("" if path.startswith("[") else ".") + path
+    field = path or prefix
+    return f"{field}: {problem}" if field else problem
 
 
 def _check_model(where: str, model: RobotModel) -> None:
@@ -194,11 +201,12 @@ def load_cell(path: str | Path | None = None) -> Cell:
 
 
 def parse_cell(raw: dict[str, Any], where: str = "cell") -> Cell:
-    extra_models = _decode_models(raw.pop("models", {}), where) if "models" in raw else {}
+    fields = dict(raw)
+    extra_models = _decode_models(fields.pop("models"), where) if "models" in fields else {}
     try:
-        cell_file = msgspec.convert(raw, CellFile)
+        cell_file = msgspec.convert(fields, CellFile)
     except msgspec.ValidationError as exc:
-        raise ConfigError(f"{where}: {_field_path(exc)}") from exc
+        raise ConfigError(f"{where}: {_problem(exc)}") from exc
     return resolve(cell_file, extra_models, where)
 
 
@@ -214,6 +222,10 @@ def resolve(
             f"{where}: groups: {len(cell_file.groups)} groups, a {cell_file.controller} "
             f"has 1 to {profile.max_groups}"
         )
+    if not math.isfinite(cell_file.interpolation_period_ms) or not math.isfinite(
+        cell_file.state_period_ms
+    ):
+        raise ConfigError(f"{where}: interpolation_period_ms and state_period_ms must be finite")
     period_ns = round(cell_file.interpolation_period_ms * 1e6)
     if not 500_000 <= period_ns <= 100_000_000:
         raise ConfigError(f"{where}: interpolation_period_ms: must be 0.5 to 100")
@@ -235,7 +247,9 @@ def resolve(
         if model is None:
             known = ", ".join(sorted(models))
             raise ConfigError(f"{field}.model: unknown model {group.model!r} (known: {known})")
-        initial = group.initial_position or model.initial_position
+        initial = (
+            model.initial_position if group.initial_position is None else group.initial_position
+        )
         if len(initial) != model.axes or not all(math.isfinite(v) for v in initial):
             raise ConfigError(
                 f"{field}.initial_position: needs {model.axes} finite values, got {initial}"

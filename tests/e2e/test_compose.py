@@ -17,7 +17,7 @@ import pytest
 import yaml
 
 from services.cell.launcher import free_port, free_port_block
-from shared.client import MotionClient, StateListener, smooth_move, stream
+from shared.client import MotionClient, StateListener, smooth_move, stream_ex
 from shared.config import load_cell
 from shared.motion.kinematics import AxisMap
 from shared.protocol.codec import ByteOrder
@@ -80,8 +80,8 @@ def compose_cell() -> Iterator[int]:
 
 
 def test_compose_services_execute_a_trajectory(compose_cell: int) -> None:
-    cell = load_cell(REPO / "deploy/cells/single-arm.toml")
-    axis_map = AxisMap(cell.groups[0])
+    cell = load_cell(REPO / "deploy/cells/dual-arm-positioner.toml")
+    maps = [AxisMap(group) for group in cell.groups]
     byte_order = ByteOrder(cell.byte_order)
 
     wait_for_whole_cell("127.0.0.1", compose_cell, byte_order)
@@ -89,22 +89,23 @@ def test_compose_services_execute_a_trajectory(compose_cell: int) -> None:
         StateListener("127.0.0.1", compose_cell + 1, byte_order) as state,
         MotionClient("127.0.0.1", compose_cell, byte_order) as motion,
     ):
-        state.wait_for(lambda f: f.status is not None, 30.0)
         reply = motion.command(Command.START_TRAJ_MODE)
         assert (reply.result, reply.subcode) == (Result.SUCCESS, 0)
-        latest = state.latest()
-        assert latest is not None
-        start = latest.groups[0].positions[:6]
-        goal = tuple(p + 0.2 for p in start)
-        result = stream(motion, smooth_move(start, goal, 0.5, 6))
+        still = state.wait_for(lambda f: f.status is not None and f.status.in_motion == 0, 5)
+        start = {g: tuple(still.groups[g].positions[: m.axes]) for g, m in enumerate(maps)}
+        goals = {g: tuple(p + 0.2 for p in start[g]) for g in start}
+        result = stream_ex(motion, {g: smooth_move(start[g], goals[g], 0.5, 6) for g in start})
         assert result.points == 6, result.last_reply
-        goal_pulses = axis_map.ros_to_pulses(np.array(goal))
+        targets = {g: m.ros_to_pulses(np.array(goals[g])) for g, m in enumerate(maps)}
         state.wait_for(
             lambda f: (
                 f.status is not None
                 and f.status.in_motion == 0
-                and np.array_equal(
-                    axis_map.ros_to_pulses(np.array(f.groups[0].positions[:6])), goal_pulses
+                and all(
+                    np.array_equal(
+                        m.ros_to_pulses(np.array(f.groups[g].positions[: m.axes])), targets[g]
+                    )
+                    for g, m in enumerate(maps)
                 )
             ),
             10.0,
@@ -113,7 +114,7 @@ def test_compose_services_execute_a_trajectory(compose_cell: int) -> None:
         assert (reply.result, reply.subcode) == (Result.SUCCESS, 0)
 
 
-def test_compose_file_names_every_service_once() -> None:
+def test_compose_file_runs_every_service_and_an_interpolator_per_group() -> None:
     commands = compose_commands("tcp/127.0.0.1:1", 1)
     modules = sorted(command[2] for command in commands.values())
     assert modules == [
@@ -122,5 +123,9 @@ def test_compose_file_names_every_service_once() -> None:
         "services.executor",
         "services.gateway",
         "services.interpolator",
+        "services.interpolator",
+        "services.interpolator",
     ]
+    groups = sorted(c[c.index("--group") + 1] for c in commands.values() if "--group" in c)
+    assert groups == ["0", "1", "2"]
     assert Path(REPO / "deploy/Dockerfile").exists()
