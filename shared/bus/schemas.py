@@ -183,6 +183,68 @@ class CommandReply(msgspec.Struct, array_like=True, frozen=True):
     command's effect; the gateway waits for it so its next answer cannot be stale."""
 
 
+class ServiceInfo(msgspec.Struct, array_like=True, frozen=True):
+    """Reply of the ``service/<service>/<instance>`` queryable every process declares."""
+
+    cell: str
+    service: str
+    instance: str
+    host: str
+    pid: int
+    started_unix_ns: int
+    version: str
+
+
+class Percentiles(msgspec.Struct, array_like=True, frozen=True):
+    """A rolling window of one measurement, in microseconds."""
+
+    count: int
+    p50_us: float
+    p99_us: float
+    max_us: float
+
+
+class ExecutorMetrics(msgspec.Struct, array_like=True, frozen=True):
+    """``executor/metrics``, every second: lateness of the ticks of the last second."""
+
+    tick: int
+    lateness: Percentiles
+    missed_total: int
+    queue_depths: list[int]
+    realtime: bool
+
+
+class RequestStats(msgspec.Struct, array_like=True, frozen=True):
+    msg_type: int
+    count: int
+    reply: Percentiles
+    """Request fully received -> reply written, over the last second."""
+
+
+class GatewayMetrics(msgspec.Struct, array_like=True, frozen=True):
+    """``gateway/metrics``, every second."""
+
+    motion_clients: int
+    state_clients: int
+    io_clients: int
+    requests: list[RequestStats]
+    busy_total: int
+    invalid_total: int
+    not_ready_total: int
+    busy_by_group: list[int]
+
+
+class InterpolatorMetrics(msgspec.Struct, array_like=True, frozen=True):
+    """``group/<g>/metrics``, every second."""
+
+    points_accepted: int
+    increments_sent: int
+    slot_busy_s: float
+    """How long the pending slot has been full in total (the gateway answers BUSY then)."""
+    busy_episodes: int
+    """How many times a point had to wait for room in the executor's ring."""
+
+
 T = TypeVar("T")
 
 _encoder = msgspec.msgpack.Encoder()
