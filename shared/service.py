@@ -5,11 +5,14 @@ from __future__ import annotations
 import argparse
 import ctypes
 import faulthandler
+import importlib.metadata
 import logging
 import os
 import signal
+import socket
 import sys
 import threading
+import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -17,6 +20,7 @@ from dataclasses import dataclass
 import zenoh
 
 from shared.bus.keys import CellKeys
+from shared.bus.schemas import ServiceInfo, encode
 from shared.bus.session import open_session
 from shared.config import Cell, ConfigError, load_cell
 
@@ -33,6 +37,13 @@ def required_alive_keys(cell: Cell) -> list[str]:
     names = [keys.alive(service, "0") for service in REQUIRED_SERVICES]
     names += [keys.alive("interpolator", str(group.index)) for group in cell.groups]
     return names
+
+
+def version() -> str:
+    try:
+        return importlib.metadata.version("motocell")
+    except importlib.metadata.PackageNotFoundError:
+        return "unknown"
 
 
 def argument_parser(service: str, description: str) -> argparse.ArgumentParser:
@@ -121,10 +132,28 @@ def running_service(
     )
     session = open_session(mode, connect, listen)
     keys = CellKeys(cell.name)
+    info = ServiceInfo(
+        cell=cell.name,
+        service=service,
+        instance=instance,
+        host=socket.gethostname(),
+        pid=os.getpid(),
+        started_unix_ns=time.time_ns(),
+        version=version(),
+    )
+
+    def describe(query: zenoh.Query) -> None:
+        # Under its own key, not the query's: one wildcard query gets every service's reply,
+        # and replies on one key would be consolidated into one.
+        query.reply(keys.service_info(service, instance), encode(info))
+        query.drop()
+
     try:
+        queryable = session.declare_queryable(keys.service_info(service, instance), describe)
         token = session.liveliness().declare_token(keys.alive(service, instance))
         logging.getLogger(service).info("up: cell %s (%s mode)", cell.name, mode)
         yield ServiceContext(cell, keys, session, stop)
         token.undeclare()
+        queryable.undeclare()
     finally:
         session.close()

@@ -7,7 +7,7 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from services.cell import demo, fault, launcher
+from services.cell import demo, fault, launcher, observe
 from shared.service import add_zenoh_arguments
 
 
@@ -35,6 +35,7 @@ def build_parser() -> argparse.ArgumentParser:
     up.set_defaults(run=launcher.up)
 
     fault.add_parser(commands)
+    observe.add_parsers(commands)
 
     router = commands.add_parser(
         "router", help="a Zenoh router (a stand-in for zenohd where its image is not available)"

@@ -23,6 +23,7 @@ from shared.bus.schemas import (
     CommandReply,
     ControllerStatus,
     Decoder,
+    ExecutorMetrics,
     IncrementBatch,
     QueueState,
     Tick,
@@ -30,6 +31,7 @@ from shared.bus.schemas import (
 )
 from shared.bus.session import Inbox, Liveness, answer, call, command_of, payload_of, publisher
 from shared.config import Cell
+from shared.metrics import Window
 from shared.motion.kinematics import AxisMap
 from shared.protocol.constants import Result
 from shared.service import ServiceContext, argument_parser, running_service
@@ -108,6 +110,9 @@ class Executor:
         ]
         self.missed = 0
         self.status_ready = False
+        self.ticks_per_second = max(1, round(1e9 / cell.period_ns))
+        self.lateness = Window(self.ticks_per_second)
+        self.metrics_pub = publisher(session, keys.metrics("executor"))
 
     # Queries are answered on Zenoh's thread under the lock: a STOP_MOTION must clear the
     # rings at once, not a tick later.
@@ -157,6 +162,17 @@ class Executor:
             encode(CommandReply(Result.FAILURE, group, detail=outcome.value)),
         )
 
+    def _publish_metrics(self, realtime: bool, depths: list[int]) -> None:
+        """Once a second, the lateness of the ticks of the last second (issue: metrics)."""
+        metrics = ExecutorMetrics(
+            tick=self.core.tick,
+            lateness=self.lateness.summary(),
+            missed_total=self.missed,
+            queue_depths=depths,
+            realtime=realtime,
+        )
+        self.metrics_pub.put(encode(metrics))
+
     def run(self) -> None:
         realtime = enter_realtime()
         gc.collect()
@@ -188,6 +204,9 @@ class Executor:
                 states = [self.core.queue_state(g) for g in range(len(self.queue_pubs))]
             self.tick_pub.put(encode(tick))
             self._publish_queues(states)
+            self.lateness.add(lateness / 1000)
+            if self.core.tick % self.ticks_per_second == 0:
+                self._publish_metrics(realtime, [state.depth for state in states])
             deadline += period
         log.info(
             "stopped after %d ticks, %d missed, realtime=%s", self.core.tick, self.missed, realtime

@@ -9,11 +9,12 @@ from collections.abc import Sequence
 
 from services.gateway.cell_view import CellView, decode_state
 from services.gateway.io import IoHandler
+from services.gateway.metrics import GatewayStats
 from services.gateway.motion import Answer, MotionHandler
 from services.gateway.tcp import RequestServer, StateServer, listen
 from shared.bus.schemas import CommandRequest, State
 from shared.bus.schemas import encode as encode_payload
-from shared.bus.session import Inbox
+from shared.bus.session import Inbox, publisher
 from shared.protocol.codec import ByteOrder, Role, encode
 from shared.protocol.constants import MAX_JOINTS, MsgType, ValidFields
 from shared.protocol.errors import PeerProtocolError
@@ -129,6 +130,9 @@ def main(argv: Sequence[str] | None = None) -> None:
             )
 
         motion_server.on_change = io_server.on_change = report_connections
+        stats = GatewayStats(len(cell.groups))
+        motion_server.observe = io_server.observe = stats.observe
+        metrics_pub = publisher(ctx.session, ctx.keys.metrics("gateway"))
         for server in (motion_server, io_server, state_server):
             server.start()
         log.info("listening on %s:%d-%d (%s-endian)", host, port_base, port_base + 2, byte_order)
@@ -142,6 +146,15 @@ def main(argv: Sequence[str] | None = None) -> None:
                 if time.monotonic() >= next_report:
                     # Also now and then: state clients leave silently, controllers restart.
                     report_connections()
+                    metrics_pub.put(
+                        encode_payload(
+                            stats.snapshot(
+                                int(motion_server.connected()),
+                                state_server.client_count(),
+                                int(io_server.connected()),
+                            )
+                        )
+                    )
                     next_report = time.monotonic() + CONNECTIONS_REFRESH_S
 
         fan_out_thread = threading.Thread(target=fan_out, name="state-fan-out", daemon=True)

@@ -10,6 +10,7 @@ import contextlib
 import logging
 import socket
 import threading
+import time
 from collections import deque
 from collections.abc import Callable
 
@@ -29,6 +30,7 @@ CLOSE_DELAY_S = 0.05
 """MotoROS sleeps 50 ms before it closes a motion connection (§2.1)."""
 
 Respond = Callable[[Message | UnknownMessage], Answer]
+Observe = Callable[[int, Message | None, int], None]
 ErrorReply = Callable[[PeerProtocolError], Message]
 
 
@@ -52,10 +54,15 @@ def configure(client: socket.socket) -> None:
 
 
 def serve_requests(
-    client: socket.socket, byte_order: ByteOrder, respond: Respond, error_reply: ErrorReply
+    client: socket.socket,
+    byte_order: ByteOrder,
+    respond: Respond,
+    error_reply: ErrorReply,
+    observe: Observe = lambda msg_type, reply, elapsed_ns: None,
 ) -> None:
     """Answer every request exactly once, in order, until the peer closes or a handler says
-    to close. Garbage gets its INVALID reply and the connection is kept."""
+    to close. Garbage gets its INVALID reply and the connection is kept. ``observe`` learns
+    each request's type, reply and time from decoded request to written reply."""
     codec = SimpleMessageCodec(Role.CONTROLLER, byte_order)
     while True:
         try:
@@ -67,16 +74,21 @@ def serve_requests(
             try:
                 event = codec.next_event()
             except PeerProtocolError as error:
-                client.sendall(codec.send(error_reply(error)))
+                started = time.monotonic_ns()
+                reply = error_reply(error)
+                client.sendall(codec.send(reply))
+                observe(error.msg_type, reply, time.monotonic_ns() - started)
                 continue
             if event is NEED_DATA:
                 break
             if event is CLOSED:
                 return
             assert isinstance(event, Message | UnknownMessage)
+            started = time.monotonic_ns()
             answer = respond(event)
             if answer.reply is not None:
                 client.sendall(codec.send(answer.reply))
+            observe(event.msg_type, answer.reply, time.monotonic_ns() - started)
             if answer.close:
                 return
 
@@ -111,6 +123,7 @@ class RequestServer:
         moving: Callable[[], bool],
         on_disconnect: Callable[[], object] = lambda: None,
         on_change: Callable[[], object] = lambda: None,
+        observe: Observe = lambda msg_type, reply, elapsed_ns: None,
     ) -> None:
         self.name = name
         self.server = server
@@ -120,6 +133,7 @@ class RequestServer:
         self.moving = moving
         self.on_disconnect = on_disconnect
         self.on_change = on_change
+        self.observe = observe
         self.current: Connection | None = None
         self.thread = threading.Thread(target=self._accept_loop, name=f"{name}-accept", daemon=True)
 
@@ -153,7 +167,7 @@ class RequestServer:
 
     def _serve(self, client: socket.socket, peer: tuple[str, int]) -> None:
         try:
-            serve_requests(client, self.byte_order, self.respond, self.error_reply)
+            serve_requests(client, self.byte_order, self.respond, self.error_reply, self.observe)
         except OSError as exc:
             log.info("%s: %s:%d: %s", self.name, *peer, exc)
         finally:

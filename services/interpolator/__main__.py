@@ -14,7 +14,14 @@ from collections import deque
 from collections.abc import Sequence
 
 from services.interpolator.feeder import Feeder
-from shared.bus.schemas import ControllerStatus, Decoder, Point, QueueState, encode
+from shared.bus.schemas import (
+    ControllerStatus,
+    Decoder,
+    InterpolatorMetrics,
+    Point,
+    QueueState,
+    encode,
+)
 from shared.bus.session import Inbox, payload_of, publisher
 from shared.service import ServiceContext, argument_parser, running_service
 
@@ -23,6 +30,7 @@ log = logging.getLogger("interpolator")
 SLOT_REFRESH_S = 0.5
 """Also publish the slot periodically, so a gateway that (re)starts learns it."""
 MAX_PENDING_POINTS = 64
+METRICS_S = 1.0
 
 
 def run(ctx: ServiceContext, group_index: int) -> None:
@@ -50,9 +58,13 @@ def run(ctx: ServiceContext, group_index: int) -> None:
             keys.controller_status, inbox.feed("status", payload_of(Decoder(ControllerStatus)))
         ),
     ]
+    metrics_pub = publisher(session, keys.group_metrics(group_index))
     points: deque[Point] = deque()
     published_slot = None
     next_refresh = 0.0
+    next_metrics = time.monotonic() + METRICS_S
+    busy_s = 0.0
+    last = time.monotonic()
     while not ctx.stop.is_set():
         item = inbox.get(timeout=0.1)
         while item is not None:
@@ -67,9 +79,18 @@ def run(ctx: ServiceContext, group_index: int) -> None:
             elif tag == "status":
                 feeder.tool = payload.tools[group_index] if group_index < len(payload.tools) else 0
             item = inbox.get_nowait()
+        now = time.monotonic()
+        if feeder.segment is not None:
+            busy_s += now - last  # the slot was full since the last pass
+        last = now
         feeder.progress(points)
         slot = feeder.slot()
-        now = time.monotonic()
+        if now >= next_metrics:
+            metrics = InterpolatorMetrics(
+                feeder.points_accepted, feeder.increments_sent, busy_s, feeder.busy_episodes
+            )
+            metrics_pub.put(encode(metrics))
+            next_metrics = now + METRICS_S
         if slot != published_slot or now >= next_refresh:
             slot_pub.put(encode(slot))
             published_slot = slot

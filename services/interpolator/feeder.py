@@ -47,6 +47,9 @@ class Feeder:
         self.taken_id = 0
         self.points_accepted = 0
         self.increments_sent = 0
+        self.waiting_for_room = False
+        self.busy_episodes = 0
+        """Times a segment had to wait for room in the ring (the slot stayed full)."""
 
     def on_queue(self, state: QueueState) -> None:
         if self.queue is not None and state.epoch != self.queue.epoch:
@@ -74,7 +77,11 @@ class Feeder:
             if self.segment is not None:
                 room = self.room()
                 if room <= 0:
+                    if not self.waiting_for_room:
+                        self.waiting_for_room = True
+                        self.busy_episodes += 1
                     return
+                self.waiting_for_room = False
                 self._send(self.segment.take(min(room, MAX_BATCH)))
                 if self.segment.remaining == 0:
                     self.segment = None

@@ -42,6 +42,15 @@ class CellKeys:
     def group_queue(self, group: int) -> str:
         return f"{self.prefix}/group/{group}/queue"
 
+    def service_info(self, service: str, instance: str) -> str:
+        return f"{self.prefix}/service/{service}/{instance}"
+
+    def metrics(self, service: str) -> str:
+        return f"{self.prefix}/{service}/metrics"
+
+    def group_metrics(self, group: int) -> str:
+        return f"{self.prefix}/group/{group}/metrics"
+
     def alive(self, service: str, instance: str) -> str:
         return f"{ALIVE_ROOT}/{self.cell}/alive/{service}/{instance}"
 

@@ -1,0 +1,62 @@
+"""What the gateway measures: requests and reply latency by message type, BUSY, INVALID and
+NOT_READY answers. Published once a second on ``gateway/metrics``."""
+
+from __future__ import annotations
+
+import threading
+
+from shared.bus.schemas import GatewayMetrics, RequestStats
+from shared.metrics import Window
+from shared.protocol.constants import Result
+from shared.protocol.messages import Message, MotoMotionReply
+
+WINDOW = 4096
+"""Replies kept per type between two publications (a point stream is a few hundred a second)."""
+
+
+class GatewayStats:
+    def __init__(self, groups: int) -> None:
+        self._lock = threading.Lock()
+        self._latency: dict[int, Window] = {}
+        self._counts: dict[int, int] = {}
+        self.busy = 0
+        self.invalid = 0
+        self.not_ready = 0
+        self.busy_by_group = [0] * groups
+
+    def observe(self, msg_type: int, reply: Message | None, elapsed_ns: int) -> None:
+        """One request answered (``reply`` None when none is sent) in ``elapsed_ns``."""
+        with self._lock:
+            self._counts[msg_type] = self._counts.get(msg_type, 0) + 1
+            self._latency.setdefault(msg_type, Window(WINDOW)).add(elapsed_ns / 1000)
+            body = reply.body if reply is not None else None
+            if not isinstance(body, MotoMotionReply):
+                return
+            if body.result == Result.BUSY:
+                self.busy += 1
+                if 0 <= body.group_no < len(self.busy_by_group):
+                    self.busy_by_group[body.group_no] += 1
+            elif body.result == Result.INVALID:
+                self.invalid += 1
+            elif body.result == Result.NOT_READY:
+                self.not_ready += 1
+
+    def snapshot(self, motion: int, state: int, io: int) -> GatewayMetrics:
+        """Counts since start; latencies of the replies since the last snapshot."""
+        with self._lock:
+            requests = [
+                RequestStats(msg_type, self._counts[msg_type], window.summary())
+                for msg_type, window in sorted(self._latency.items())
+            ]
+            for window in self._latency.values():
+                window.clear()
+            return GatewayMetrics(
+                motion_clients=motion,
+                state_clients=state,
+                io_clients=io,
+                requests=requests,
+                busy_total=self.busy,
+                invalid_total=self.invalid,
+                not_ready_total=self.not_ready,
+                busy_by_group=list(self.busy_by_group),
+            )

@@ -1,0 +1,141 @@
+"""Observing a running cell through Zenoh: any subscriber, `motocell ps` and `motocell watch`."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import threading
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+import zenoh
+
+from services.cell.launcher import free_port
+from shared.bus import catalog
+from shared.bus.session import open_session
+from shared.client import smooth_move, stream
+from shared.protocol.constants import Command, Result
+from tests.cells import REPO, RunningCell, running_cell, wait_until
+
+pytestmark = pytest.mark.cell
+
+
+@pytest.fixture(scope="module")
+def cell() -> Iterator[RunningCell]:
+    with running_cell() as running:
+        yield running
+
+
+def motocell(*args: str, timeout: float = 30.0) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "services.cell.cli", *args],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        check=False,
+    )
+
+
+def cmdline(pid: int) -> str:
+    return Path(f"/proc/{pid}/cmdline").read_bytes().decode().replace("\0", " ")
+
+
+def test_a_plain_subscriber_sees_and_decodes_every_key_of_the_cell(cell: RunningCell) -> None:
+    session = open_session("client", [cell.zenoh_endpoint], wait=False)
+    seen: dict[str, int] = {}
+    undecodable: list[str] = []
+    lock = threading.Lock()
+
+    def on_sample(sample: zenoh.Sample) -> None:
+        key = str(sample.key_expr)
+        try:
+            payload = catalog.decode(key, sample.payload.to_bytes())
+        except Exception:
+            payload = None
+        with lock:
+            seen[catalog.suffix_of(key)] = seen.get(catalog.suffix_of(key), 0) + 1
+            if payload is None:
+                undecodable.append(key)
+
+    subscriber = session.declare_subscriber("**", on_sample)
+    try:
+        with cell.motion() as motion, cell.state() as state:
+            assert motion.command(Command.START_TRAJ_MODE).result == Result.SUCCESS
+            still = state.wait_for(lambda f: f.status is not None and f.status.in_motion == 0, 5)
+            start = still.groups[0].positions[:6]
+            assert stream(motion, smooth_move(start, [p + 0.1 for p in start], 0.3, 4)).points == 4
+        expected = {
+            "controller/status",
+            "controller/cmd/connections",
+            "executor/tick",
+            "executor/metrics",
+            "gateway/metrics",
+            "state",
+            "group/*/point",
+            "group/*/slot",
+            "group/*/increments",
+            "group/*/queue",
+            "group/*/metrics",
+        }
+        wait_until(lambda: expected <= set(seen), 5.0, f"every key (seen {sorted(seen)})")
+    finally:
+        subscriber.undeclare()
+        session.close()
+    assert undecodable == []
+
+
+def test_ps_lists_every_live_service_with_its_details(cell: RunningCell) -> None:
+    result = motocell("ps", "--zenoh-connect", cell.zenoh_endpoint)
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert lines[0].split() == ["CELL", "SERVICE", "GROUP", "HOST", "PID", "UPTIME", "VERSION"]
+    rows = {(r.split()[1], r.split()[2]): r.split() for r in lines[1:]}
+    assert set(rows) == {
+        ("broadcaster", "-"),
+        ("controller", "-"),
+        ("executor", "-"),
+        ("gateway", "-"),
+        ("interpolator", "0"),
+    }
+    for (service, _group), row in rows.items():
+        assert row[0] == cell.cell.name
+        assert f"services.{service}" in cmdline(int(row[4]))
+        assert int(row[4]) in cell.children()
+        assert row[6] == "0.1.0"
+
+
+def test_ps_and_watch_fail_clearly_without_a_router() -> None:
+    nowhere = f"tcp/127.0.0.1:{free_port()}"
+    for command in ("ps", "watch"):
+        result = motocell(command, "--zenoh-connect", nowhere, timeout=10)
+        assert result.returncode == 1
+        assert f"no Zenoh router at {nowhere}" in result.stderr
+
+
+def test_watch_shows_status_groups_lateness_clients_and_services(cell: RunningCell) -> None:
+    with cell.motion() as motion, cell.state() as state:
+        assert motion.command(Command.START_TRAJ_MODE).result == Result.SUCCESS
+        latest = state.wait_for(lambda f: f.status is not None and f.status.in_motion == 0, 5)
+        result = motocell(
+            "watch",
+            "--zenoh-connect",
+            cell.zenoh_endpoint,
+            "--cell",
+            cell.cell.name,
+            "--count",
+            "4",
+            "--interval",
+            "0.6",
+        )
+    assert result.returncode == 0, result.stderr
+    frame = result.stdout.split("motocell watch")[-1]
+    assert f"cell {cell.cell.name}" in frame
+    assert "motion-ready YES" in frame
+    assert "lateness p50" in frame and "SCHED_FIFO" in frame
+    assert "clients: motion 1  state 1" in frame
+    assert "services alive: broadcaster/0 controller/0 executor/0 gateway/0 interpolator/0" in frame
+    position_line = next(line for line in frame.splitlines() if "position rad" in line)
+    shown = [float(v) for v in position_line.split("rad")[1].split()]
+    assert shown == pytest.approx(latest.groups[0].positions[:6], abs=1e-4)
