@@ -80,8 +80,9 @@ def _schema_of(info: msgspec.inspect.Type) -> dict[str, Any]:
     if isinstance(info, msgspec.inspect.IntType):
         return {"type": "integer"}
     if isinstance(info, msgspec.inspect.FloatType):
-        # msgspec writes a non-finite float as null.
-        return {"type": ["number", "null"]}
+        # Plain "number", though msgspec writes a non-finite float as null: viewers such as
+        # Foxglove reject a list of types, and no payload carries NaN in practice.
+        return {"type": "number"}
     if isinstance(info, msgspec.inspect.StrType):
         return {"type": "string"}
     if isinstance(info, msgspec.inspect.BytesType):
