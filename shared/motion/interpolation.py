@@ -56,61 +56,92 @@ def time_to_ns(seconds: float) -> int:
     return round(seconds * 1e9)
 
 
+_POWERS = np.arange(4)
+
+
+def _hermite(duration_ns: int) -> FloatArray:
+    """The matrix taking (p0, v0, p1, v1) to the coefficients of 1, tau, tau^2, tau^3 of
+    spec §2.7.2's cubic: p0 + v0 tau + (a1/2) tau^2 + (a2/6) tau^3 with
+    a1 = 6(p1 - p0)/T^2 - 2(v1 + 2 v0)/T and a2 = -12(p1 - p0)/T^3 + 6(v0 + v1)/T^2."""
+    t = duration_ns / 1e9
+    t2, t3 = t * t, t * t * t
+    return np.array(
+        (
+            (1.0, 0.0, 0.0, 0.0),
+            (0.0, 1.0, 0.0, 0.0),
+            (-3 / t2, -2 / t, 3 / t2, -1 / t),
+            (2 / t3, 1 / t2, -2 / t3, 1 / t2),
+        )
+    )
+
+
 class Segment:
-    """The entries between two knots, produced on demand so a 4-hour segment costs no memory."""
+    """The entries between two knots, produced on demand so a 4-hour segment costs no memory.
+
+    The cubic's coefficients are computed once, already in Motoman axis order and in pulses,
+    so producing entries is one Horner evaluation and one rounding per chunk: typical 100 ms
+    segments are a few dozen entries, where numpy's per-call overhead dominates.
+    """
 
     def __init__(self, trajectory: Trajectory, start: Knot, end: Knot) -> None:
         period = trajectory.period_ns
         offset0 = start.time_ns - trajectory.anchor_ns
         offset1 = end.time_ns - trajectory.anchor_ns
         self._trajectory = trajectory
-        self._start = start
-        self._end = end
+        self._start_ns = start.time_ns
+        self._end_ns = end.time_ns
         self._next_k = offset0 // period + 1
         # Grid instants strictly before the waypoint; the waypoint gets its own entry.
         self._last_k = (offset1 - 1) // period
         self._waypoint_partial = offset1 % period != 0
         self._waypoint_done = False
-        duration = (end.time_ns - start.time_ns) / 1e9
-        dp = end.positions - start.positions
-        v0, v1 = start.velocities, end.velocities
-        self._a1: FloatArray = 6 * dp / duration**2 - 2 * (v1 + 2 * v0) / duration
-        self._a2: FloatArray = -12 * dp / duration**3 + 6 * (v0 + v1) / duration**2
+        axis_map = trajectory.axis_map
+        knots = np.array((start.positions, start.velocities, end.positions, end.velocities))
+        knots = knots[:, axis_map.ros_index_of_moto] * axis_map.pulses_per_unit_moto
+        self._coefficients: FloatArray = _hermite(end.time_ns - start.time_ns) @ knots
+        # The waypoint's entry holds its exact position, not the cubic evaluated at T.
+        self._waypoint_pulses = np.rint(knots[2]).astype(np.int64)
 
     @property
     def remaining(self) -> int:
         return max(0, self._last_k - self._next_k + 1) + (0 if self._waypoint_done else 1)
 
-    def positions_at(self, times_ns: IntArray) -> FloatArray:
-        """The cubic, in ROS order, at absolute times inside the segment."""
-        tau = ((times_ns - self._start.time_ns) / 1e9)[:, None]
-        s = self._start
-        result: FloatArray = (
-            s.positions + s.velocities * tau + self._a1 * tau**2 / 2 + self._a2 * tau**3 / 6
-        )
+    def pulses_at(self, times_ns: IntArray) -> FloatArray:
+        """The cubic, in Motoman-order pulses (not rounded), at absolute times in the segment."""
+        tau = ((times_ns - self._start_ns) * 1e-9)[:, None]
+        result: FloatArray = (tau**_POWERS) @ self._coefficients
         return result
 
     def take(self, limit: int) -> Entries:
         """The next ``limit`` entries at most (fewer at the segment's end)."""
         trajectory = self._trajectory
         grid_count = max(0, min(limit, self._last_k - self._next_k + 1))
-        ks = np.arange(self._next_k, self._next_k + grid_count, dtype=np.int64)
-        times = trajectory.anchor_ns + ks * trajectory.period_ns
-        positions = self.positions_at(times)
+        with_waypoint = (
+            grid_count < limit
+            and not self._waypoint_done
+            and (self._next_k + grid_count > self._last_k)
+        )
+        count = grid_count + with_waypoint
+        times = np.empty(count, dtype=np.int64)
+        times[:grid_count] = trajectory.anchor_ns + trajectory.period_ns * np.arange(
+            self._next_k, self._next_k + grid_count, dtype=np.int64
+        )
+        absolute = np.empty((count, self._coefficients.shape[1]), dtype=np.int64)
+        if grid_count:
+            absolute[:grid_count] = np.rint(self.pulses_at(times[:grid_count]))
         self._next_k += grid_count
-        with_waypoint = grid_count < limit and not self._waypoint_done and self.remaining == 1
+        partial = np.zeros(count, dtype=np.bool_)
         if with_waypoint:
             self._waypoint_done = True
-            times = np.append(times, self._end.time_ns)
-            positions = np.vstack([positions, self._end.positions[None, :]])
-        absolute = trajectory.axis_map.ros_to_pulses(positions)
-        increments = np.diff(absolute, axis=0, prepend=trajectory.pulses[None, :])
-        if len(absolute):
-            trajectory.pulses = absolute[-1]
-        partial = np.zeros(len(times), dtype=np.bool_)
-        if with_waypoint:
+            times[-1] = self._end_ns
+            absolute[-1] = self._waypoint_pulses
             partial[-1] = self._waypoint_partial
-        return Entries(times, increments.astype(np.int32), partial)
+        increments = np.empty((count, self._coefficients.shape[1]), dtype=np.int32)
+        if count:
+            increments[0] = absolute[0] - trajectory.pulses
+            increments[1:] = absolute[1:] - absolute[:-1]
+            trajectory.pulses = absolute[-1]
+        return Entries(times, increments, partial)
 
 
 class Trajectory:
