@@ -7,7 +7,7 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from services.cell import demo, fault, launcher, observe
+from services.cell import demo, fault, launcher, observe, plot, record
 from shared.service import add_zenoh_arguments
 
 
@@ -36,6 +36,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     fault.add_parser(commands)
     observe.add_parsers(commands)
+    record.add_parser(commands)
+    plot.add_parser(commands)
 
     router = commands.add_parser(
         "router", help="a Zenoh router (a stand-in for zenohd where its image is not available)"

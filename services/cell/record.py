@@ -220,7 +220,10 @@ class Recorder:
         self.queue.put(None)
         self._thread.join()
         if self.error is None:
-            self.sink.finish()
+            try:
+                self.sink.finish()
+            except OSError as exc:  # the summary did not fit on the disk
+                self.error = exc
 
 
 # --------------------------------------------------------------------------- the command
@@ -315,8 +318,8 @@ def _record(session: zenoh.Session, exprs: list[str], args: argparse.Namespace) 
         recorder = Recorder(sink, stop)
         previous = _stop_on_signals(stop)
         try:
-            subscribers = [session.declare_subscriber(e, recorder.on_sample) for e in exprs]
             print(f"recording {' '.join(exprs)} into {args.out}; Ctrl-C to stop", flush=True)
+            subscribers = [session.declare_subscriber(e, recorder.on_sample) for e in exprs]
             stop.wait(args.duration)
             for subscriber in subscribers:
                 subscriber.undeclare()
@@ -376,13 +379,3 @@ def read_recording(path: str | Path) -> Iterator[tuple[str, int, dict[str, Any]]
                 continue
             payload = msgspec.json.decode(message.data, type=dict[str, Any])
             yield channel.topic, message.log_time, payload
-
-
-def main() -> None:
-    parser = argparse.ArgumentParser(prog="motocell record", description=__doc__)
-    add_arguments(parser)
-    sys.exit(run(parser.parse_args()))
-
-
-if __name__ == "__main__":
-    main()

@@ -1,0 +1,266 @@
+"""``motocell record`` against a real cell while it moves, then ``motocell plot`` of that file."""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from matplotlib.colors import to_rgb
+from matplotlib.figure import Figure
+from matplotlib.image import imread
+from matplotlib.lines import Line2D
+from mcap.reader import make_reader
+
+from services.cell.launcher import free_port
+from services.cell.plot import plot_recording
+from services.cell.record import read_recording
+from shared.bus.keys import CellKeys
+from shared.bus.session import open_session
+from shared.client import smooth_move, stream
+from shared.motion.kinematics import AxisMap
+from shared.protocol.constants import Command, Result
+from tests.cells import REPO, running_cell, wait_until
+
+pytestmark = pytest.mark.cell
+
+MOVE = (0.3, -0.2, 0.25, 0.4, -0.3, 0.5)
+"""Joint 1 ends apart from every other joint, so its colour stays visible in the plot."""
+UNKNOWN_PAYLOAD = b"\x93\x01\x02\x03"  # msgpack [1, 2, 3]
+TOLERANCE_RAD = 1e-4
+
+
+def record_command(out: Path, endpoint: str, *extra: str) -> list[str]:
+    # `motocell record`, with -W error so the recorder itself is warning-free too.
+    module = ["-m", "services.cell.cli", "record"]
+    return [sys.executable, "-W", "error", *module, str(out), "--zenoh-connect", endpoint, *extra]
+
+
+@dataclass
+class Recording:
+    path: Path
+    keys: CellKeys
+    start: np.ndarray[Any, np.dtype[np.float64]]
+    goal: np.ndarray[Any, np.dtype[np.float64]]
+    unknown_key: str
+    stdout: list[str]
+    returncode: int
+
+
+class Lines:
+    """Every line a subprocess prints, collected by a thread so the test can wait on them."""
+
+    def __init__(self, process: subprocess.Popen[str]) -> None:
+        assert process.stdout is not None
+        self.lines: list[str] = []
+        self._stdout = process.stdout
+        self.thread = threading.Thread(target=self._read, daemon=True)
+        self.thread.start()
+
+    def _read(self) -> None:
+        for line in self._stdout:
+            self.lines.append(line.rstrip("\n"))
+
+    def __contains__(self, line: str) -> bool:
+        return line in list(self.lines)
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Recording]:
+    out = tmp_path_factory.mktemp("record") / "cell.mcap"
+    with running_cell() as cell:
+        keys = CellKeys(cell.cell.name)
+        unknown_key = f"{keys.prefix}/observer/note"
+        axis_map = AxisMap(cell.cell.groups[0])
+        command = record_command(out, cell.zenoh_endpoint, "--cell", cell.cell.name)
+        process = subprocess.Popen(command, cwd=REPO, stdout=subprocess.PIPE, text=True)
+        stdout = Lines(process)
+        try:
+            # A state sample has reached the recorder, so its subscription is live before the
+            # robot moves: the recording starts at rest.
+            wait_until(
+                lambda: f"+ {keys.state} (json, State)" in stdout, 15.0, "the first recorded state"
+            )
+            publish_unknown(cell.zenoh_endpoint, unknown_key, stdout)
+            with cell.motion() as motion, cell.state() as state:
+                reply = motion.command(Command.START_TRAJ_MODE)
+                assert (reply.result, reply.subcode) == (Result.SUCCESS, 0)
+                still = state.wait_for(
+                    lambda f: f.status is not None and f.status.in_motion == 0, 5.0
+                )
+                start = np.array(still.groups[0].positions[: axis_map.axes])
+                goal = start + np.array(MOVE)
+                trajectory = smooth_move(tuple(start), tuple(goal), duration=1.0, points=11)
+                result = stream(motion, trajectory)
+                assert result.points == len(trajectory), result.last_reply
+                goal_pulses = axis_map.ros_to_pulses(goal)
+                state.wait_for(
+                    lambda f: (
+                        f.status is not None
+                        and f.status.in_motion == 0
+                        and np.array_equal(
+                            axis_map.ros_to_pulses(
+                                np.array(f.groups[0].positions[: axis_map.axes])
+                            ),
+                            goal_pulses,
+                        )
+                    ),
+                    timeout=10.0,
+                )
+                # Ten more state cycles at the goal have gone out over Zenoh (the gateway relays
+                # them after the recorder's router hop), so the recording ends at rest too.
+                arrived = len(state.cycles)
+                wait_until(lambda: len(state.cycles) >= arrived + 10, 5.0, "states at the goal")
+            process.send_signal(signal.SIGINT)
+            returncode = process.wait(timeout=10)
+        finally:
+            if process.poll() is None:
+                process.kill()
+                process.wait()
+            stdout.thread.join(timeout=5)
+            assert process.stdout is not None
+            process.stdout.close()
+    yield Recording(out, keys, start, goal, unknown_key, stdout.lines, returncode)
+
+
+def publish_unknown(endpoint: str, key: str, stdout: Lines) -> None:
+    """Publish on a key the catalogue does not know until the recorder has a channel for it
+    (a put can race the router learning of the recorder's subscription)."""
+    session = open_session("client", [endpoint], wait=False)
+    try:
+        deadline = time.monotonic() + 5.0
+        while f"+ {key} (msgpack, msgpack, not in the catalogue or not decodable)" not in stdout:
+            assert time.monotonic() < deadline, "the recorder never recorded the unknown key"
+            session.put(key, UNKNOWN_PAYLOAD)
+            time.sleep(0.05)
+    finally:
+        session.close()
+
+
+def test_recording_is_a_valid_mcap_of_the_motion(recording: Recording) -> None:
+    assert recording.returncode == 0, recording.stdout
+    assert any(line.startswith(f"wrote {recording.path}: ") for line in recording.stdout)
+
+    with recording.path.open("rb") as file:
+        reader = make_reader(file, validate_crcs=True)
+        summary = reader.get_summary()
+        assert summary is not None and summary.statistics is not None
+        channels = {channel.topic: channel for channel in summary.channels.values()}
+        keys = recording.keys
+        for key in (keys.state, keys.executor_tick, keys.controller_status, keys.group_queue(0)):
+            assert key in channels, sorted(channels)
+            channel = channels[key]
+            assert channel.message_encoding == "json"
+            schema = summary.schemas[channel.schema_id]
+            assert schema.encoding == "jsonschema"
+            assert json.loads(schema.data)["type"] == "object"
+        unknown = channels[recording.unknown_key]
+        assert (unknown.message_encoding, unknown.schema_id) == ("msgpack", 0)
+
+        last_log_time: dict[int, int] = {}
+        counts: dict[int, int] = {}
+        for schema_, channel, message in reader.iter_messages(log_time_order=False):
+            # File order is arrival order: per channel, log times never go back.
+            assert message.log_time >= last_log_time.get(channel.id, 0), channel.topic
+            assert message.publish_time == message.log_time
+            last_log_time[channel.id] = message.log_time
+            counts[channel.id] = counts.get(channel.id, 0) + 1
+            if channel.message_encoding == "json":
+                assert schema_ is not None
+                payload = json.loads(message.data)
+                assert set(payload) == set(json.loads(schema_.data)["properties"]), channel.topic
+            else:
+                assert message.data == UNKNOWN_PAYLOAD
+        assert counts == dict(summary.statistics.channel_message_counts)
+
+    states = [p for key, _, p in read_recording(recording.path) if key == keys.state]
+    feedback = np.array([s["groups"][0]["positions"] for s in states])
+    np.testing.assert_allclose(feedback[0], recording.start, rtol=0, atol=TOLERANCE_RAD)
+    np.testing.assert_allclose(feedback[-1] - feedback[0], MOVE, rtol=0, atol=TOLERANCE_RAD)
+    moving = np.unique(feedback, axis=0)
+    assert len(moving) >= 50, "100 Hz state over a 1 s move records about 100 distinct positions"
+
+
+def lines_by_gid(figure: Figure) -> dict[str, Line2D]:
+    return {
+        str(line.get_gid()): line
+        for ax in figure.axes
+        for line in ax.get_lines()
+        if line.get_gid() is not None
+    }
+
+
+def test_plot_draws_the_recorded_series(recording: Recording, tmp_path: Path) -> None:
+    png = tmp_path / "cell.png"
+    figure = plot_recording(recording.path, png)
+
+    image = imread(png)
+    width, height = np.round(figure.get_size_inches() * figure.dpi).astype(int)
+    assert image.shape[:2] == (height, width) == (1000, 1200)  # 4 panels of 2.5 in, 100 dpi
+    background = np.all(image[..., :3] > 0.98, axis=-1)
+    assert background.mean() < 0.97, "the image is (nearly) blank"
+
+    records = list(read_recording(recording.path))
+    t0 = records[0][1]
+    keys = recording.keys
+    states = [(t, p) for key, t, p in records if key == keys.state]
+    ticks = [(t, p) for key, t, p in records if key == keys.executor_tick]
+    state_s = np.array([(t - t0) / 1e9 for t, _ in states])
+    tick_s = np.array([(t - t0) / 1e9 for t, _ in ticks])
+    lines = lines_by_gid(figure)
+    for kind, field in (("commanded", "command_positions"), ("feedback", "positions")):
+        line = lines[f"group0/joint0/{kind}"]
+        expected = [p["groups"][0][field][0] for _, p in states]
+        np.testing.assert_allclose(np.asarray(line.get_xdata()), state_s, rtol=0, atol=1e-9)
+        np.testing.assert_array_equal(np.asarray(line.get_ydata()), expected)
+    assert lines["group0/joint0/commanded"].get_linestyle() == "--"
+    assert lines["group0/joint0/feedback"].get_linestyle() == "-"
+    lateness = lines["lateness"]
+    np.testing.assert_allclose(np.asarray(lateness.get_xdata()), tick_s, rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(
+        np.asarray(lateness.get_ydata()), [p["lateness_ns"] / 1e3 for _, p in ticks]
+    )
+    depth = lines["group0/depth"]
+    np.testing.assert_allclose(np.asarray(depth.get_xdata()), tick_s, rtol=0, atol=1e-9)
+    depths = [p["groups"][0]["depth"] for _, p in ticks]
+    np.testing.assert_array_equal(np.asarray(depth.get_ydata()), depths)
+    assert max(depths) > 0, "streaming a trajectory fills the executor's queue"
+
+    # Joint 1's colour is drawn inside the position panel (display y runs up, image rows down).
+    feedback = lines["group0/joint0/feedback"]
+    axes = feedback.axes
+    assert axes is not None
+    box = axes.get_window_extent()
+    inside = image[
+        int(height - box.y1) + 2 : int(height - box.y0) - 2, int(box.x0) + 2 : int(box.x1) - 2, :3
+    ]
+    colour = np.array(to_rgb(feedback.get_color()))
+    matching = np.all(np.abs(inside - colour) < 0.02, axis=-1)
+    assert matching.sum() > 50, "joint 1's line is not visible in the position panel"
+
+
+def test_record_without_a_router_fails_fast_and_clearly(tmp_path: Path) -> None:
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    out = tmp_path / "none.mcap"
+    started = time.monotonic()
+    result = subprocess.run(
+        record_command(out, endpoint),
+        check=False,
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=15,
+    )
+    assert time.monotonic() - started < 5.0
+    assert result.returncode == 1, result
+    assert f"no Zenoh router at {endpoint}" in result.stderr
+    assert not out.exists(), "a failed start leaves no empty recording behind"
