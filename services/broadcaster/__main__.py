@@ -103,7 +103,7 @@ def run(ctx: ServiceContext) -> None:
     keys = ctx.keys
     session = ctx.session
     snapshotter = Snapshotter(ctx.cell)
-    state_pub = publisher(session, keys.state, realtime=True)
+    state_pub = publisher(session, keys.state, realtime=True, latest=True)
     ticks = Latest(session, keys.executor_tick, Decoder(Tick))
     statuses = Latest(session, keys.controller_status, Decoder(ControllerStatus))
     controller_key = keys.alive("controller", "0")

@@ -11,9 +11,9 @@ from __future__ import annotations
 import gc
 import logging
 import os
-import threading
 import time
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 import zenoh
@@ -25,11 +25,10 @@ from shared.bus.schemas import (
     Decoder,
     ExecutorMetrics,
     IncrementBatch,
-    QueueState,
     Tick,
     encode,
 )
-from shared.bus.session import Inbox, Liveness, answer, call, command_of, payload_of, publisher
+from shared.bus.session import answer, call, command_of, publisher
 from shared.config import Cell
 from shared.metrics import Window
 from shared.motion.kinematics import AxisMap
@@ -39,6 +38,17 @@ from shared.service import ServiceContext, argument_parser, running_service
 log = logging.getLogger("executor")
 
 RT_PRIORITY = 50
+CHANNEL_DEPTH = 10_000
+"""Zenoh-side queue per key. A full channel would stall Zenoh's network thread; four groups
+at 250 Hz never come near it, since every tick drains them all."""
+
+
+_status = Decoder(ControllerStatus)
+_batch = Decoder(IncrementBatch)
+
+
+def _channel() -> zenoh.handlers.FifoChannel[Any]:
+    return zenoh.handlers.FifoChannel(CHANNEL_DEPTH)
 
 
 def enter_realtime() -> bool:
@@ -75,84 +85,79 @@ def initial_pulses(ctx: ServiceContext) -> list[list[int]]:
 
 
 class Executor:
+    """The clock thread does everything: no Python runs on Zenoh's threads in this process.
+
+    Samples, liveliness events and queries wait in Zenoh's own (Rust) channels and are drained
+    at the start of each tick. A Python callback would take the GIL on a thread without
+    real-time priority; the clock thread would then wait for it, up to the interpreter's 5 ms
+    switch interval, and miss its deadline (seen as 7 ms lateness spikes when a trajectory
+    started, with batches arriving in callbacks).
+    """
+
     def __init__(self, ctx: ServiceContext) -> None:
         self.ctx = ctx
         cell: Cell = ctx.cell
         self.period_ns = cell.period_ns
         self.core = ExecutorCore(initial_pulses(ctx), first_epoch=time.time_ns() // 1000)
-        self.lock = threading.Lock()
-        self.inbox = Inbox()
         session = ctx.session
         keys = ctx.keys
-        self.tick_pub = publisher(session, keys.executor_tick, realtime=True)
+        self.tick_pub = publisher(session, keys.executor_tick, realtime=True, latest=True)
         self.queue_pubs = [
-            publisher(session, keys.group_queue(g.index), realtime=True) for g in cell.groups
-        ]
-        batch_decoder = Decoder(IncrementBatch)
-        self.subscribers = [
-            session.declare_subscriber(
-                keys.group_increments(g.index),
-                self.inbox.feed(f"batch/{g.index}", payload_of(batch_decoder)),
-            )
+            publisher(session, keys.group_queue(g.index), realtime=True, latest=True)
             for g in cell.groups
         ]
-        self.subscribers.append(
-            session.declare_subscriber(
-                keys.controller_status,
-                self.inbox.feed("status", payload_of(Decoder(ControllerStatus))),
-            )
-        )
-        self.controller_alive = Liveness(session, keys.alive("controller", "0"))
-        self.controller_key = keys.alive("controller", "0")
-        self.queryables = [
-            session.declare_queryable(keys.executor_cmd("stop"), self.on_stop),
-            session.declare_queryable(keys.executor_cmd("queue_count"), self.on_queue_count),
+        self.batches = [
+            session.declare_subscriber(keys.group_increments(g.index), _channel())
+            for g in cell.groups
         ]
+        self.statuses = session.declare_subscriber(keys.controller_status, _channel())
+        self.controller_token = session.liveliness().declare_subscriber(
+            keys.alive("controller", "0"), _channel(), history=True
+        )
+        self.stop_queries = session.declare_queryable(keys.executor_cmd("stop"), _channel())
+        self.count_queries = session.declare_queryable(keys.executor_cmd("queue_count"), _channel())
+        self.controller_present = False
         self.missed = 0
         self.status_ready = False
         self.ticks_per_second = max(1, round(1e9 / cell.period_ns))
         self.lateness = Window(self.ticks_per_second)
-        self.metrics_pub = publisher(session, keys.metrics("executor"))
+        self.metrics_pub = publisher(session, keys.metrics("executor"), latest=True)
 
-    # Queries are answered on Zenoh's thread under the lock: a STOP_MOTION must clear the
-    # rings at once, not a tick later.
-    def on_stop(self, query: zenoh.Query) -> None:
-        with self.lock:
+    def _publish_queues(self) -> None:
+        for group, pub in enumerate(self.queue_pubs):
+            pub.put(encode(self.core.queue_state(group)))
+
+    def drain(self) -> None:
+        """Everything that arrived since the last tick, in an order that keeps the invariants:
+        readiness first (a not-ready status clears the rings before any batch is queued),
+        then batches, then commands."""
+        while (event := self.controller_token.try_recv()) is not None:
+            self.controller_present = event.kind == zenoh.SampleKind.PUT
+        while (sample := self.statuses.try_recv()) is not None:
+            # Every status is applied in order, so a not-ready blip between two ticks still
+            # clears the rings.
+            self.status_ready = _status.decode(sample.payload.to_bytes()).motion_ready
+            self.core.set_ready(self._ready())
+        self.core.set_ready(self._ready())
+        for group, channel in enumerate(self.batches):
+            while (sample := channel.try_recv()) is not None:
+                outcome = self.core.accept(group, _batch.decode(sample.payload.to_bytes()))
+                if outcome in (BatchOutcome.GAP, BatchOutcome.OVERFLOW):
+                    self._increment_path_broken(group, outcome)
+        while (query := self.stop_queries.try_recv()) is not None:
+            # STOP_MOTION: cleared before this tick applies anything.
             self.core.clear_all()
-            states = [self.core.queue_state(g) for g in range(len(self.queue_pubs))]
-        self._publish_queues(states)
-        answer(query, CommandReply(Result.SUCCESS))
-
-    def on_queue_count(self, query: zenoh.Query) -> None:
-        group = command_of(query).group
-        with self.lock:
+            self._publish_queues()
+            answer(query, CommandReply(Result.SUCCESS))
+        while (query := self.count_queries.try_recv()) is not None:
+            group = command_of(query).group
             if 0 <= group < len(self.core.rings):
-                reply = CommandReply(Result.SUCCESS, self.core.queue_count(group))
+                answer(query, CommandReply(Result.SUCCESS, self.core.queue_count(group)))
             else:
-                reply = CommandReply(Result.FAILURE, -1)
-        answer(query, reply)
-
-    def _publish_queues(self, states: Sequence[QueueState]) -> None:
-        for pub, state in zip(self.queue_pubs, states, strict=True):
-            pub.put(encode(state))
-
-    def drain_inbox(self) -> None:
-        while (item := self.inbox.get_nowait()) is not None:
-            tag, payload = item
-            if tag == "status":
-                assert isinstance(payload, ControllerStatus)
-                # Every status is applied in order, so a not-ready blip between two ticks
-                # still clears the rings.
-                self.status_ready = payload.motion_ready
-                self.core.set_ready(self._ready())
-                continue
-            group = int(tag.split("/")[1])
-            outcome = self.core.accept(group, payload)
-            if outcome in (BatchOutcome.GAP, BatchOutcome.OVERFLOW):
-                self._increment_path_broken(group, outcome)
+                answer(query, CommandReply(Result.FAILURE, -1))
 
     def _ready(self) -> bool:
-        return self.status_ready and self.controller_key in self.controller_alive.present()
+        return self.status_ready and self.controller_present
 
     def _increment_path_broken(self, group: int, outcome: BatchOutcome) -> None:
         log.error("group %d: increment batch %s; stopping motion", group, outcome.value)
@@ -175,6 +180,11 @@ class Executor:
 
     def run(self) -> None:
         realtime = enter_realtime()
+        # Warm up before the clock starts: numpy's percentile and msgspec's encoders set
+        # themselves up on first use, which cost a 4 ms late tick when it happened in the loop.
+        self.lateness.add(0.0)
+        self._publish_metrics(realtime, [0] * len(self.queue_pubs))
+        self.lateness.clear()
         gc.collect()
         gc.freeze()
         period = self.period_ns
@@ -189,24 +199,21 @@ class Executor:
             if lateness >= period:
                 # Catch up instead of skipping: simulated motion never slips, the miss is counted.
                 self.missed += 1
-            with self.lock:
-                self.drain_inbox()
-                self.core.set_ready(self._ready())
-                self.core.step()
-                tick = Tick(
-                    tick=self.core.tick,
-                    deadline_ns=deadline,
-                    lateness_ns=lateness,
-                    missed=self.missed,
-                    motion_ready=self.core.ready,
-                    groups=self.core.group_ticks(),
-                )
-                states = [self.core.queue_state(g) for g in range(len(self.queue_pubs))]
+            self.drain()
+            self.core.step()
+            tick = Tick(
+                tick=self.core.tick,
+                deadline_ns=deadline,
+                lateness_ns=lateness,
+                missed=self.missed,
+                motion_ready=self.core.ready,
+                groups=self.core.group_ticks(),
+            )
             self.tick_pub.put(encode(tick))
-            self._publish_queues(states)
+            self._publish_queues()
             self.lateness.add(lateness / 1000)
             if self.core.tick % self.ticks_per_second == 0:
-                self._publish_metrics(realtime, [state.depth for state in states])
+                self._publish_metrics(realtime, [g.depth for g in tick.groups])
             deadline += period
         log.info(
             "stopped after %d ticks, %d missed, realtime=%s", self.core.tick, self.missed, realtime

@@ -132,7 +132,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         motion_server.on_change = io_server.on_change = report_connections
         stats = GatewayStats(len(cell.groups))
         motion_server.observe = io_server.observe = stats.observe
-        metrics_pub = publisher(ctx.session, ctx.keys.metrics("gateway"))
+        metrics_pub = publisher(ctx.session, ctx.keys.metrics("gateway"), latest=True)
         for server in (motion_server, io_server, state_server):
             server.start()
         log.info("listening on %s:%d-%d (%s-endian)", host, port_base, port_base + 2, byte_order)

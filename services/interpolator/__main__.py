@@ -58,7 +58,7 @@ def run(ctx: ServiceContext, group_index: int) -> None:
             keys.controller_status, inbox.feed("status", payload_of(Decoder(ControllerStatus)))
         ),
     ]
-    metrics_pub = publisher(session, keys.group_metrics(group_index))
+    metrics_pub = publisher(session, keys.group_metrics(group_index), latest=True)
     points: deque[Point] = deque()
     published_slot = None
     next_refresh = 0.0

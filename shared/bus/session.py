@@ -25,6 +25,7 @@ log = logging.getLogger(__name__)
 T = TypeVar("T")
 
 LEASE_MS = 1000
+BLOCK_WAIT_US = 500_000
 """Transport lease: a hung (not crashed) process is noticed after about this long (§1.4)."""
 
 
@@ -41,6 +42,12 @@ def bus_config(
     config.insert_json5("listen/endpoints", json.dumps(list(listen)))
     config.insert_json5("scouting/multicast/enabled", "false")
     config.insert_json5("transport/link/tx/lease", str(LEASE_MS))
+    # A link whose queue stays full this long is closed: one stalled observer (a suspended
+    # `motocell watch`, a slow callback) must not hold back the cell's BLOCK streams for
+    # Zenoh's default 5 s.
+    config.insert_json5(
+        "transport/link/tx/queue/congestion_control/block/wait_before_close", str(BLOCK_WAIT_US)
+    )
     if wait and connect:
         # Services wait for the router instead of failing at once, so start order does not
         # matter; command-line tools (wait=False) fail at once instead.
@@ -65,12 +72,18 @@ def open_session(
         ) from exc
 
 
-def publisher(session: zenoh.Session, key: str, *, realtime: bool = False) -> zenoh.Publisher:
-    """A reliable publisher that blocks rather than drops (the default DROP loses data under
-    load even on loopback, zenoh-facts §3)."""
+def publisher(
+    session: zenoh.Session, key: str, *, realtime: bool = False, latest: bool = False
+) -> zenoh.Publisher:
+    """Streams whose every sample matters (points, increments, status, slots, commands) block
+    rather than drop: DROP loses data under load even on loopback (zenoh-facts §3).
+    ``latest`` streams (ticks, queue states, state, metrics) are superseded by the next sample
+    within milliseconds, so they drop instead: a slow observer then loses samples, never
+    stalls the cell."""
+    congestion = zenoh.CongestionControl.DROP if latest else zenoh.CongestionControl.BLOCK
     return session.declare_publisher(
         key,
-        congestion_control=zenoh.CongestionControl.BLOCK,
+        congestion_control=congestion,
         priority=zenoh.Priority.REAL_TIME if realtime else zenoh.Priority.DATA,
     )
 
