@@ -131,7 +131,7 @@ def running_cell(
         command += ["--skip", service]
     if config:
         command += ["--config", config]
-    env = {**os.environ, "MOTOCELL_LOG": "WARNING"}
+    env = {**os.environ, "MOTOCELL_LOG": os.environ.get("MOTOCELL_TEST_LOG", "WARNING")}
     process = subprocess.Popen(command, cwd=REPO, env=env)
     running = RunningCell(cell, "127.0.0.1", port_base, endpoint, process)
     started: set[int] = set()

@@ -15,13 +15,14 @@ from services.controller.io_table import IoTable
 from services.controller.model import OT_ROS_READY, START_TIMEOUT_S, Controller
 from shared.bus.keys import service_of_alive
 from shared.bus.schemas import CommandReply, CommandRequest, Decoder, Tick, encode
-from shared.bus.session import Inbox, Liveness, answer, command_of, payload_of, publisher
+from shared.bus.session import Inbox, Liveness, answer, command_of, publisher
 from shared.protocol.constants import InvalidSubcode, Result
 from shared.service import ServiceContext, argument_parser, required_alive_keys, running_service
 
 log = logging.getLogger("controller")
 
 _request_decoder = Decoder(CommandRequest)
+_tick_decoder = Decoder(Tick)
 
 POLL_S = 0.01
 """MotoROS polls the controller status every 10 ms (§0)."""
@@ -103,11 +104,16 @@ class ControllerService:
             self.entities.append(
                 session.declare_subscriber(keys.controller_cmd(notice), self.inbox.feed(notice))
             )
-        self.entities.append(
-            session.declare_subscriber(
-                keys.executor_tick, self.inbox.feed("tick", payload_of(Decoder(Tick)))
-            )
-        )
+        # Only the newest tick matters (the positions to hand a restarted executor), so it
+        # is kept by the callback instead of waking the loop 250 times a second.
+        self.entities.append(session.declare_subscriber(keys.executor_tick, self._keep_tick))
+
+    def _keep_tick(self, sample: zenoh.Sample) -> None:
+        try:
+            tick = _tick_decoder.decode(sample.payload.to_bytes())
+        except msgspec.DecodeError:
+            return
+        self.command_pulses = [group.command_pulses for group in tick.groups]
 
     def reply(self, query: zenoh.Query, reply: CommandReply) -> None:
         """Replies wait until the status they depend on has been published (see ``run``)."""
@@ -148,12 +154,19 @@ class ControllerService:
         self.model.set_missing_services(missing)
 
     def handle(self, tag: str, item: object) -> None:
+        """One command, fault or notice. A payload that does not decode gets INVALID (queries)
+        or is logged (notices); it never stops the controller and its state."""
+        try:
+            self._handle(tag, item)
+        except (msgspec.DecodeError, msgspec.ValidationError, IndexError) as exc:
+            log.warning("%s: bad payload ignored: %s", tag, exc)
+            if isinstance(item, zenoh.Query):
+                self.reply(item, CommandReply(Result.INVALID, InvalidSubcode.DATA, detail=str(exc)))
+
+    def _handle(self, tag: str, item: object) -> None:
         now = time.monotonic()
         if tag == "alive":
             self._update_missing()
-        elif tag == "tick":
-            assert isinstance(item, Tick)
-            self.command_pulses = [g.command_pulses for g in item.groups]
         elif tag == "connections":
             assert isinstance(item, zenoh.Sample)
             counts = _request_decoder.decode(item.payload.to_bytes()).args

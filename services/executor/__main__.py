@@ -15,6 +15,7 @@ import time
 from collections.abc import Sequence
 from typing import Any
 
+import msgspec
 import numpy as np
 import zenoh
 
@@ -29,7 +30,7 @@ from shared.bus.schemas import (
     encode,
 )
 from shared.bus.session import answer, call, command_of, publisher
-from shared.config import Cell
+from shared.config import Cell, Group
 from shared.metrics import Window
 from shared.motion.kinematics import AxisMap
 from shared.protocol.constants import Result
@@ -38,6 +39,8 @@ from shared.service import ServiceContext, argument_parser, running_service
 log = logging.getLogger("executor")
 
 RT_PRIORITY = 50
+QUEUE_HEARTBEAT_TICKS = 25
+"""An unchanged queue state is still published every 100 ms (at 4 ms), for late joiners."""
 CHANNEL_DEPTH = 10_000
 """Zenoh-side queue per key. A full channel would stall Zenoh's network thread; four groups
 at 250 Hz never come near it, since every tick drains them all."""
@@ -64,6 +67,16 @@ def enter_realtime() -> bool:
         return False
     log.info("clock thread runs SCHED_FIFO priority %d", RT_PRIORITY)
     return True
+
+
+def max_increments(group: Group, period_s: float) -> list[int]:
+    """Pulses per period each Motoman axis can take: the speed limit MotoROS derives from
+    the controller's maximum increment, turned back into pulses; one more for the rounding of
+    absolute positions to whole pulses. Unused axes take none."""
+    axis_map = AxisMap(group)
+    speeds = axis_map.max_speed_ros[axis_map.ros_index_of_moto]
+    limits = np.ceil(speeds * axis_map.pulses_per_unit_moto * period_s).astype(np.int64) + 1
+    return axis_map.pad_moto(limits)
 
 
 def initial_pulses(ctx: ServiceContext) -> list[list[int]]:
@@ -98,7 +111,11 @@ class Executor:
         self.ctx = ctx
         cell: Cell = ctx.cell
         self.period_ns = cell.period_ns
-        self.core = ExecutorCore(initial_pulses(ctx), first_epoch=time.time_ns() // 1000)
+        self.core = ExecutorCore(
+            initial_pulses(ctx),
+            first_epoch=time.time_ns() // 1000,
+            max_increments=[max_increments(group, cell.period_s) for group in cell.groups],
+        )
         session = ctx.session
         keys = ctx.keys
         self.tick_pub = publisher(session, keys.executor_tick, realtime=True, latest=True)
@@ -117,15 +134,31 @@ class Executor:
         self.stop_queries = session.declare_queryable(keys.executor_cmd("stop"), _channel())
         self.count_queries = session.declare_queryable(keys.executor_cmd("queue_count"), _channel())
         self.controller_present = False
+        self._queue_content: list[tuple[int, int, int, tuple[int, ...], bool] | None] = [
+            None
+        ] * len(cell.groups)
         self.missed = 0
         self.status_ready = False
         self.ticks_per_second = max(1, round(1e9 / cell.period_ns))
         self.lateness = Window(self.ticks_per_second)
         self.metrics_pub = publisher(session, keys.metrics("executor"), latest=True)
 
-    def _publish_queues(self) -> None:
+    def _publish_queues(self, force: bool = False) -> None:
+        """Each group's queue state when it changed (every tick while moving), else at the
+        heartbeat: idle interpolators and gateways need not wake 250 times a second."""
+        heartbeat = force or self.core.tick % QUEUE_HEARTBEAT_TICKS == 0
         for group, pub in enumerate(self.queue_pubs):
-            pub.put(encode(self.core.queue_state(group)))
+            state = self.core.queue_state(group)
+            content = (
+                state.epoch,
+                state.received,
+                state.depth,
+                tuple(state.command_pulses),
+                state.ready,
+            )
+            if heartbeat or content != self._queue_content[group]:
+                self._queue_content[group] = content
+                pub.put(encode(state))
 
     def drain(self) -> None:
         """Everything that arrived since the last tick, in an order that keeps the invariants:
@@ -136,18 +169,25 @@ class Executor:
         while (sample := self.statuses.try_recv()) is not None:
             # Every status is applied in order, so a not-ready blip between two ticks still
             # clears the rings.
-            self.status_ready = _status.decode(sample.payload.to_bytes()).motion_ready
+            try:
+                self.status_ready = _status.decode(sample.payload.to_bytes()).motion_ready
+            except msgspec.DecodeError:
+                log.warning("undecodable controller status ignored")
+                continue
             self.core.set_ready(self._ready())
         self.core.set_ready(self._ready())
         for group, channel in enumerate(self.batches):
             while (sample := channel.try_recv()) is not None:
-                outcome = self.core.accept(group, _batch.decode(sample.payload.to_bytes()))
-                if outcome in (BatchOutcome.GAP, BatchOutcome.OVERFLOW):
-                    self._increment_path_broken(group, outcome)
+                try:
+                    outcome = self.core.accept(group, _batch.decode(sample.payload.to_bytes()))
+                except msgspec.DecodeError:
+                    outcome = BatchOutcome.MALFORMED
+                if outcome in (BatchOutcome.GAP, BatchOutcome.OVERFLOW, BatchOutcome.MALFORMED):
+                    self._increment_path_broken(group, f"increment batch {outcome.value}")
         while (query := self.stop_queries.try_recv()) is not None:
             # STOP_MOTION: cleared before this tick applies anything.
             self.core.clear_all()
-            self._publish_queues()
+            self._publish_queues(force=True)
             answer(query, CommandReply(Result.SUCCESS))
         while (query := self.count_queries.try_recv()) is not None:
             group = command_of(query).group
@@ -159,12 +199,14 @@ class Executor:
     def _ready(self) -> bool:
         return self.status_ready and self.controller_present
 
-    def _increment_path_broken(self, group: int, outcome: BatchOutcome) -> None:
-        log.error("group %d: increment batch %s; stopping motion", group, outcome.value)
+    def _increment_path_broken(self, group: int, reason: str) -> None:
+        """Stop everything and have the controller raise the IncMove error (NOT_READY 5012
+        until START_TRAJ_MODE), as MotoROS 1.9.5 does when an increment is rejected."""
+        log.error("group %d: %s; stopping motion", group, reason)
         self.core.clear_all()
         self.ctx.session.put(
             self.ctx.keys.controller_cmd("incmove_error"),
-            encode(CommandReply(Result.FAILURE, group, detail=outcome.value)),
+            encode(CommandReply(Result.FAILURE, group, detail=reason)),
         )
 
     def _publish_metrics(self, realtime: bool, depths: list[int]) -> None:
@@ -200,7 +242,8 @@ class Executor:
                 # Catch up instead of skipping: simulated motion never slips, the miss is counted.
                 self.missed += 1
             self.drain()
-            self.core.step()
+            for group in self.core.step():
+                self._increment_path_broken(group, "refused by the motion system")
             tick = Tick(
                 tick=self.core.tick,
                 deadline_ns=deadline,

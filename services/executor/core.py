@@ -40,6 +40,13 @@ class BatchOutcome(Enum):
     """Entries are missing before this batch: motion must stop (DESIGN invariant)."""
     OVERFLOW = "overflow"
     NOT_READY = "not ready"
+    MALFORMED = "malformed"
+    """Sizes that do not add up: treated like a gap, never allowed to crash the clock."""
+
+
+BARRIER_TIMEOUT_TICKS = 250
+"""How long a synchronized start waits for a partner group (1 s at 4 ms). Longer means the
+partner's increments are not coming: the increment path is broken."""
 
 
 @dataclass
@@ -50,8 +57,17 @@ class GroupRing:
 
 
 class ExecutorCore:
-    def __init__(self, command_pulses: list[list[int]], first_epoch: int) -> None:
+    def __init__(
+        self,
+        command_pulses: list[list[int]],
+        first_epoch: int,
+        max_increments: list[list[int]] | None = None,
+    ) -> None:
+        """``max_increments``: per group and Motoman axis, the most pulses the motion system
+        takes in one period (None: no limit)."""
         self.command = [list(p) for p in command_pulses]
+        self.max_increments = max_increments
+        self._held_ticks = [0] * len(command_pulses)
         self.rings = [GroupRing(first_epoch + g) for g in range(len(command_pulses))]
         self._next_epoch = first_epoch + len(command_pulses)
         self.ready = False
@@ -67,6 +83,14 @@ class ExecutorCore:
             # the interpolator drop the rest of this trajectory instead of leaving a gap.
             self._clear(ring)
             return BatchOutcome.NOT_READY
+        if (
+            batch.count < 0
+            or batch.first_seq < 0
+            or len(batch.increments) != batch.count * MAX_AXES * 4
+            or len(batch.times_ns) not in (0, batch.count)
+            or any(not 0 <= index < batch.count for index in batch.partial)
+        ):
+            return BatchOutcome.MALFORMED
         if batch.first_seq + batch.count <= ring.received:
             return BatchOutcome.DUPLICATE
         if batch.first_seq != ring.received:
@@ -106,18 +130,37 @@ class ExecutorCore:
             self.clear_all()
         self.ready = ready
 
-    def step(self) -> None:
+    def step(self) -> list[int]:
         """One interpolation period: at most one (merged) increment per group, all applied
-        together, like MotoROS's single IncMove call per tick (§5.3)."""
+        together in one call, like MotoROS's single IncMove call per tick (§5.3).
+
+        Returns the groups whose increments the motion system refused (beyond an axis's
+        maximum per period) or whose synchronized start waited too long. Then nothing is
+        applied this tick, as a rejected IncMove call moves no group; the caller stops motion
+        (MotoROS 1.9.5: NOT_READY 5012 until START_TRAJ_MODE)."""
         self.tick += 1
         held = self._waiting_for_partners()
-        for group, ring in enumerate(self.rings):
-            increment = self._pop_period(ring) if self.ready and group not in held else ZERO
+        broken = [g for g in held if self._held_ticks[g] > BARRIER_TIMEOUT_TICKS]
+        increments = [
+            self._pop_period(ring) if self.ready and group not in held else ZERO
+            for group, ring in enumerate(self.rings)
+        ]
+        broken += [g for g, inc in enumerate(increments) if not self._within_limits(g, inc)]
+        if broken:
+            increments = [ZERO] * len(self.rings)
+        for group, increment in enumerate(increments):
             self.last_increment[group] = increment
             if increment is not ZERO:
                 command = self.command[group]
                 for axis in range(MAX_AXES):
                     command[axis] += increment[axis]
+        return broken
+
+    def _within_limits(self, group: int, increment: tuple[int, ...]) -> bool:
+        if self.max_increments is None or increment is ZERO:
+            return True
+        limits = self.max_increments[group]
+        return all(abs(inc) <= limit for inc, limit in zip(increment, limits, strict=True))
 
     def _waiting_for_partners(self) -> set[int]:
         """Groups whose next entry starts a synchronized (2016) trajectory while a partner
@@ -126,13 +169,15 @@ class ExecutorCore:
         held = set()
         for group, ring in enumerate(self.rings):
             head = ring.entries[0] if ring.entries else None
-            if head is None or not head.sync_id:
+            if head is None or not head.sync_id or not self.ready:
+                self._held_ticks[group] = 0
                 continue
             for partner in head.sync_groups:
                 entries = self.rings[partner].entries if 0 <= partner < len(self.rings) else ()
                 if not entries or entries[0].sync_id != head.sync_id:
                     held.add(group)
                     break
+            self._held_ticks[group] = self._held_ticks[group] + 1 if group in held else 0
         return held
 
     @staticmethod
@@ -163,6 +208,7 @@ class ExecutorCore:
             capacity=RING_CAPACITY,
             command_pulses=list(self.command[group]),
             tick=self.tick,
+            ready=self.ready,
         )
 
     def group_ticks(self) -> list[GroupTick]:

@@ -5,7 +5,10 @@ from __future__ import annotations
 import logging
 import threading
 import time
+from collections import deque
 from collections.abc import Sequence
+
+import zenoh
 
 from services.gateway.cell_view import CellView, decode_state
 from services.gateway.io import IoHandler
@@ -14,7 +17,7 @@ from services.gateway.motion import Answer, MotionHandler
 from services.gateway.tcp import RequestServer, StateServer, listen
 from shared.bus.schemas import CommandRequest, State
 from shared.bus.schemas import encode as encode_payload
-from shared.bus.session import Inbox, publisher
+from shared.bus.session import publisher
 from shared.protocol.codec import ByteOrder, Role, encode
 from shared.protocol.constants import MAX_JOINTS, MsgType, ValidFields
 from shared.protocol.errors import PeerProtocolError
@@ -69,6 +72,28 @@ def state_frames(state: State, byte_order: ByteOrder) -> bytes:
     return b"".join(encode(m, byte_order, Role.CONTROLLER) for m in messages)
 
 
+class StateFeed:
+    """The newest few state samples, undecoded: decoding waits until a state client is there
+    to read them, and after a stall the clients get the latest state, not a backlog."""
+
+    def __init__(self, keep: int = 4) -> None:
+        self._samples: deque[bytes] = deque(maxlen=keep)
+        self._arrived = threading.Condition()
+
+    def keep(self, sample: zenoh.Sample) -> None:
+        with self._arrived:
+            self._samples.append(sample.payload.to_bytes())
+            self._arrived.notify()
+
+    def take(self, timeout: float) -> list[bytes]:
+        with self._arrived:
+            if not self._samples:
+                self._arrived.wait(timeout)
+            samples = list(self._samples)
+            self._samples.clear()
+        return samples
+
+
 def _motion_error(error: PeerProtocolError) -> Message:
     return invalid_reply(error)
 
@@ -113,10 +138,8 @@ def main(argv: Sequence[str] | None = None) -> None:
             moving=view.moving,
         )
         state_server = StateServer(listen(host, port_base + 1), view.moving)
-        inbox = Inbox(maxsize=100)
-        subscriber = ctx.session.declare_subscriber(
-            ctx.keys.state, inbox.feed("state", decode_state)
-        )
+        states = StateFeed()
+        subscriber = ctx.session.declare_subscriber(ctx.keys.state, states.keep)
 
         def report_connections() -> None:
             """OT#893-#895 show connected motion, state and I/O clients (spec §4.2)."""
@@ -140,9 +163,9 @@ def main(argv: Sequence[str] | None = None) -> None:
         def fan_out() -> None:
             next_report = 0.0
             while not ctx.stop.is_set():
-                item = inbox.get(timeout=0.2)
-                if item is not None and state_server.client_count():
-                    state_server.broadcast(state_frames(item[1], byte_order))
+                for payload in states.take(timeout=0.2):
+                    if state_server.client_count():
+                        state_server.broadcast(state_frames(decode_state(payload), byte_order))
                 if time.monotonic() >= next_report:
                     # Also now and then: state clients leave silently, controllers restart.
                     report_connections()

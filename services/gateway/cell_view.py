@@ -49,6 +49,7 @@ class CellView:
         self.taken = [0] * groups
         self.published = [0] * groups
         self._instances = [0] * groups
+        self.trajectory_ids = [0] * groups
         self.not_ready_count = 0
         """Counts not-ready statuses seen; a trajectory started before a change is over."""
         self._slots_changed = threading.Condition()
@@ -71,11 +72,24 @@ class CellView:
                 self.not_ready_count += 1
             self.status = status
             self._status_changed.notify_all()
+        with self._slots_changed:
+            if "executor/0" in status.missing_services:
+                # Its rings and epochs died with it; wait for the next executor's.
+                self.queues = [None] * len(self.queues)
+            for service in status.missing_services:
+                kind, _, group = service.partition("/")
+                if kind == "interpolator" and group.isdigit() and int(group) < len(self.taken):
+                    # Its points died with it; whichever process comes next is a new instance
+                    # that numbering must wait for.
+                    self._instances[int(group)] = 0
 
     def _on_queue(self, sample: zenoh.Sample) -> None:
         group = group_of(str(sample.key_expr))
         if 0 <= group < len(self.queues):
-            self.queues[group] = _queue_decoder.decode(sample.payload.to_bytes())
+            queue = _queue_decoder.decode(sample.payload.to_bytes())
+            with self._slots_changed:
+                self.queues[group] = queue
+                self._slots_changed.notify_all()
 
     def _on_slot(self, sample: zenoh.Sample) -> None:
         group = group_of(str(sample.key_expr))
@@ -88,6 +102,7 @@ class CellView:
                     self._instances[group] = slot.instance
                     self.published[group] = slot.taken_id
                 self.taken[group] = slot.taken_id
+                self.trajectory_ids[group] = slot.trajectory_id
                 self._slots_changed.notify_all()
 
     def readiness(self) -> tuple[bool, int]:
@@ -96,7 +111,19 @@ class CellView:
         status = self.status
         if status is None or self._controller_key not in self._alive.present():
             return False, int(NotReadySubcode.INC_MOVE_ERROR)
+        if status.motion_ready and not self._executor_and_interpolators_ready():
+            # An interpolator not heard from yet: its points could not be numbered.
+            return False, int(NotReadySubcode.INC_MOVE_ERROR)
         return status.motion_ready, status.not_ready_subcode
+
+    def wait_slots_known(self, timeout: float) -> bool:
+        with self._slots_changed:
+            return self._slots_changed.wait_for(self._executor_and_interpolators_ready, timeout)
+
+    def _executor_and_interpolators_ready(self) -> bool:
+        """Every interpolator heard from, and the executor itself taking increments (it learns
+        of readiness a little after the controller decides it)."""
+        return all(self._instances) and all(q is not None and q.ready for q in self.queues)
 
     def slot_free(self, group: int) -> bool:
         return self.taken[group] >= self.published[group]
@@ -111,11 +138,25 @@ class CellView:
             self.slot_free(g) for g in range(len(self.taken))
         )
 
-    def publish_point(self, group: int, point: Point) -> None:
-        """Publish ``point`` (its ``point_id`` is assigned here) to the group's interpolator."""
+    def publish_point(self, group: int, point: Point) -> int:
+        """Publish ``point`` to the group's interpolator; returns the id given to it."""
         self.published[group] += 1
-        numbered = msgspec.structs.replace(point, point_id=self.published[group])
+        queue = self.queues[group]
+        numbered = msgspec.structs.replace(
+            point, point_id=self.published[group], epoch=queue.epoch if queue else 0
+        )
         self._point_pubs[group].put(encode(numbered))
+        return self.published[group]
+
+    def slot_known(self, group: int) -> bool:
+        """Whether the group's interpolator has been heard from. Until then the point numbering
+        cannot be matched to it (a restarted gateway starts at 0), so nothing is accepted."""
+        return self._instances[group] != 0
+
+    def trajectory_lost(self, group: int, start_id: int) -> bool:
+        """The interpolator has taken the sequence-0 point ``start_id`` and no longer runs the
+        trajectory it began (its ring was cleared, e.g. the executor lost the controller)."""
+        return self.taken[group] >= start_id and self.trajectory_ids[group] != start_id
 
     def wait_slots_free(self, timeout: float) -> bool:
         deadline = time.monotonic() + timeout
@@ -149,5 +190,5 @@ class CellView:
 _state_decoder = Decoder(State)
 
 
-def decode_state(sample: zenoh.Sample) -> State:
-    return _state_decoder.decode(sample.payload.to_bytes())
+def decode_state(payload: bytes) -> State:
+    return _state_decoder.decode(payload)

@@ -14,9 +14,10 @@ from services.gateway.points import (
     PointData,
     Verdict,
     check_fields,
+    check_positions,
+    check_speeds,
     check_start,
     check_time_limit,
-    check_values,
     invalid,
 )
 from shared.bus.schemas import CommandRequest, Point
@@ -55,6 +56,9 @@ STOP_WAIT_S = 0.05
 """How long STOP_MOTION waits for every pending point to be dropped. MotoROS polls 20 x 1 ms
 (§3.3); one Zenoh hop here can take longer than that on a loaded 2-core machine."""
 START_TRAJ_MODE_TIMEOUT_S = 6.0
+SLOTS_WAIT_S = 1.0
+"""Interpolators report their slot at start and every 0.5 s; one just (re)started may not
+have been heard from yet when the controller is ready."""
 """The controller itself gives up after 5 s (§7.3); this only bounds a lost reply."""
 
 
@@ -77,6 +81,10 @@ class GroupTrajectory:
 
     active: bool = False
     not_ready_count: int = 0
+    start_id: int = 0
+    """The point id of the sequence-0 point that began it."""
+    segments: int = 0
+    """Segments published since sequence 0."""
     last_sequence: int = -1
     last_time: float = 0.0
 
@@ -136,9 +144,12 @@ class MotionHandler:
     # -- trajectory points ------------------------------------------------------------------
     def _track(self, group: int) -> GroupTrajectory:
         track = self.trajectories[group]
-        if track.active and track.not_ready_count != self.view.not_ready_count:
-            # Motion-ready dropped since the trajectory began: the queues were cleared, so the
-            # client has to start again with a sequence-0 point (§2.5 spec, §3.3).
+        if track.active and (
+            track.not_ready_count != self.view.not_ready_count
+            or self.view.trajectory_lost(group, track.start_id)
+        ):
+            # Motion-ready dropped since the trajectory began, or the interpolator dropped it
+            # (its ring was cleared): the client has to start again with sequence 0 (§3.3).
             track.active = False
         return track
 
@@ -152,39 +163,43 @@ class MotionHandler:
         )
         if not 0 <= data.group_no < self.groups:
             return invalid(InvalidSubcode.GROUPNO)
+        if not self.view.slot_known(data.group_no):
+            return int(Result.NOT_READY), int(NotReadySubcode.INC_MOVE_ERROR)
         verdict = check_fields(data) or check_time_limit(data)
-        if verdict is None:
-            verdict = self._check_sequenced(data, body.sequence, busy_check_on_start=False)
-        if verdict == OK and not self._duplicate(data, body.sequence):
+        if verdict is not None:
+            return verdict
+        if body.sequence > 0 and self._duplicate(data, body.sequence):
+            # motoman_driver resends a point after a failed receive (client doc, step 4).
+            return OK
+        # No BUSY check for sequence 0 on type 14 (§2.4 step 5): it waits in line instead.
+        if body.sequence > 0 and not self.view.slot_free(data.group_no):
+            return int(Result.BUSY), 0
+        verdict = self._check_point(data, body.sequence)
+        if verdict == OK:
             self._publish(data, body.sequence)
         return verdict
 
-    def _check_sequenced(
-        self, data: PointData, sequence: int, busy_check_on_start: bool
-    ) -> Verdict:
+    def _check_point(self, data: PointData, sequence: int) -> Verdict:
+        """The data checks after the slot check (§2.4 steps 5-7, §2.5 processing pass)."""
         group = data.group_no
         axis_map = self.maps[group]
-        track = self._track(group)
         if sequence < 0:
             return invalid(InvalidSubcode.SEQUENCE)
+        verdict = check_positions(data, axis_map)
+        if verdict is not None:
+            return verdict
         if sequence == 0:
-            if busy_check_on_start and not self.view.slot_free(group):
-                return int(Result.BUSY), 0
             command = self.view.command_pulses(group)
             if command is None:
                 return int(Result.NOT_READY), int(NotReadySubcode.INC_MOVE_ERROR)
-            return check_values(data, axis_map) or check_start(data, axis_map, command) or OK
+            return check_start(data, axis_map, command) or OK
+        track = self._track(group)
         if not track.active:
             # MotoROS would interpolate from a stale state after a stop; a trajectory must
             # (re)start with sequence 0 (spec §2.5: "a new trajectory will need to be
             # generated ... using the current position as a start position").
             return invalid(InvalidSubcode.SEQUENCE)
-        if self._duplicate(data, sequence):
-            # motoman_driver resends a point after a failed receive (client doc, step 4).
-            return OK
-        if not self.view.slot_free(group):
-            return int(Result.BUSY), 0
-        verdict = check_values(data, axis_map)
+        verdict = check_speeds(data, axis_map)
         if verdict is None and data.time <= track.last_time:
             # MotoROS silently drops a point whose time does not increase (§4.2); refusing it
             # tells the client its trajectory is wrong instead of skipping a waypoint.
@@ -206,11 +221,6 @@ class MotionHandler:
         group = data.group_no
         axes = self.maps[group].axes
         track = self.trajectories[group]
-        if sequence == 0:
-            track.active = True
-            track.not_ready_count = self.view.not_ready_count
-        track.last_sequence = sequence
-        track.last_time = data.time
         point = Point(
             0,
             sequence,
@@ -220,12 +230,22 @@ class MotionHandler:
             sync_id=sync[0],
             sync_groups=sync[1],
         )
-        self.view.publish_point(group, point)
+        point_id = self.view.publish_point(group, point)
+        if sequence == 0:
+            track.active = True
+            track.start_id = point_id
+            track.segments = 0
+            track.not_ready_count = self.view.not_ready_count
+        else:
+            track.segments += 1
+        track.last_sequence = sequence
+        track.last_time = data.time
 
     def point_ex(self, request: Message, body: JointTrajPtFullEx) -> Message:
-        """§2.5: all or nothing across the listed groups, one reply per message. Unlike MotoROS
-        every check (start position and speed included) runs before any group takes the point,
-        so groups can never be de-synchronised by a late failure."""
+        """§2.5: all or nothing across the listed groups, one reply per message (for the last
+        listed group). MotoROS's pre-check pass (group, BUSY, fields) comes first; then every
+        data check runs for every group before any group takes the point, so groups can never
+        be de-synchronised by a late failure, as they can in MotoROS."""
         last_group = body.groups[-1].group_no
         ready, subcode = self.view.readiness()
         if not ready:
@@ -234,26 +254,41 @@ class MotionHandler:
             PointData(g.group_no, g.valid_fields, g.time, g.positions, g.velocities)
             for g in body.groups
         ]
+        if all(self._duplicate(data, body.sequence) for data in blocks):
+            return motion_reply(request, Result.SUCCESS, 0, last_group)
         seen: set[int] = set()
         for data in blocks:
-            if not 0 <= data.group_no < self.groups or data.group_no in seen:
-                return motion_reply(request, Result.INVALID, InvalidSubcode.GROUPNO, data.group_no)
-            seen.add(data.group_no)
-            verdict = (
-                check_fields(data)
-                or check_time_limit(data)
-                or self._check_sequenced(data, body.sequence, busy_check_on_start=True)
-            )
+            group = data.group_no
+            if not 0 <= group < self.groups or group in seen:
+                return motion_reply(request, Result.INVALID, InvalidSubcode.GROUPNO, group)
+            seen.add(group)
+            if not self.view.slot_known(group):
+                return motion_reply(
+                    request, Result.NOT_READY, NotReadySubcode.INC_MOVE_ERROR, group
+                )
+            if not self.view.slot_free(group):
+                return motion_reply(request, Result.BUSY, 0, group)
+            verdict = check_fields(data)
+            if verdict is not None:
+                return motion_reply(request, *verdict, group)
+        for data in blocks:
+            # The 4 h limit is MotoROS's for type 14 only; its float-precision reason holds
+            # for 2016 as much, so we apply it to both.
+            verdict = check_time_limit(data) or self._check_point(data, body.sequence)
             if verdict != OK:
                 return motion_reply(request, *verdict, data.group_no)
         sync: tuple[int, list[int]] = (0, [])
-        if body.sequence == 0 and len(blocks) > 1:
-            # The groups of one 2016 trajectory start in the same tick (executor barrier).
+        if (
+            body.sequence > 0
+            and len(blocks) > 1
+            and all(self.trajectories[data.group_no].segments == 0 for data in blocks)
+        ):
+            # The first segment of a 2016 trajectory: its groups start in the same tick
+            # (executor barrier), so groups given the same times arrive in the same tick.
             self._sync_ids += 1
             sync = (self._sync_ids, [data.group_no for data in blocks])
         for data in blocks:
-            if not self._duplicate(data, body.sequence):
-                self._publish(data, body.sequence, sync)
+            self._publish(data, body.sequence, sync)
         return motion_reply(request, Result.SUCCESS, 0, last_group)
 
     # -- MOTO_MOTION_CTRL --------------------------------------------------------------------
@@ -291,6 +326,8 @@ class MotionHandler:
                 result, subcode = self._controller(
                     "start_traj_mode", timeout=START_TRAJ_MODE_TIMEOUT_S
                 )
+                if result == Result.SUCCESS and not self.view.wait_slots_known(SLOTS_WAIT_S):
+                    result = int(Result.FAILURE)
                 if result == Result.FAILURE:
                     result, subcode = int(Result.NOT_READY), self.view.readiness()[1]
                 return motion_reply(request, result, subcode)

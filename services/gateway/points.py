@@ -19,6 +19,9 @@ from shared.protocol.constants import REQUIRED_POINT_FIELDS, InvalidSubcode, Res
 MAX_TRAJECTORY_TIME_S = 14400.0
 """4 h: beyond this float32 seconds lose millisecond precision (§2.4 step 4, 3016)."""
 START_TOLERANCE_PULSES = 30
+MAX_ABS_PULSES = 2**30
+"""Positions whose pulses reach this are refused: differences of two such values still fit
+the int32 increments on the wire between interpolator and executor."""
 """Sequence-0 start position vs the *commanded* position, per axis (§2.6, since v1.8.2)."""
 
 Verdict = tuple[int, int]
@@ -54,21 +57,31 @@ def check_time_limit(point: PointData) -> Verdict | None:
     return None
 
 
-def check_values(point: PointData, axis_map: AxisMap) -> Verdict | None:
-    """Finite positions (3012) and velocities within the axis limits (3013).
-
-    MotoROS compares ``abs()`` of the *integer-truncated* velocity [quirk, §2.6]: 2.9 rad/s
-    passes a 2.0 limit there. We compare the real value; NaN is refused too (it would pass any
-    ``>`` comparison).
-    """
-    axes = axis_map.axes
-    positions = point.positions[:axes]
+def check_positions(point: PointData, axis_map: AxisMap) -> Verdict | None:
+    """Positions must be finite and convertible to pulses (3012). MotoROS does not check; a
+    huge value would overflow the pulse arithmetic (and dodge the start check) instead."""
+    positions = point.positions[: axis_map.axes]
     if not all(math.isfinite(p) for p in positions):
         return invalid(InvalidSubcode.DATA_POSITION)
+    pulses = np.abs(np.array(positions, dtype=np.float64)[axis_map.ros_index_of_moto])
+    if np.any(pulses * axis_map.pulses_per_unit_moto >= MAX_ABS_PULSES):
+        return invalid(InvalidSubcode.DATA_POSITION)
+    return None
+
+
+def _speed_ok(velocity: float, limit: float) -> bool:
+    """MotoROS compares ``abs()`` of the *integer-truncated* velocity [quirk, §2.6]: 2.9 rad/s
+    passes a 2.0 limit there. We compare the real value; NaN is refused too (it would pass
+    any ``>`` comparison)."""
+    return abs(velocity) <= limit
+
+
+def check_speeds(point: PointData, axis_map: AxisMap) -> Verdict | None:
+    """Velocities within the axis limits (3013), for points after the first."""
     for velocity, limit in zip(
-        point.velocities[:axes], axis_map.max_speed_ros.tolist(), strict=True
+        point.velocities[: axis_map.axes], axis_map.max_speed_ros.tolist(), strict=True
     ):
-        if not abs(velocity) <= limit:
+        if not _speed_ok(velocity, limit):
             return invalid(InvalidSubcode.DATA_SPEED)
     return None
 
@@ -76,9 +89,13 @@ def check_values(point: PointData, axis_map: AxisMap) -> Verdict | None:
 def check_start(
     point: PointData, axis_map: AxisMap, command_pulses: Sequence[int]
 ) -> Verdict | None:
-    """§2.6: every axis within 30 pulses of the commanded position (3011)."""
+    """§2.6, axis by axis as MotoROS loops: within 30 pulses of the *commanded* position
+    (3011), then that index's velocity within its limit (3013)."""
     requested = axis_map.ros_to_pulses(np.array(point.positions[: axis_map.axes], dtype=np.float64))
-    commanded = np.array(command_pulses[: axis_map.axes], dtype=np.int64)
-    if np.any(np.abs(requested - commanded) > START_TOLERANCE_PULSES):
-        return invalid(InvalidSubcode.DATA_START_POS)
+    limits = axis_map.max_speed_ros.tolist()
+    for axis in range(axis_map.axes):
+        if abs(int(requested[axis]) - command_pulses[axis]) > START_TOLERANCE_PULSES:
+            return invalid(InvalidSubcode.DATA_START_POS)
+        if not _speed_ok(point.velocities[axis], limits[axis]):
+            return invalid(InvalidSubcode.DATA_SPEED)
     return None

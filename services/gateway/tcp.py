@@ -157,6 +157,12 @@ class RequestServer:
                     continue
                 log.info("%s: %s:%d replaces the idle client", self.name, *peer)
                 self.current.close()
+                if self.current.thread.is_alive():
+                    # Its request is still being handled (e.g. a START_TRAJ_MODE waiting on a
+                    # controller): two clients must never be served at once.
+                    log.warning("%s: refused %s:%d, the old client is busy", self.name, *peer)
+                    client.close()
+                    continue
             log.info("%s: client %s:%d connected", self.name, *peer)
             thread = threading.Thread(
                 target=self._serve, args=(client, peer), name=f"{self.name}-client", daemon=True

@@ -38,6 +38,8 @@ class Feeder:
         self.sent = 0
         """Entries sent in the current epoch (the next batch's first_seq)."""
         self.trajectory: Trajectory | None = None
+        self.trajectory_id = 0
+        """The point id of the sequence-0 point behind ``trajectory``."""
         self.segment: Segment | None = None
         self.segment_point_id = 0
         self.segment_tool = 0
@@ -58,6 +60,7 @@ class Feeder:
             if self.trajectory is not None or self.segment is not None:
                 log.info("queue cleared by the executor; trajectory dropped")
             self.trajectory = None
+            self.trajectory_id = 0
             self.segment = None
             self.sync = None
             self.sent = 0
@@ -76,7 +79,10 @@ class Feeder:
         while self.queue is not None:
             if self.segment is not None:
                 room = self.room()
-                if room <= 0:
+                # Wait for room for a whole batch (or the rest of the segment): with a full
+                # ring draining one entry a tick, sending whatever fits would mean a message
+                # per entry.
+                if room < min(MAX_BATCH, self.segment.remaining):
                     if not self.waiting_for_room:
                         self.waiting_for_room = True
                         self.busy_episodes += 1
@@ -89,6 +95,8 @@ class Feeder:
                 continue
             if not points:
                 return
+            if points[0].epoch > self.queue.epoch:
+                return  # checked against a ring this interpolator has not heard of yet
             self._take(points.popleft())
 
     def _take(self, point: Point) -> None:
@@ -101,7 +109,8 @@ class Feeder:
         )
         if point.sequence == 0:
             self.trajectory = Trajectory(self.axis_map, self.period_ns, knot, self._start_pulses())
-            self.sync = (point.sync_id, point.sync_groups) if point.sync_groups else None
+            self.trajectory_id = point.point_id
+            self.sync = None
             self.taken_id = point.point_id
             self.points_accepted += 1
             return
@@ -120,6 +129,8 @@ class Feeder:
             self.taken_id = point.point_id
             return
         self.segment_point_id = point.point_id
+        # The first segment of a 2016 trajectory starts in step with its partner groups.
+        self.sync = (point.sync_id, point.sync_groups) if point.sync_groups else None
         # The tool is captured when a segment is interpolated, never changed mid-segment
         # (motoros1-behaviour.md §2.7, SELECT_TOOL).
         self.segment_tool = self.tool
@@ -157,4 +168,11 @@ class Feeder:
 
     def slot(self) -> Slot:
         epoch = self.queue.epoch if self.queue is not None else 0
-        return Slot(self.taken_id, epoch, self.points_accepted, self.increments_sent, self.instance)
+        return Slot(
+            self.taken_id,
+            epoch,
+            self.points_accepted,
+            self.increments_sent,
+            self.instance,
+            self.trajectory_id,
+        )

@@ -58,8 +58,12 @@ class Point(msgspec.Struct, array_like=True, frozen=True):
     velocities: list[float]
     sync_id: int = 0
     sync_groups: list[int] = msgspec.field(default_factory=list)
-    """On a 2016 sequence-0 point: an id the gateway gives that message, and all its groups.
-    Their trajectories must start in the same tick (see ``IncrementBatch.sync_groups``)."""
+    """On the first segment of a 2016 trajectory: an id the gateway gives that message, and
+    all its groups. They must start in the same tick (see ``IncrementBatch.sync_groups``)."""
+    epoch: int = 0
+    """The executor ring epoch the gateway checked the point against. The interpolator does
+    not take the point before it has seen that epoch itself, so a point can never be built
+    on a ring that is about to be (or has just been) replaced."""
 
 
 class Slot(msgspec.Struct, array_like=True, frozen=True):
@@ -72,6 +76,8 @@ class Slot(msgspec.Struct, array_like=True, frozen=True):
     increments_sent: int = 0
     instance: int = 0
     """Which interpolator process this is; a new one has taken none of the earlier points."""
+    trajectory_id: int = 0
+    """The point id of the sequence-0 point behind the trajectory it runs; 0 for none."""
 
 
 class IncrementBatch(msgspec.Struct, array_like=True, frozen=True):
@@ -112,6 +118,9 @@ class QueueState(msgspec.Struct, array_like=True, frozen=True):
     capacity: int
     command_pulses: list[int]
     tick: int
+    ready: bool = False
+    """Whether the executor itself takes increments now (it learns readiness from the
+    controller a little after the controller decides it); the gateway waits for it."""
 
 
 class GroupTick(msgspec.Struct, array_like=True, frozen=True):

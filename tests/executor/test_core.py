@@ -8,9 +8,15 @@ from __future__ import annotations
 import struct
 from collections.abc import Sequence
 
+import msgspec
 import pytest
 
-from services.executor.core import RING_CAPACITY, BatchOutcome, ExecutorCore
+from services.executor.core import (
+    BARRIER_TIMEOUT_TICKS,
+    RING_CAPACITY,
+    BatchOutcome,
+    ExecutorCore,
+)
 from shared.bus.schemas import GroupTick, IncrementBatch, QueueState
 
 FIRST_EPOCH = 100
@@ -88,9 +94,10 @@ def test_queue_state_numbers_follow_accepts_and_steps() -> None:
         capacity=200,
         command_pulses=[12, 20, 30, 40, 50, 60, 0, 0],
         tick=2,
+        ready=True,
     )
     assert core.queue_count(0) == 6
-    assert core.queue_state(1) == QueueState(101, 0, 0, 200, START[1], 2)
+    assert core.queue_state(1) == QueueState(101, 0, 0, 200, START[1], 2, ready=True)
     # The state is a snapshot: changing it does not move the robot.
     state.command_pulses[0] = 999
     assert core.command[0][0] == 12
@@ -319,3 +326,51 @@ def test_every_accepted_pulse_is_applied_exactly_once(rows: int) -> None:
     assert core.command[0] == [
         START[0][axis] + sum(row[axis] for row in increments) for axis in range(8)
     ]
+
+
+# -- what the motion system refuses -----------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "change",
+    [
+        {"count": 3},
+        {"count": -1},
+        {"first_seq": -5},
+        {"partial": [7]},
+        {"increments": b"\x00" * 31},
+        {"times_ns": [1, 2, 3]},
+    ],
+)
+def test_malformed_batches_are_refused_not_crashed_on(change: dict[str, object]) -> None:
+    core = ready_core()
+    good = batch(FIRST_EPOCH, 0, [unit(1), unit(2)])
+    bad = msgspec.structs.replace(good, **change)
+    assert core.accept(0, bad) is BatchOutcome.MALFORMED
+    assert core.queue_count(0) == 0
+    assert core.accept(0, good) is BatchOutcome.ACCEPTED
+
+
+def test_an_increment_beyond_the_axis_maximum_is_refused_and_nothing_moves() -> None:
+    limits = [[10] * 8 for _ in START]
+    core = ExecutorCore(START, FIRST_EPOCH, max_increments=limits)
+    core.set_ready(True)
+    for group in range(len(START)):
+        assert core.accept(group, batch(core.rings[group].epoch, 0, [unit(10), unit(11)]))
+    assert core.step() == []
+    assert core.last_increment[0][0] == 10
+    assert core.step() == list(range(len(START)))
+    assert all(increment[0] == 0 for increment in core.last_increment)
+    assert core.command[0][0] == START[0][0] + 10
+
+
+def test_a_synchronized_start_that_waits_too_long_is_reported() -> None:
+    core = ready_core()
+    start = msgspec.structs.replace(
+        batch(core.rings[0].epoch, 0, [unit(1)]), sync_id=5, sync_groups=[0, 1]
+    )
+    assert core.accept(0, start) is BatchOutcome.ACCEPTED
+    for _ in range(BARRIER_TIMEOUT_TICKS):
+        assert core.step() == []
+        assert core.last_increment[0][0] == 0
+    assert core.step() == [0]

@@ -13,10 +13,12 @@ from services.gateway.points import (
     OK,
     START_TOLERANCE_PULSES,
     PointData,
+    Verdict,
     check_fields,
+    check_positions,
+    check_speeds,
     check_start,
     check_time_limit,
-    check_values,
     invalid,
 )
 from shared.config import parse_cell
@@ -28,6 +30,11 @@ ARM7 = AxisMap(parse_cell({"groups": [{"name": "R1", "model": "arm7"}]}).groups[
 TRACK = AxisMap(parse_cell({"groups": [{"name": "B1", "model": "track1"}]}).groups[0])
 
 INVALID = 3
+
+
+def check_values(point: PointData, axis_map: AxisMap) -> Verdict | None:
+    """Positions, then speeds: the data checks of a point after the first."""
+    return check_positions(point, axis_map) or check_speeds(point, axis_map)
 
 
 def data(
@@ -172,3 +179,20 @@ def test_check_start_ignores_command_slots_beyond_the_group_axes() -> None:
         INVALID,
         3011,
     )
+
+
+def test_positions_beyond_the_pulse_range_are_refused() -> None:
+    # 1e15 rad would overflow the pulse arithmetic and slip past the start check.
+    assert check_positions(data(positions=[1e15, 0, 0, 0, 0, 0]), ARM6) == (INVALID, 3012)
+    assert check_positions(data(positions=[20000.0, 0, 0, 0, 0, 0]), ARM6) == (INVALID, 3012)
+    assert check_positions(data(positions=[1000.0, 0, 0, 0, 0, 0]), ARM6) is None
+
+
+def test_start_check_goes_axis_by_axis_like_motoros() -> None:
+    command = [0] * 8
+    # Axis 0 too fast, axis 3 too far: axis 0 is looked at first, so 3013.
+    point = data(positions=[0, 0, 0, 0.01, 0, 0], velocities=[100.0, 0, 0, 0, 0, 0])
+    assert check_start(point, ARM6, command) == (INVALID, 3013)
+    # Axis 0 too far, axis 3 too fast: 3011.
+    point = data(positions=[0.01, 0, 0, 0, 0, 0], velocities=[0, 0, 0, 100.0, 0, 0])
+    assert check_start(point, ARM6, command) == (INVALID, 3011)

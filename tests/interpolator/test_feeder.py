@@ -94,7 +94,7 @@ def test_sequence_0_is_taken_at_once_and_bases_on_the_command_pulses() -> None:
     h.queue(state(epoch=7, command=command))
     h.feed(point(1, 0, 0.0))
     assert h.sent == []
-    assert h.feeder.slot() == Slot(1, 7, 1, 0)
+    assert h.feeder.slot() == Slot(1, 7, 1, 0, trajectory_id=1)
     h.feed(point(2, 1, 0.1, X, [0.2] * 6))
     assert len(h.sent) == 1
     batch = h.sent[0]
@@ -103,7 +103,7 @@ def test_sequence_0_is_taken_at_once_and_bases_on_the_command_pulses() -> None:
     assert batch.times_ns == [PERIOD * k for k in range(1, 26)]
     assert rows(batch)[:, 6:].tolist() == [[0, 0]] * 25
     assert total(h.sent) == [p - c for p, c in zip(pulses(X), command, strict=True)]
-    assert h.feeder.slot() == Slot(2, 7, 2, 25)
+    assert h.feeder.slot() == Slot(2, 7, 2, 25, trajectory_id=1)
 
 
 def test_off_grid_waypoint_is_flagged_partial() -> None:
@@ -117,35 +117,37 @@ def test_off_grid_waypoint_is_flagged_partial() -> None:
     assert h.sent[1].times_ns == [12_000_000, 16_000_000, 20_000_000]
 
 
-def test_never_sends_more_than_the_ring_has_room_for() -> None:
+def test_never_sends_more_than_the_ring_has_room_for_and_sends_whole_batches() -> None:
     h = Harness()
     h.queue(state(depth=190))
-    # A 0.4 s segment: 100 entries. Room: 200 - 190 - 0 in flight = 10.
+    # A 0.4 s segment: 100 entries. Room: 200 - 190 - 0 in flight = 10, less than a batch.
     h.feed(point(1, 0, 0.0), point(2, 1, 0.4, X), point(3, 1, 0.5, Y))
-    assert [(b.first_seq, b.count) for b in h.sent] == [(0, 10)]
-    assert h.feeder.room() == 0
+    assert h.sent == []
+    assert h.feeder.room() == 10
     assert h.feeder.slot().taken_id == 1  # the segment is not fully sent: slot still busy
     assert [p.point_id for p in h.points] == [3]
 
-    # The executor saw the 10 entries and played 50: room 200 - 150 - 0 = 50.
-    h.queue(state(received=10, depth=150))
-    assert [(b.first_seq, b.count) for b in h.sent[1:]] == [(10, 50)]
+    # The executor played 40: room 200 - 150 - 0 = 50, a whole batch.
+    h.queue(state(received=0, depth=150))
+    assert [(b.first_seq, b.count) for b in h.sent] == [(0, 50)]
     assert h.feeder.slot().taken_id == 1
 
-    # Stale state: only 10 of the 60 entries sent are known to the executor (50 in flight).
-    h.queue(state(received=10, depth=150))
+    # Stale state: the 50 entries just sent are still in flight.
+    h.queue(state(received=0, depth=150))
     assert h.feeder.room() == 0
-    assert len(h.sent) == 2
-    h.feeder.on_queue(state(received=10, depth=120))
+    assert len(h.sent) == 1
+    h.queue(state(received=50, depth=170))
     assert h.feeder.room() == 30
-    h.feeder.progress(h.points)
-    assert h.feeder.room() == 0
-    assert [(b.first_seq, b.count) for b in h.sent[2:]] == [(60, 30)]
+    assert len(h.sent) == 1
+    h.queue(state(received=50, depth=150))
+    assert [(b.first_seq, b.count) for b in h.sent[1:]] == [(50, 50)]
+    # The segment is all sent: point 2 is taken, point 3's 25 entries wait for room.
+    assert h.feeder.slot().taken_id == 2
 
-    # Everything is in: the last 10 entries finish the segment, then point 3 is taken.
-    h.queue(state(received=90, depth=0))
-    assert [(b.first_seq, b.count) for b in h.sent[3:]] == [(90, 10), (100, 25)]
-    assert h.feeder.slot() == Slot(3, 1, 3, 125)
+    # The rest of a segment goes as soon as it fits, even when shorter than a batch.
+    h.queue(state(received=100, depth=175))
+    assert [(b.first_seq, b.count) for b in h.sent[2:]] == [(100, 25)]
+    assert h.feeder.slot() == Slot(3, 1, 3, 125, trajectory_id=1)
     assert total(h.sent) == pulses(Y)
 
 
@@ -187,9 +189,9 @@ def test_restart_before_anything_was_sent_uses_the_fresh_command_pulses() -> Non
 
 def test_epoch_change_drops_the_trajectory_and_frees_the_slot() -> None:
     h = Harness()
-    h.queue(state(epoch=4, depth=180))
+    h.queue(state(epoch=4, depth=150))
     h.feed(point(1, 0, 0.0), point(2, 1, 0.4, X))
-    assert [(b.first_seq, b.count) for b in h.sent] == [(0, 20)]
+    assert [(b.first_seq, b.count) for b in h.sent] == [(0, 50)]
     assert h.feeder.slot().taken_id == 1
 
     stopped_at = [1000, 2000, 3000, 4000, 5000, 6000, 0, 0]
@@ -197,19 +199,20 @@ def test_epoch_change_drops_the_trajectory_and_frees_the_slot() -> None:
     assert h.feeder.trajectory is None
     assert h.feeder.segment is None
     assert h.feeder.sent == 0
-    assert h.feeder.slot() == Slot(2, 9, 2, 20)  # point 2 counts as taken
+    # Point 2 counts as taken, and no trajectory runs any more.
+    assert h.feeder.slot() == Slot(2, 9, 2, 50, trajectory_id=0)
     assert len(h.sent) == 1  # nothing more of the dropped segment
 
     # A continuation without a new start point is dropped (and taken).
     h.feed(point(3, 1, 0.5, Y))
     assert len(h.sent) == 1
-    assert h.feeder.slot() == Slot(3, 9, 2, 20)
+    assert h.feeder.slot() == Slot(3, 9, 2, 50)
 
     # A new trajectory numbers its entries from 0 in the new epoch, based on the new command.
     h.feed(point(4, 0, 10.0, X), point(5, 1, 10.1, Y))
     assert [(b.epoch, b.first_seq, b.count) for b in h.sent[1:]] == [(9, 0, 25)]
     assert total(h.sent[1:]) == [y - s for y, s in zip(pulses(Y), stopped_at, strict=True)]
-    assert h.feeder.slot() == Slot(5, 9, 4, 45)
+    assert h.feeder.slot() == Slot(5, 9, 4, 75, trajectory_id=4)
 
 
 def test_epoch_change_while_idle_keeps_nothing() -> None:
@@ -236,7 +239,7 @@ def test_point_whose_time_does_not_increase_is_dropped_and_the_trajectory_kept()
     h.queue(state())
     h.feed(point(1, 0, 0.0), point(2, 1, 0.1, X), point(3, 1, 0.1, Y), point(4, 1, 0.05, Y))
     assert len(h.sent) == 1
-    assert h.feeder.slot() == Slot(4, 1, 2, 25)
+    assert h.feeder.slot() == Slot(4, 1, 2, 25, trajectory_id=1)
     h.feed(point(5, 1, 0.2, Y))
     assert [(b.first_seq, b.count) for b in h.sent] == [(0, 25), (25, 25)]
     assert h.sent[1].times_ns[0] == 104_000_000
