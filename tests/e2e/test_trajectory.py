@@ -8,12 +8,19 @@ from collections.abc import Iterator
 import numpy as np
 import pytest
 
-from shared.client import MotionClient, PlannedPoint, StateListener, smooth_move, stream
+from shared.client import (
+    MotionClient,
+    PlannedPoint,
+    StateListener,
+    smooth_move,
+    stream,
+    stream_messages,
+)
 from shared.motion.kinematics import AxisMap
 from shared.protocol.constants import Command, InvalidSubcode, MsgType, NotReadySubcode, Result
 from shared.protocol.messages import JointTrajPtFull, Message
 from shared.protocol.replies import traj_point
-from tests.cells import RunningCell, running_cell
+from tests.cells import RunningCell, running_cell, wait_until
 
 pytestmark = pytest.mark.cell
 
@@ -154,4 +161,38 @@ def test_servo_off_makes_the_cell_not_ready_until_start_traj_mode(
     assert (reply.result, reply.subcode) == (Result.FALSE, NotReadySubcode.SERVO_OFF)
     reply = motion.motion(traj_point(0, 0, 0.0, current_position(state, axes), (0.0,) * axes))
     assert (reply.result, reply.subcode) == (Result.NOT_READY, NotReadySubcode.SERVO_OFF)
+    enable(motion)
+
+
+def test_a_position_beyond_the_pulse_range_is_refused(
+    cell: RunningCell, motion: MotionClient, state: StateListener
+) -> None:
+    enable(motion)
+    here = list(current_position(state, 6))
+    here[0] = 1e15  # would overflow the pulse arithmetic (and dodge the start check)
+    reply = motion.motion(traj_point(0, 0, 0.0, tuple(here), (0.0,) * 6))
+    assert (reply.result, reply.subcode) == (Result.INVALID, InvalidSubcode.DATA_POSITION)
+
+
+def test_an_impossible_jump_is_refused_by_the_motion_system_and_nothing_moves(
+    cell: RunningCell, motion: MotionClient, state: StateListener
+) -> None:
+    """50 rad in 0.1 s with zero velocities passes the point checks (they look at the
+    velocities given), but its increments are far beyond the axis maximum: the motion system
+    refuses them, as a real controller does, and MotoROS reports NOT_READY 5012."""
+    axis_map = AxisMap(cell.cell.groups[0])
+    enable(motion)
+    here = current_position(state, 6)
+    before = axis_map.ros_to_pulses(np.array(here))
+    assert motion.motion(traj_point(0, 0, 0.0, here, (0.0,) * 6)).result == Result.SUCCESS
+    far = (here[0] + 50.0, *here[1:])
+    assert stream_messages(motion, [traj_point(0, 1, 0.1, far, (0.0,) * 6)]).points == 1
+
+    def refused() -> bool:
+        reply = motion.command(Command.CHECK_MOTION_READY)
+        return (reply.result, reply.subcode) == (Result.FALSE, NotReadySubcode.INC_MOVE_ERROR)
+
+    wait_until(refused, 5.0, "the IncMove error")
+    after = state.wait_for(lambda f: f.status is not None and f.status.motion_possible == 0, 5)
+    assert np.array_equal(axis_map.ros_to_pulses(np.array(after.groups[0].positions[:6])), before)
     enable(motion)
