@@ -9,7 +9,7 @@ import zenoh
 
 from shared.bus.keys import CellKeys
 from shared.bus.schemas import CommandRequest
-from shared.bus.session import call, open_session
+from shared.bus.session import call
 from shared.client import MotionClient, StateListener, smooth_move, stream
 from shared.protocol.constants import Command, NotReadySubcode, Result
 from shared.protocol.replies import motion_ctrl
@@ -22,13 +22,6 @@ pytestmark = pytest.mark.cell
 def cell() -> Iterator[RunningCell]:
     with running_cell() as running:
         yield running
-
-
-@pytest.fixture(scope="module")
-def bus(cell: RunningCell) -> Iterator[zenoh.Session]:
-    session = open_session("client", [cell.zenoh_endpoint], wait=False)
-    yield session
-    session.close()
 
 
 @pytest.fixture

@@ -14,7 +14,6 @@ import pytest
 import zenoh
 
 from shared.bus.keys import CellKeys
-from shared.bus.session import open_session
 from shared.client import (
     Feedback,
     PlannedPoint,
@@ -47,13 +46,6 @@ GROUPS = (0, 1, 2)
 def cell() -> Iterator[RunningCell]:
     with running_cell(CELL) as running:
         yield running
-
-
-@pytest.fixture(scope="module")
-def bus(cell: RunningCell) -> Iterator[zenoh.Session]:
-    session = open_session("client", [cell.zenoh_endpoint], wait=False)
-    yield session
-    session.close()
 
 
 @pytest.fixture
