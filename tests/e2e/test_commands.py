@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from collections.abc import Iterator
 
 import pytest
@@ -13,7 +15,7 @@ from shared.bus.session import call
 from shared.client import MotionClient, StateListener, smooth_move, stream
 from shared.protocol.constants import Command, NotReadySubcode, Result
 from shared.protocol.replies import motion_ctrl
-from tests.cells import RunningCell, running_cell
+from tests.cells import REPO, RunningCell, running_cell
 
 pytestmark = pytest.mark.cell
 
@@ -137,3 +139,22 @@ def test_disconnect_fails_while_moving_and_closes_silently_when_idle(
     motion.send(motion_ctrl(Command.DISCONNECT))
     motion.sock.settimeout(5.0)
     assert motion.sock.recv(1) == b"", "closed without a reply (MotoROS 1.9.4+)"
+
+
+def test_the_fault_command_injects_and_clears(cell: RunningCell, motion: MotionClient) -> None:
+    def fault_cli(*words: str) -> subprocess.CompletedProcess[str]:
+        command = [sys.executable, "-m", "services.cell.cli", "fault", *words]
+        command += ["--cell", cell.cell.name, "--zenoh-connect", cell.zenoh_endpoint]
+        return subprocess.run(
+            command, cwd=REPO, capture_output=True, text=True, timeout=30, check=False
+        )
+
+    assert answer(motion, Command.START_TRAJ_MODE) == (Result.SUCCESS, 0)
+    injected = fault_cli("estop", "on")
+    assert injected.returncode == 0, injected.stderr
+    assert "estop on: SUCCESS" in injected.stdout
+    assert answer(motion, Command.CHECK_MOTION_READY) == (Result.FALSE, NotReadySubcode.ESTOP)
+    assert fault_cli("estop", "off").returncode == 0
+    assert answer(motion, Command.START_TRAJ_MODE) == (Result.SUCCESS, 0)
+    refused = fault_cli("hold", "maybe")
+    assert refused.returncode == 2 and "expected on or off" in refused.stderr
