@@ -26,7 +26,7 @@ def add_parser(commands: Any) -> None:
         help="run the benchmark suite: print a table, write JSON to bench/results/",
         description="Run the benchmark suite (figures 1-9): median and [min-max] of at least "
         "3 runs each, printed as a table and written to bench/results/<timestamp>.json and "
-        "latest.json. The full suite takes about 13 minutes, --quick about one.",
+        "latest.json. The full suite takes about 11 minutes, --quick about one.",
     )
     bench.add_argument("--quick", action="store_true", help="every benchmark briefly (~1 min)")
     bench.add_argument("--only", metavar="N,N", help="only these figures, e.g. 3,6")

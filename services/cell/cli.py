@@ -7,7 +7,7 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from services.cell import demo, fault, launcher, observe, plot, record
+from services.cell import bench, demo, fault, launcher, observe, plot, record
 from shared.service import add_zenoh_arguments
 
 
@@ -38,6 +38,7 @@ def build_parser() -> argparse.ArgumentParser:
     observe.add_parsers(commands)
     record.add_parser(commands)
     plot.add_parser(commands)
+    bench.add_parser(commands)
 
     router = commands.add_parser(
         "router", help="a Zenoh router (a stand-in for zenohd where its image is not available)"

@@ -28,7 +28,10 @@ class GatewayStats:
         """One request answered (``reply`` None when none is sent) in ``elapsed_ns``."""
         with self._lock:
             self._counts[msg_type] = self._counts.get(msg_type, 0) + 1
-            self._latency.setdefault(msg_type, Window(WINDOW)).add(elapsed_ns / 1000)
+            window = self._latency.get(msg_type)
+            if window is None:
+                window = self._latency[msg_type] = Window(WINDOW)
+            window.add(elapsed_ns / 1000)
             body = reply.body if reply is not None else None
             if not isinstance(body, MotoMotionReply):
                 return

@@ -1,0 +1,83 @@
+"""Figure 3: executor lateness and missed periods under load.
+
+    python -m bench.bench_executor [--quick]
+
+A 4-group cell (arm6, arm6, arm7, positioner2, YRC1000, 4 ms period) with the state period set
+to one tick (4 ms), 4 state clients connected (each its own process), and all 4 groups moving
+(a constant-velocity 2016 trajectory, points 100 ms apart, streamed like motoman_driver, so the
+gateway also answers a BUSY point every ~5 ms). Each run is one window (60 s; 2 s in quick
+mode) of the ``executor/tick`` stream, observed from a Zenoh client on the cell's router.
+
+Lateness is the executor's own figure per tick (wake time - absolute deadline, CLOCK_MONOTONIC);
+missed periods are the increase of ``Tick.missed`` over the window (ticks woken a whole period
+late or more; they are caught up, not skipped). Percentiles come from the raw per-tick samples
+of each run; the table shows the median and [min-max] of the per-run figures.
+
+The same runs give figure 6 (``bench.bench_state``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import Any
+
+import numpy as np
+
+from bench.harness import figure_result, loaded_runs, percentiles
+
+FIGURE = 3
+RUNS = 3
+SECONDS = 60.0
+QUICK_RUNS = 3
+QUICK_SECONDS = 2.0
+P99_GOAL_US = 200.0
+
+
+def settings(quick: bool) -> tuple[int, float]:
+    return (QUICK_RUNS, QUICK_SECONDS) if quick else (RUNS, SECONDS)
+
+
+def run(quick: bool) -> list[dict[str, Any]]:
+    runs = loaded_runs(*settings(quick))
+    per_run: dict[str, list[float]] = {k: [] for k in ("p50", "p99", "p99.9", "max")}
+    missed, ticks, gaps = [], [], []
+    for r in runs:
+        lateness_us = r.lateness_ns / 1000.0
+        for name, value in zip(per_run, percentiles(lateness_us, (50, 99, 99.9, 100)), strict=True):
+            per_run[name].append(value)
+        missed.append(float(r.missed))
+        ticks.append(r.ticks / r.window_s)
+        gaps.append(float(r.tick_gaps))
+    seconds = runs[0].window_s
+    where = f"{len(runs)} x {seconds:g} s, 4 groups moving, 4 state clients at 4 ms"
+    return [
+        figure_result(FIGURE, "executor lateness p50", "us", per_run["p50"], note=where),
+        figure_result(
+            FIGURE, "executor lateness p99", "us", per_run["p99"], goal=("<=", P99_GOAL_US)
+        ),
+        figure_result(FIGURE, "executor lateness p99.9", "us", per_run["p99.9"]),
+        figure_result(FIGURE, "executor lateness max", "us", per_run["max"]),
+        figure_result(
+            FIGURE, "executor missed periods", "periods", missed, goal=("==", 0), rule="all"
+        ),
+        figure_result(FIGURE, "executor ticks observed", "ticks/s", ticks),
+        figure_result(FIGURE, "executor tick samples lost (observer)", "gaps", gaps),
+    ]
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description="Figure 3: executor lateness")
+    parser.add_argument("--quick", action="store_true")
+    args = parser.parse_args(argv)
+    print(json.dumps(run(args.quick), indent=1, default=_plain))
+
+
+def _plain(value: object) -> object:
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(type(value))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,115 @@
+"""Figure 9: start-up and stop of a whole cell.
+
+    python -m bench.bench_startup [--quick]
+
+Each run spawns ``motocell up`` (a 4-group cell: launcher with its router, controller,
+executor, broadcaster, 4 interpolators, gateway) and measures from the spawn (CLOCK_MONOTONIC):
+
+- the first ROBOT_STATUS frame on the state port (the port is polled every 5 ms);
+- every service alive: CHECK_MOTION_READY no longer answers NOT_READY 5012 (polled);
+- START_TRAJ_MODE's own reply time, and spawn -> motion-ready (its SUCCESS reply);
+- stop: SIGTERM to the launcher -> every process of the cell has exited.
+
+5 runs (3 in quick mode).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import signal
+import time
+from pathlib import Path
+from typing import Any
+
+from bench.harness import (
+    alive,
+    connectable,
+    figure_result,
+    spawn_cell,
+    stop_cell,
+    wait_until,
+    workdir,
+    write_cell_file,
+)
+from shared.client import MotionClient, StateListener
+from shared.protocol.constants import Command, NotReadySubcode, Result
+
+FIGURE = 9
+RUNS = 5
+QUICK_RUNS = 3
+TIMEOUT_S = 60.0
+
+
+def once(directory: Path, index: int) -> dict[str, float]:
+    config = write_cell_file(directory, f"bench9x{index}")
+    cell = spawn_cell(config, directory / f"startup{index}.log")
+    spawned = cell.spawned_ns
+    try:
+        wait_until(lambda: connectable(cell.host, cell.port_base + 1), TIMEOUT_S, "state port")
+        with StateListener(cell.host, cell.port_base + 1, cell.byte_order) as state:
+            first = state.wait_for(lambda f: f.status is not None, TIMEOUT_S)
+        first_status = (first.received_ns - spawned) / 1e6
+        wait_until(lambda: connectable(cell.host, cell.port_base), TIMEOUT_S, "motion port")
+        with MotionClient(cell.host, cell.port_base, cell.byte_order) as motion:
+            while True:
+                reply = motion.command(Command.CHECK_MOTION_READY)
+                if reply.subcode != NotReadySubcode.INC_MOVE_ERROR:
+                    break
+                if time.monotonic_ns() - spawned > TIMEOUT_S * 1e9:
+                    raise TimeoutError("the cell's services did not all come up")
+                time.sleep(0.005)
+            all_alive = (time.monotonic_ns() - spawned) / 1e6
+            sent = time.monotonic_ns()
+            reply = motion.command(Command.START_TRAJ_MODE)
+            done = time.monotonic_ns()
+            if reply.result != Result.SUCCESS:
+                raise RuntimeError(f"START_TRAJ_MODE refused: {reply}")
+        cell.started = cell.children()
+        stopping = time.monotonic_ns()
+        cell.process.send_signal(signal.SIGTERM)
+        pids = {cell.process.pid, *cell.started}
+        wait_until(lambda: cell.process.poll() is not None, 15.0, "the launcher to stop")
+        wait_until(lambda: not any(alive(p) for p in pids), 10.0, "every process to stop")
+        stopped = time.monotonic_ns()
+    finally:
+        stop_cell(cell)
+    return {
+        "first_status": first_status,
+        "all_alive": all_alive,
+        "start_traj_mode": (done - sent) / 1e6,
+        "motion_ready": (done - spawned) / 1e6,
+        "stop": (stopped - stopping) / 1e6,
+    }
+
+
+def run(quick: bool) -> list[dict[str, Any]]:
+    rows: dict[str, list[float]] = {}
+    with workdir() as directory:
+        for index in range(QUICK_RUNS if quick else RUNS):
+            for key, value in once(directory, index).items():
+                rows.setdefault(key, []).append(value)
+    return [
+        figure_result(
+            FIGURE,
+            "spawn -> first ROBOT_STATUS",
+            "ms",
+            rows["first_status"],
+            note="4-group cell, 9 processes",
+        ),
+        figure_result(FIGURE, "spawn -> every service alive (no 5012)", "ms", rows["all_alive"]),
+        figure_result(FIGURE, "START_TRAJ_MODE reply", "ms", rows["start_traj_mode"]),
+        figure_result(FIGURE, "spawn -> motion-ready", "ms", rows["motion_ready"]),
+        figure_result(FIGURE, "SIGTERM -> every process exited", "ms", rows["stop"]),
+    ]
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description="Figure 9: start-up")
+    parser.add_argument("--quick", action="store_true")
+    args = parser.parse_args(argv)
+    print(json.dumps(run(args.quick), indent=1))
+
+
+if __name__ == "__main__":
+    main()

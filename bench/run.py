@@ -1,0 +1,239 @@
+"""The whole benchmark suite: one table, and JSON in bench/results/.
+
+    python -m bench.run [--quick] [--only 3,6]      (or: motocell bench [--quick] [--only ...])
+
+Figures (goals are for a 2-core machine running the whole cell):
+
+1. codec decode/encode frames/s                       (bench.bench_codec)
+2. interpolation entries/s per group                  (bench.bench_interpolation)
+3. executor lateness and missed periods under load    (bench.bench_executor)
+4. request -> reply round trips on the motion port    (bench.bench_roundtrip)
+5. streaming 4 groups at one point per period         (bench.bench_streaming)
+6. state rate and feedback age with 4 clients         (bench.bench_state; same runs as 3)
+7. cells per machine, CPU and RSS per process         (bench.bench_scale)
+8. accuracy against the float64 closed form           (bench.bench_accuracy)
+9. start-up and stop                                  (bench.bench_startup)
+
+Every figure is the median and [min-max] of at least 3 runs. Benchmarks report; they never fail
+on a time. The full suite takes about 11 minutes here (figure 3: 3 x 60 s runs), ``--quick``
+about one minute. Results: ``bench/results/<UTC timestamp>.json`` and ``latest.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+import traceback
+from collections.abc import Callable
+from datetime import UTC, datetime
+from typing import Any
+
+from bench import (
+    bench_accuracy,
+    bench_codec,
+    bench_executor,
+    bench_interpolation,
+    bench_roundtrip,
+    bench_scale,
+    bench_startup,
+    bench_state,
+    bench_streaming,
+)
+from bench.harness import RESULTS_DIR, compare, descendants, goal_text, machine_info
+
+Results = list[dict[str, Any]]
+
+DECODE_GOAL = 200_000.0
+INTERPOLATION_GOAL = 1_000_000.0
+
+
+def _with_goal(
+    figure: int, results: Results, goal_for: Callable[[dict[str, Any]], float | None]
+) -> Results:
+    for result in results:
+        result["figure"] = figure
+        goal = goal_for(result)
+        if goal is not None:
+            result["goal"] = goal_text((">=", goal))
+            result["goal_rule"] = "median"
+            result["met"] = compare(result["median"], (">=", goal))
+    return results
+
+
+def codec(quick: bool) -> Results:
+    return _with_goal(
+        1,
+        bench_codec.run(quick),
+        lambda r: DECODE_GOAL if str(r["name"]).startswith("decode") else None,
+    )
+
+
+def interpolation(quick: bool) -> Results:
+    return _with_goal(2, bench_interpolation.run(quick), lambda r: INTERPOLATION_GOAL)
+
+
+FIGURES: dict[int, tuple[str, Callable[[bool], Results]]] = {
+    1: ("codec throughput", codec),
+    2: ("interpolation throughput", interpolation),
+    3: ("executor lateness", bench_executor.run),
+    4: ("round trips", bench_roundtrip.run),
+    5: ("streaming at 4 ms", bench_streaming.run),
+    6: ("state rate and age", bench_state.run),
+    7: ("scale", bench_scale.run),
+    8: ("accuracy", bench_accuracy.run),
+    9: ("start-up", bench_startup.run),
+}
+
+
+def fmt(value: float, unit: str) -> str:
+    if math.isnan(value):
+        return "-"
+    if value == int(value) and abs(value) < 1e15:
+        return f"{int(value):,}"
+    if unit == "pulse":
+        return f"{value:.6f}"
+    magnitude = abs(value)
+    if magnitude >= 10_000:
+        return f"{value:,.0f}"
+    if magnitude >= 100:
+        return f"{value:.0f}"
+    if magnitude >= 10:
+        return f"{value:.1f}"
+    if magnitude >= 1:
+        return f"{value:.2f}"
+    return f"{value:.3f}"
+
+
+def table(results: Results) -> str:
+    header = ["fig", "value", "median", "[min - max]", "unit", "goal", "met"]
+    rows = [header]
+    for r in results:
+        if "error" in r:
+            error = str(r["error"])
+            error = error if len(error) <= 90 else error[:87] + "..."
+            rows.append([str(r["figure"]), f"ERROR: {error}", "", "", "", "", ""])
+            continue
+        unit = str(r["unit"])
+        met = r.get("met")
+        rows.append(
+            [
+                str(r["figure"]),
+                str(r["name"]),
+                fmt(r["median"], unit),
+                f"[{fmt(r['min'], unit)} - {fmt(r['max'], unit)}]",
+                unit,
+                str(r.get("goal", "")),
+                "" if met is None else ("yes" if met else "NO"),
+            ]
+        )
+    widths = [max(len(row[i]) for row in rows) for i in range(len(header))]
+    right = {2, 3}
+
+    def line(row: list[str]) -> str:
+        cells = [
+            cell.rjust(widths[i]) if i in right else cell.ljust(widths[i])
+            for i, cell in enumerate(row)
+        ]
+        return "| " + " | ".join(cells) + " |"
+
+    separator = (
+        "|"
+        + "|".join(
+            ("-" * (w + 1) + ":") if i in right else ("-" * (w + 2)) for i, w in enumerate(widths)
+        )
+        + "|"
+    )
+    return "\n".join([line(rows[0]), separator, *(line(row) for row in rows[1:])])
+
+
+def parse_only(text: str | None) -> list[int]:
+    if not text:
+        return list(FIGURES)
+    chosen = []
+    for part in text.split(","):
+        figure = int(part)
+        if figure not in FIGURES:
+            raise SystemExit(f"--only: no figure {figure} (figures: 1-{len(FIGURES)})")
+        chosen.append(figure)
+    return sorted(set(chosen))
+
+
+def write(report: dict[str, Any], stamp: str) -> list[str]:
+    RESULTS_DIR.mkdir(parents=True, exist_ok=True)
+    text = json.dumps(report, indent=1, default=str) + "\n"
+    paths = [RESULTS_DIR / f"{stamp}.json", RESULTS_DIR / "latest.json"]
+    for path in paths:
+        path.write_text(text)
+    return [str(p) for p in paths]
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m bench.run", description=__doc__.split("\n")[0])
+    parser.add_argument("--quick", action="store_true", help="every benchmark briefly (~1 min)")
+    parser.add_argument("--only", metavar="N,N", help="only these figures, e.g. 3,6")
+    args = parser.parse_args(argv)
+    return run_suite(args.quick, parse_only(args.only))
+
+
+def run_suite(quick: bool, figures: list[int]) -> int:
+    stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
+    report: dict[str, Any] = {
+        "timestamp": stamp,
+        "quick": quick,
+        "figures": {},
+        "machine": machine_info(),
+        "results": [],
+    }
+    results: Results = report["results"]
+    started = time.monotonic()
+    mode = "quick" if quick else "full"
+    print(f"motocell benchmarks ({mode}), figures {', '.join(map(str, figures))}", flush=True)
+    status = 0
+    try:
+        for figure in figures:
+            title, bench = FIGURES[figure]
+            print(f"  [{figure}] {title} ...", end="", flush=True)
+            begun = time.monotonic()
+            entry: dict[str, Any] = {"title": title, "loadavg_before": os.getloadavg()}
+            try:
+                results += bench(quick)
+            except Exception as exc:
+                traceback.print_exc()
+                entry["error"] = f"{type(exc).__name__}: {exc}"
+                results.append({"figure": figure, "error": entry["error"]})
+                status = 1
+            entry["seconds"] = round(time.monotonic() - begun, 1)
+            entry["loadavg_after"] = os.getloadavg()
+            report["figures"][str(figure)] = entry
+            load = entry["loadavg_after"][0]
+            print(f" {entry['seconds']:.0f} s (load average {load:.1f})", flush=True)
+    except KeyboardInterrupt:
+        report["interrupted"] = True
+        status = 130
+        print("\ninterrupted; writing what was measured", file=sys.stderr)
+    report["seconds"] = round(time.monotonic() - started, 1)
+    report["machine"]["loadavg_at_end"] = os.getloadavg()
+    print()
+    print(table(results))
+    machine = report["machine"]
+    print(
+        f"\n{machine['nproc']} x {machine['cpu_model']}, Python {machine['python']}, "
+        f"kernel {machine['kernel']}; load average at start "
+        f"{machine['loadavg_at_start'][0]:.2f}, at end {machine['loadavg_at_end'][0]:.2f}; "
+        f"{report['seconds']:.0f} s"
+    )
+    for path in write(report, stamp):
+        print(f"written: {path}")
+    leftovers = descendants(os.getpid())
+    if leftovers:
+        print(f"warning: processes left running: {sorted(leftovers)}", file=sys.stderr)
+        status = status or 1
+    return status
+
+
+if __name__ == "__main__":
+    sys.exit(main())
