@@ -138,15 +138,17 @@ class CellView:
             self.slot_free(g) for g in range(len(self.taken))
         )
 
-    def publish_point(self, group: int, point: Point) -> int:
-        """Publish ``point`` to the group's interpolator; returns the id given to it."""
+    def number_point(self, group: int, point: Point) -> Point:
+        """Give ``point`` the group's next id and the ring epoch it was checked against; from
+        now on the slot counts it as pending. Send it with ``send_point``."""
         self.published[group] += 1
         queue = self.queues[group]
-        numbered = msgspec.structs.replace(
+        return msgspec.structs.replace(
             point, point_id=self.published[group], epoch=queue.epoch if queue else 0
         )
-        self._point_pubs[group].put(encode(numbered))
-        return self.published[group]
+
+    def send_point(self, group: int, point: Point) -> None:
+        self._point_pubs[group].put(encode(point))
 
     def slot_known(self, group: int) -> bool:
         """Whether the group's interpolator has been heard from. Until then the point numbering

@@ -86,9 +86,15 @@ def serve_requests(
             assert isinstance(event, Message | UnknownMessage)
             started = time.monotonic_ns()
             answer = respond(event)
-            if answer.reply is not None:
-                client.sendall(codec.send(answer.reply))
-            observe(event.msg_type, answer.reply, time.monotonic_ns() - started)
+            try:
+                if answer.reply is not None:
+                    client.sendall(codec.send(answer.reply))
+                observe(event.msg_type, answer.reply, time.monotonic_ns() - started)
+            finally:
+                # Even when the client is gone: a point the gateway counted as pending must
+                # reach its interpolator, or the slot would never free.
+                if answer.then is not None:
+                    answer.then()
             if answer.close:
                 return
 
