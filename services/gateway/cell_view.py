@@ -150,6 +150,17 @@ class CellView:
     def send_point(self, group: int, point: Point) -> None:
         self._point_pubs[group].put(encode(point))
 
+    def slot_frees_soon(self, group: int, entries: int, timeout: float) -> bool:
+        """Wait up to ``timeout`` for the slot, but only when the executor's ring has room for
+        the pending point's ``entries``: then the interpolator takes it as soon as it arrives,
+        and the slot is free one Zenoh round trip later. A client that sends its next point
+        right after SUCCESS would otherwise get BUSY and lose 5 ms on nearly every point."""
+        queue = self.queues[group]
+        if queue is None or queue.depth + entries > queue.capacity:
+            return False
+        with self._slots_changed:
+            return self._slots_changed.wait_for(lambda: self.slot_free(group), timeout)
+
     def slot_known(self, group: int) -> bool:
         """Whether the group's interpolator has been heard from. Until then the point numbering
         cannot be matched to it (a restarted gateway starts at 0), so nothing is accepted."""

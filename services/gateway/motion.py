@@ -57,6 +57,8 @@ STOP_WAIT_S = 0.05
 """How long STOP_MOTION waits for every pending point to be dropped. MotoROS polls 20 x 1 ms
 (§3.3); one Zenoh hop here can take longer than that on a loaded 2-core machine."""
 START_TRAJ_MODE_TIMEOUT_S = 6.0
+SLOT_ACK_WAIT_S = 0.002
+"""At most this long a point waits for a slot that is about to free, instead of BUSY."""
 SLOTS_WAIT_S = 1.0
 """Interpolators report their slot at start and every 0.5 s; one just (re)started may not
 have been heard from yet when the controller is ready."""
@@ -90,6 +92,8 @@ class GroupTrajectory:
     """Segments published since sequence 0."""
     last_sequence: int = -1
     last_time: float = 0.0
+    previous_time: float = 0.0
+    """The time of the point before the last: the pending segment spans the two."""
 
 
 class MotionHandler:
@@ -182,12 +186,22 @@ class MotionHandler:
             # motoman_driver resends a point after a failed receive (client doc, step 4).
             return OK
         # No BUSY check for sequence 0 on type 14 (§2.4 step 5): it waits in line instead.
-        if body.sequence > 0 and not self.view.slot_free(data.group_no):
+        if body.sequence > 0 and not self._slot_free(data.group_no):
             return int(Result.BUSY), 0
         verdict = self._check_point(data, body.sequence)
         if verdict == OK:
             self._publish(data, body.sequence)
         return verdict
+
+    def _slot_free(self, group: int) -> bool:
+        """The pending slot is free, or is about to be: the pending point's segment fits the
+        ring, so only the interpolator's acknowledgement is missing (see CellView)."""
+        if self.view.slot_free(group):
+            return True
+        track = self.trajectories[group]
+        period_s = self.view.cell.period_s
+        entries = int((track.last_time - track.previous_time) / period_s) + 2
+        return self.view.slot_frees_soon(group, entries, SLOT_ACK_WAIT_S)
 
     def _check_point(self, data: PointData, sequence: int) -> Verdict:
         """The data checks after the slot check (§2.4 steps 5-7, §2.5 processing pass)."""
@@ -252,6 +266,7 @@ class MotionHandler:
         else:
             track.segments += 1
         track.last_sequence = sequence
+        track.previous_time = track.last_time if sequence > 0 else data.time
         track.last_time = data.time
 
     def point_ex(self, request: Message, body: JointTrajPtFullEx) -> Message:
@@ -279,7 +294,7 @@ class MotionHandler:
                 return motion_reply(
                     request, Result.NOT_READY, NotReadySubcode.INC_MOVE_ERROR, group
                 )
-            if not self.view.slot_free(group):
+            if not self._slot_free(group):
                 return motion_reply(request, Result.BUSY, 0, group)
             verdict = check_fields(data)
             if verdict is not None:
