@@ -1,16 +1,16 @@
 """The state broadcaster: at the state period, one snapshot of the cell for the gateway's state
 port and for anyone watching Zenoh.
 
-It runs its own absolute-deadline clock (default 10 ms, 100 Hz) and samples the executor's
-latest tick, so the state rate is exact even when it is not a multiple of the interpolation
-period. MotoROS 1.9 sends "work time + 25 ms" per client, a little under 40 Hz (§6); a steady
-configurable rate is what users ask for (motoman#516).
+It follows the executor's ticks (default 10 ms, 100 Hz: the first tick at or after each due
+time), so feedback leaves as soon as its tick arrives and the rate is exact on average even
+when the state period is not a whole number of ticks. MotoROS 1.9 sends "work time + 25 ms"
+per client, a little under 40 Hz (§6); a steady configurable rate is what users ask for
+(motoman#516).
 """
 
 from __future__ import annotations
 
 import logging
-import time
 from collections.abc import Sequence
 from typing import Generic, TypeVar
 
@@ -25,7 +25,7 @@ from shared.bus.schemas import (
     Tick,
     encode,
 )
-from shared.bus.session import Liveness, publisher
+from shared.bus.session import Inbox, Liveness, payload_of, publisher
 from shared.config import Cell
 from shared.motion.kinematics import AxisMap
 from shared.service import ServiceContext, argument_parser, running_service
@@ -99,38 +99,64 @@ class Latest(Generic[T]):
         self.value = self._decoder.decode(sample.payload.to_bytes())
 
 
+class Schedule:
+    """When to send state, on the executor's own clock: the first tick at or after each due
+    time. Feedback then leaves the moment the tick that produced it arrives (no wait for a
+    second clock), and the rate is exact on average even when the state period is not a
+    whole number of ticks (10 ms at 4 ms: 8 and 12 ms alternately)."""
+
+    def __init__(self, period_ns: int) -> None:
+        self.period_ns = period_ns
+        self.next_due: int | None = None
+
+    def due(self, tick_ns: int) -> bool:
+        if self.next_due is None:
+            self.next_due = tick_ns
+        if tick_ns < self.next_due:
+            return False
+        self.next_due += self.period_ns
+        if self.next_due <= tick_ns:
+            self.next_due = tick_ns + self.period_ns  # fell behind: no burst to catch up
+        return True
+
+
 def run(ctx: ServiceContext) -> None:
     keys = ctx.keys
     session = ctx.session
     snapshotter = Snapshotter(ctx.cell)
     state_pub = publisher(session, keys.state, realtime=True, latest=True)
-    ticks = Latest(session, keys.executor_tick, Decoder(Tick))
+    ticks = Inbox(maxsize=64)
+    tick_subscriber = session.declare_subscriber(
+        keys.executor_tick, ticks.feed("tick", payload_of(Decoder(Tick)))
+    )
     statuses = Latest(session, keys.controller_status, Decoder(ControllerStatus))
     controller_key = keys.alive("controller", "0")
     alive = Liveness(session, controller_key)
-    period = ctx.cell.state_period_ns
-    deadline = time.monotonic_ns()
+    schedule = Schedule(ctx.cell.state_period_ns)
+    # Without ticks (no executor) the state port still beats, from the last tick, so clients
+    # see motion_possible drop instead of silence.
+    silence_s = max(0.05, 3 * ctx.cell.state_period_ns / 1e9)
+    last: Tick | None = None
     seq = 0
     while not ctx.stop.is_set():
-        deadline += period
-        now = time.monotonic_ns()
-        if deadline > now:
-            time.sleep((deadline - now) / 1e9)
-        else:
-            deadline = now  # fell behind: restart the grid rather than burst
-        tick = ticks.value
-        if tick is None:
+        item = ticks.get(timeout=silence_s)
+        if item is not None:
+            last = item[1]
+            assert isinstance(last, Tick)
+            if not schedule.due(last.deadline_ns):
+                continue
+        elif last is None:
             continue
-        status = statuses.value
         seq += 1
         state = State(
             seq=seq,
-            tick=tick.tick,
-            tick_ns=tick.deadline_ns + tick.lateness_ns,
-            groups=snapshotter.groups(tick),
-            status=robot_status(status, tick, controller_key in alive.present()),
+            tick=last.tick,
+            tick_ns=last.deadline_ns + last.lateness_ns,
+            groups=snapshotter.groups(last),
+            status=robot_status(statuses.value, last, controller_key in alive.present()),
         )
         state_pub.put(encode(state))
+    tick_subscriber.undeclare()
 
 
 def main(argv: Sequence[str] | None = None) -> None:
