@@ -57,8 +57,6 @@ STOP_WAIT_S = 0.05
 """How long STOP_MOTION waits for every pending point to be dropped. MotoROS polls 20 x 1 ms
 (§3.3); one Zenoh hop here can take longer than that on a loaded 2-core machine."""
 START_TRAJ_MODE_TIMEOUT_S = 6.0
-SLOT_ACK_WAIT_S = 0.002
-"""At most this long a point waits for a slot that is about to free, instead of BUSY."""
 SLOTS_WAIT_S = 1.0
 """Interpolators report their slot at start and every 0.5 s; one just (re)started may not
 have been heard from yet when the controller is ready."""
@@ -92,8 +90,6 @@ class GroupTrajectory:
     """Segments published since sequence 0."""
     last_sequence: int = -1
     last_time: float = 0.0
-    previous_time: float = 0.0
-    """The time of the point before the last: the pending segment spans the two."""
 
 
 class MotionHandler:
@@ -103,6 +99,7 @@ class MotionHandler:
         self.maps = [AxisMap(group) for group in view.cell.groups]
         self.trajectories = [GroupTrajectory() for _ in view.cell.groups]
         self._outbox: list[tuple[int, Point]] = []
+        self._period_s = view.cell.period_s
         # Unique across gateway restarts, so an executor never confuses two trajectories.
         self._sync_ids = time.time_ns() // 1000
 
@@ -194,14 +191,9 @@ class MotionHandler:
         return verdict
 
     def _slot_free(self, group: int) -> bool:
-        """The pending slot is free, or is about to be: the pending point's segment fits the
-        ring, so only the interpolator's acknowledgement is missing (see CellView)."""
-        if self.view.slot_free(group):
-            return True
-        track = self.trajectories[group]
-        period_s = self.view.cell.period_s
-        entries = int((track.last_time - track.previous_time) / period_s) + 2
-        return self.view.slot_frees_soon(group, entries, SLOT_ACK_WAIT_S)
+        """The pending slot is free, or as good as free: the one outstanding point's segment
+        fits the ring, so only the interpolator's acknowledgement is missing (see CellView)."""
+        return self.view.slot_free(group) or self.view.pending_fits(group)
 
     def _check_point(self, data: PointData, sequence: int) -> Verdict:
         """The data checks after the slot check (§2.4 steps 5-7, §2.5 processing pass)."""
@@ -254,7 +246,9 @@ class MotionHandler:
             sync_id=sync[0],
             sync_groups=sync[1],
         )
-        numbered = self.view.number_point(group, point)
+        # Ring entries of this point's segment: grid instants inside it plus the waypoint.
+        entries = 0 if sequence == 0 else int((data.time - track.last_time) / self._period_s) + 2
+        numbered = self.view.number_point(group, point, entries)
         # Sent after the reply is written (``Answer.then``): a real controller answers in
         # 0.34 ms, and the publish would add its own cost to every point's reply.
         self._outbox.append((group, numbered))
@@ -266,7 +260,6 @@ class MotionHandler:
         else:
             track.segments += 1
         track.last_sequence = sequence
-        track.previous_time = track.last_time if sequence > 0 else data.time
         track.last_time = data.time
 
     def point_ex(self, request: Message, body: JointTrajPtFullEx) -> Message:
