@@ -23,7 +23,6 @@ from pathlib import Path
 from typing import Any
 
 from bench.harness import (
-    alive,
     connectable,
     figure_result,
     spawn_cell,
@@ -33,6 +32,7 @@ from bench.harness import (
     write_cell_file,
 )
 from shared.client import MotionClient, StateListener
+from shared.processes import alive
 from shared.protocol.constants import Command, NotReadySubcode, Result
 
 FIGURE = 9

@@ -41,6 +41,7 @@ from shared.bus.session import open_session
 from shared.client import MotionClient, PlannedPoint, StateListener
 from shared.config import Cell, load_cell
 from shared.motion.kinematics import AxisMap
+from shared.processes import alive, descendants
 from shared.protocol.codec import ByteOrder
 from shared.protocol.constants import Command, NotReadySubcode, Result
 from shared.protocol.messages import Message, MotoMotionReply
@@ -174,32 +175,6 @@ def _version(package: str) -> str:
 
 
 # -- processes -------------------------------------------------------------------------------
-def descendants(pid: int) -> set[int]:
-    """Every process below ``pid``, from /proc/<pid>/task/*/children."""
-    found: set[int] = set()
-    frontier = [pid]
-    while frontier:
-        parent = frontier.pop()
-        for task in Path(f"/proc/{parent}/task").glob("*"):
-            try:
-                children = (task / "children").read_text().split()
-            except OSError:
-                continue
-            for child in map(int, children):
-                if child not in found:
-                    found.add(child)
-                    frontier.append(child)
-    return found
-
-
-def alive(pid: int) -> bool:
-    try:
-        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[-1].split()[0]
-    except OSError:
-        return False
-    return state != "Z"
-
-
 def wait_until(predicate: Callable[[], bool], timeout: float, what: str) -> None:
     deadline = time.monotonic() + timeout
     while not predicate():

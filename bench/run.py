@@ -43,7 +43,8 @@ from bench import (
     bench_state,
     bench_streaming,
 )
-from bench.harness import RESULTS_DIR, compare, descendants, goal_text, machine_info
+from bench.harness import RESULTS_DIR, compare, goal_text, machine_info
+from shared.processes import descendants
 
 Results = list[dict[str, Any]]
 

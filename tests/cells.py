@@ -26,37 +26,12 @@ from shared.bus.keys import CellKeys
 from shared.bus.schemas import Decoder, Tick
 from shared.client import MotionClient, StateListener
 from shared.config import Cell, load_cell
+from shared.processes import alive, descendants
 from shared.protocol.codec import ByteOrder
 from shared.protocol.constants import Command, NotReadySubcode
 
 REPO = Path(__file__).resolve().parent.parent
 START_TIMEOUT_S = 30.0
-
-
-def descendants(pid: int) -> set[int]:
-    """Every process below ``pid``, from /proc (children of children included)."""
-    found: set[int] = set()
-    frontier = [pid]
-    while frontier:
-        parent = frontier.pop()
-        for task in Path(f"/proc/{parent}/task").glob("*"):
-            try:
-                children = (task / "children").read_text().split()
-            except OSError:
-                continue
-            for child in map(int, children):
-                if child not in found:
-                    found.add(child)
-                    frontier.append(child)
-    return found
-
-
-def alive(pid: int) -> bool:
-    try:
-        state = Path(f"/proc/{pid}/stat").read_text().split(")")[-1].split()[0]
-    except OSError:
-        return False
-    return state != "Z"
 
 
 def wait_until(predicate: Callable[[], bool], timeout: float, what: str) -> None:
