@@ -18,7 +18,7 @@ import subprocess
 import sys
 import threading
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import zenoh
 
@@ -41,12 +41,11 @@ class Child:
     process: subprocess.Popen[bytes] | None = None
     restarts: int = 0
     restart_at: float = 0.0
-    env: dict[str, str] = field(default_factory=dict)
 
     def start(self) -> None:
         # The child arranges to get SIGTERM if the launcher dies (shared.service), so no
         # half cell outlives a killed launcher.
-        env = {**os.environ, **self.env, PARENT_PID_ENV: str(os.getpid())}
+        env = {**os.environ, PARENT_PID_ENV: str(os.getpid())}
         self.process = subprocess.Popen(self.argv, env=env)
 
     def alive(self) -> bool:

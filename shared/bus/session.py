@@ -12,7 +12,8 @@ import json
 import logging
 import queue
 import threading
-from collections.abc import Callable, Iterable, Sequence
+import time
+from collections.abc import Callable, Sequence
 from typing import Any, TypeVar
 
 import msgspec
@@ -194,7 +195,6 @@ class Liveness:
         self._on_change = on_change
         self._session = session
         self._key_expr = key_expr
-        self._closed = threading.Event()
         self._subscriber = session.liveliness().declare_subscriber(
             key_expr, self._on_sample, history=True
         )
@@ -205,7 +205,8 @@ class Liveness:
         """Add what a query finds and events missed; drop only what two queries in a row miss
         (a reply can arrive late, a missed DELETE is rarer and less harmful than a false one)."""
         absent_before: set[str] = set()
-        while not self._closed.wait(self.RECONCILE_S):
+        while True:
+            time.sleep(self.RECONCILE_S)
             try:
                 replies = self._session.liveliness().get(self._key_expr, timeout=self.RECONCILE_S)
                 tokens = {str(r.ok.key_expr) for r in replies if r.ok is not None}
@@ -224,9 +225,6 @@ class Liveness:
                 if self._on_change is not None:
                     self._on_change()
 
-    def close(self) -> None:
-        self._closed.set()
-
     def _on_sample(self, sample: zenoh.Sample) -> None:
         key = str(sample.key_expr)
         with self._lock:
@@ -240,7 +238,3 @@ class Liveness:
     def present(self) -> frozenset[str]:
         with self._lock:
             return frozenset(self._present)
-
-    def contains(self, keys: Iterable[str]) -> bool:
-        with self._lock:
-            return all(key in self._present for key in keys)
