@@ -1,6 +1,6 @@
 """Figure 8: accuracy of the applied pulses against the float64 closed form.
 
-    python -m bench.bench_accuracy [--quick]
+    python -m bench.run --only 8 [--quick]
 
 Pure part (no cell): for every robot model of the catalogue (arm6, arm7 with its axis
 reordering, positioner2, track1), a long random trajectory (knots 10-400 ms apart at arbitrary
@@ -22,8 +22,6 @@ point's pulses. One trajectory per run, three runs.
 
 from __future__ import annotations
 
-import argparse
-import json
 from collections.abc import Sequence
 from typing import Any
 
@@ -32,7 +30,6 @@ import numpy as np
 from bench.harness import (
     Observer,
     Streamer,
-    ex_messages,
     figure_result,
     positions_of,
     running_cell,
@@ -40,7 +37,7 @@ from bench.harness import (
     workdir,
 )
 from services.interpolator.feeder import MAX_BATCH
-from shared.client import PlannedPoint
+from shared.client import PlannedPoint, ex_messages
 from shared.config import Group, load_catalogue
 from shared.motion.interpolation import Knot, Trajectory, time_to_ns
 from shared.motion.kinematics import AxisMap
@@ -259,14 +256,3 @@ def run(quick: bool) -> list[dict[str, Any]]:
             rule="all",
         ),
     ]
-
-
-def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description="Figure 8: accuracy")
-    parser.add_argument("--quick", action="store_true")
-    args = parser.parse_args(argv)
-    print(json.dumps(run(args.quick), indent=1))
-
-
-if __name__ == "__main__":
-    main()

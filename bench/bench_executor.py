@@ -1,6 +1,6 @@
 """Figure 3: executor lateness and missed periods under load.
 
-    python -m bench.bench_executor [--quick]
+    python -m bench.run --only 3 [--quick]
 
 A 4-group cell (arm6, arm6, arm7, positioner2, YRC1000, 4 ms period) with the state period set
 to one tick (4 ms), 4 state clients connected (each its own process), and all 4 groups moving
@@ -18,11 +18,7 @@ The same runs give figure 6 (``bench.bench_state``).
 
 from __future__ import annotations
 
-import argparse
-import json
 from typing import Any
-
-import numpy as np
 
 from bench.harness import figure_result, loaded_runs, percentiles
 
@@ -64,20 +60,3 @@ def run(quick: bool) -> list[dict[str, Any]]:
         figure_result(FIGURE, "executor ticks observed", "ticks/s", ticks),
         figure_result(FIGURE, "executor tick samples lost (observer)", "gaps", gaps),
     ]
-
-
-def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description="Figure 3: executor lateness")
-    parser.add_argument("--quick", action="store_true")
-    args = parser.parse_args(argv)
-    print(json.dumps(run(args.quick), indent=1, default=_plain))
-
-
-def _plain(value: object) -> object:
-    if isinstance(value, np.generic):
-        return value.item()
-    raise TypeError(type(value))
-
-
-if __name__ == "__main__":
-    main()

@@ -1,6 +1,6 @@
 """Figure 4: request -> reply round trip over TCP on the motion port.
 
-    python -m bench.bench_roundtrip [--quick]
+    python -m bench.run --only 4 [--quick]
 
 A 4-group cell (default 10 ms state period) with one state client connected, as a ROS driver
 has. A ``MotionClient`` times send -> reply read (CLOCK_MONOTONIC) for:
@@ -27,8 +27,6 @@ For comparison, a real FS100 answered points in 0.34 ms median, 1.13 ms worst
 
 from __future__ import annotations
 
-import argparse
-import json
 import time
 from typing import Any
 
@@ -38,7 +36,6 @@ from bench.harness import (
     CHECK_MOTION_READY,
     Observer,
     Streamer,
-    ex_messages,
     figure_result,
     percentiles,
     positions_of,
@@ -46,11 +43,11 @@ from bench.harness import (
     ramps,
     request_rtts,
     running_cell,
-    single_messages,
     start_traj_mode,
     workdir,
 )
 from shared.bus.schemas import Decoder, GatewayMetrics
+from shared.client import ex_messages, point_messages
 from shared.protocol.constants import MsgType, Result
 
 FIGURE = 4
@@ -97,7 +94,7 @@ def run(quick: bool) -> list[dict[str, Any]]:
                 starts = positions_of(cell.cell, observer.wait_still())
                 if kind == "14":
                     plan = ramp(starts[0], direction * SPEED, duration, POINT_INTERVAL_S)
-                    messages = single_messages(0, plan)
+                    messages = point_messages(0, plan)
                 else:
                     plans = ramps(starts, direction * SPEED, duration, POINT_INTERVAL_S)
                     messages = ex_messages(plans)
@@ -177,14 +174,3 @@ def gateway_internal(
             p50s.append(stats.reply.p50_us / 1000)
             p99s.append(stats.reply.p99_us / 1000)
     return found
-
-
-def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description="Figure 4: round trips")
-    parser.add_argument("--quick", action="store_true")
-    args = parser.parse_args(argv)
-    print(json.dumps(run(args.quick), indent=1))
-
-
-if __name__ == "__main__":
-    main()

@@ -1,6 +1,6 @@
 """Figure 7: how many 4-group cells fit on this machine with no missed period.
 
-    python -m bench.bench_scale [--quick]
+    python -m bench.run --only 7 [--quick]
 
 Cells are added one at a time (N = 1, 2, 3, ...), each a whole ``motocell up`` with its own
 router, 4 groups (arm6, arm6, arm7, positioner2), the default 10 ms state period, one state
@@ -19,8 +19,6 @@ measured.
 
 from __future__ import annotations
 
-import argparse
-import json
 import statistics
 import threading
 import time
@@ -33,7 +31,6 @@ from bench.harness import (
     CpuSampler,
     Observer,
     Streamer,
-    ex_messages,
     figure_result,
     percentiles,
     positions_of,
@@ -43,6 +40,7 @@ from bench.harness import (
     wait_moving,
     workdir,
 )
+from shared.client import ex_messages
 
 FIGURE = 7
 MAX_CELLS = 4
@@ -164,14 +162,3 @@ def run(quick: bool) -> list[dict[str, Any]]:
                     figure_result(FIGURE, f"N={n}: {kind} RSS", "MiB", rss_by_n[n][kind])
                 )
     return results
-
-
-def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description="Figure 7: cells per machine")
-    parser.add_argument("--quick", action="store_true")
-    args = parser.parse_args(argv)
-    print(json.dumps(run(args.quick), indent=1))
-
-
-if __name__ == "__main__":
-    main()

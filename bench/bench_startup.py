@@ -1,6 +1,6 @@
 """Figure 9: start-up and stop of a whole cell.
 
-    python -m bench.bench_startup [--quick]
+    python -m bench.run --only 9 [--quick]
 
 Each run spawns ``motocell up`` (a 4-group cell: launcher with its router, controller,
 executor, broadcaster, 4 interpolators, gateway) and measures from the spawn (CLOCK_MONOTONIC):
@@ -15,24 +15,14 @@ executor, broadcaster, 4 interpolators, gateway) and measures from the spawn (CL
 
 from __future__ import annotations
 
-import argparse
-import json
 import signal
 import time
 from pathlib import Path
 from typing import Any
 
-from bench.harness import (
-    connectable,
-    figure_result,
-    spawn_cell,
-    stop_cell,
-    wait_until,
-    workdir,
-    write_cell_file,
-)
+from bench.harness import figure_result, spawn_cell, stop_cell, workdir, write_cell_file
 from shared.client import MotionClient, StateListener
-from shared.processes import alive
+from shared.processes import alive, connectable, wait_until
 from shared.protocol.constants import Command, NotReadySubcode, Result
 
 FIGURE = 9
@@ -102,14 +92,3 @@ def run(quick: bool) -> list[dict[str, Any]]:
         figure_result(FIGURE, "spawn -> motion-ready", "ms", rows["motion_ready"]),
         figure_result(FIGURE, "SIGTERM -> every process exited", "ms", rows["stop"]),
     ]
-
-
-def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description="Figure 9: start-up")
-    parser.add_argument("--quick", action="store_true")
-    args = parser.parse_args(argv)
-    print(json.dumps(run(args.quick), indent=1))
-
-
-if __name__ == "__main__":
-    main()

@@ -1,6 +1,6 @@
 """Figure 6: state rate achieved and feedback age (tick -> TCP frame) with 4 state clients.
 
-    python -m bench.bench_state [--quick]
+    python -m bench.run --only 6 [--quick]
 
 Measured in the same runs as figure 3 (``bench.harness.loaded_runs``): a 4-group cell with the
 state period at one tick (4 ms, so 250 Hz is configured), 4 state clients, all groups moving.
@@ -23,8 +23,6 @@ not locked to the executor's, so up to one period of age is phase between the tw
 
 from __future__ import annotations
 
-import argparse
-import json
 from typing import Any
 
 import numpy as np
@@ -135,14 +133,3 @@ def run(quick: bool) -> list[dict[str, Any]]:
         ),
         figure_result(FIGURE, "  diagnosis: `state` samples on Zenoh", "1/s", column("zenoh_rate")),
     ]
-
-
-def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description="Figure 6: state rate and feedback age")
-    parser.add_argument("--quick", action="store_true")
-    args = parser.parse_args(argv)
-    print(json.dumps(run(args.quick), indent=1))
-
-
-if __name__ == "__main__":
-    main()

@@ -1,6 +1,6 @@
 """Figure 5: streaming a 4-group trajectory with points every 4 ms (one interpolation period).
 
-    python -m bench.bench_streaming [--quick]
+    python -m bench.run --only 5 [--quick]
 
 A 4-group cell (default 10 ms state period, one state client connected). Each run streams
 2000 MOTO_JOINT_TRAJ_PT_FULL_EX (2016) points 4 ms apart (quick: 100), constant velocity on
@@ -29,15 +29,12 @@ can accept at most one point per ~5-6 ms, slower than the 4 ms the executor cons
 
 from __future__ import annotations
 
-import argparse
-import json
 from typing import Any
 
 from bench.harness import (
     BUSY_RETRY_S,
     Observer,
     Streamer,
-    ex_messages,
     figure_result,
     percentiles,
     positions_of,
@@ -48,6 +45,7 @@ from bench.harness import (
     workdir,
 )
 from shared.bus.schemas import Decoder, Point, Slot, Tick
+from shared.client import ex_messages
 
 FIGURE = 5
 RUNS = 3
@@ -197,14 +195,3 @@ def run(quick: bool) -> list[dict[str, Any]]:
     )
     results.append(figure_result(FIGURE, "  diagnosis: slot turnaround p99", "ms", [p99]))
     return results
-
-
-def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description="Figure 5: streaming at one point per period")
-    parser.add_argument("--quick", action="store_true")
-    args = parser.parse_args(argv)
-    print(json.dumps(run(args.quick), indent=1))
-
-
-if __name__ == "__main__":
-    main()

@@ -18,14 +18,13 @@ import os
 import platform
 import shutil
 import signal
-import socket
 import statistics
 import subprocess
 import sys
 import tempfile
 import threading
 import time
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -38,14 +37,14 @@ from services.cell.launcher import free_port, free_port_block
 from shared.bus.keys import CellKeys
 from shared.bus.schemas import Decoder, ExecutorMetrics, State, Tick
 from shared.bus.session import open_session
-from shared.client import MotionClient, PlannedPoint, StateListener
+from shared.client import MotionClient, PlannedPoint, StateListener, ex_messages
 from shared.config import Cell, load_cell
 from shared.motion.kinematics import AxisMap
-from shared.processes import alive, descendants
+from shared.processes import alive, connectable, descendants, wait_until
 from shared.protocol.codec import ByteOrder
 from shared.protocol.constants import Command, NotReadySubcode, Result
 from shared.protocol.messages import Message, MotoMotionReply
-from shared.protocol.replies import ex_group, motion_ctrl, traj_point, traj_point_ex
+from shared.protocol.replies import motion_ctrl
 
 REPO = Path(__file__).resolve().parent.parent
 RESULTS_DIR = Path(__file__).resolve().parent / "results"
@@ -175,17 +174,6 @@ def _version(package: str) -> str:
 
 
 # -- processes -------------------------------------------------------------------------------
-def wait_until(predicate: Callable[[], bool], timeout: float, what: str) -> None:
-    deadline = time.monotonic() + timeout
-    while not predicate():
-        if time.monotonic() >= deadline:
-            raise TimeoutError(f"timed out after {timeout} s waiting for {what}")
-        time.sleep(0.01)
-
-
-def connectable(host: str, port: int) -> bool:
-    with socket.socket() as probe:
-        return probe.connect_ex((host, port)) == 0
 
 
 CLK_TCK = os.sysconf("SC_CLK_TCK")
@@ -574,30 +562,6 @@ def ramps(
     starts: Mapping[int, Sequence[float]], speed: float, duration: float, interval: float
 ) -> dict[int, list[PlannedPoint]]:
     return {g: ramp(p, speed, duration, interval) for g, p in starts.items()}
-
-
-def ex_messages(plans: Mapping[int, Sequence[PlannedPoint]]) -> list[Message]:
-    """MOTO_JOINT_TRAJ_PT_FULL_EX (2016) per point, as motoman_driver streams 2-4 groups."""
-    lengths = {len(points) for points in plans.values()}
-    assert len(lengths) == 1, "every group needs a point at every time"
-    return [
-        traj_point_ex(
-            sequence,
-            [
-                ex_group(g, p[sequence].time, p[sequence].positions, p[sequence].velocities)
-                for g, p in plans.items()
-            ],
-        )
-        for sequence in range(lengths.pop())
-    ]
-
-
-def single_messages(group: int, points: Sequence[PlannedPoint]) -> list[Message]:
-    """JOINT_TRAJ_PT_FULL (14) per point for one group."""
-    return [
-        traj_point(group, sequence, p.time, p.positions, p.velocities)
-        for sequence, p in enumerate(points)
-    ]
 
 
 @dataclass

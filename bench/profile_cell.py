@@ -33,7 +33,6 @@ from bench.harness import (
     Observer,
     StateClientProcess,
     Streamer,
-    ex_messages,
     positions_of,
     ramps,
     running_cell,
@@ -41,6 +40,7 @@ from bench.harness import (
     wait_moving,
     workdir,
 )
+from shared.client import ex_messages
 
 TOP = 15
 

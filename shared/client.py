@@ -219,25 +219,20 @@ BUSY_RETRY_S = 0.005
 """motoman_driver sleeps 5 ms at the top of each streaming pass, which is its BUSY retry."""
 
 
-def stream(
-    client: MotionClient, trajectory: Sequence[PlannedPoint], group: int = 0
-) -> StreamResult:
-    """Stream like MotomanJointTrajectoryStreamer: resend on BUSY, stop at any other failure."""
-    messages = [
+def point_messages(group: int, trajectory: Sequence[PlannedPoint]) -> list[Message]:
+    """One JOINT_TRAJ_PT_FULL (14) per point, sequence 0 first."""
+    return [
         traj_point(group, sequence, point.time, point.positions, point.velocities)
         for sequence, point in enumerate(trajectory)
     ]
-    return stream_messages(client, messages)
 
 
-def stream_ex(
-    client: MotionClient, trajectories: Mapping[int, Sequence[PlannedPoint]]
-) -> StreamResult:
-    """Stream several groups' trajectories (same length and times) as one
-    MOTO_JOINT_TRAJ_PT_FULL_EX (2016) per point, as motoman_driver does for 2-4 groups."""
+def ex_messages(trajectories: Mapping[int, Sequence[PlannedPoint]]) -> list[Message]:
+    """One MOTO_JOINT_TRAJ_PT_FULL_EX (2016) per point for several groups (same length and
+    times), as motoman_driver streams 2-4 groups."""
     lengths = {len(points) for points in trajectories.values()}
     assert len(lengths) == 1, "every group needs a point at every time"
-    messages = [
+    return [
         traj_point_ex(
             sequence,
             [
@@ -247,7 +242,20 @@ def stream_ex(
         )
         for sequence in range(lengths.pop())
     ]
-    return stream_messages(client, messages)
+
+
+def stream(
+    client: MotionClient, trajectory: Sequence[PlannedPoint], group: int = 0
+) -> StreamResult:
+    """Stream like MotomanJointTrajectoryStreamer: resend on BUSY, stop at any other failure."""
+    return stream_messages(client, point_messages(group, trajectory))
+
+
+def stream_ex(
+    client: MotionClient, trajectories: Mapping[int, Sequence[PlannedPoint]]
+) -> StreamResult:
+    """Stream several groups' trajectories as 2016 messages (see ``ex_messages``)."""
+    return stream_messages(client, ex_messages(trajectories))
 
 
 def stream_messages(client: MotionClient, messages: Sequence[Message]) -> StreamResult:

@@ -1,8 +1,11 @@
-"""Finding the processes a launcher started, from /proc (Linux): used to prove that every
-process a test or benchmark started is gone, and to measure them."""
+"""Driving cells from outside, for tests and benchmarks: the processes a launcher started
+(from /proc, Linux), whether a port listens, and waiting on a condition with a deadline."""
 
 from __future__ import annotations
 
+import socket
+import time
+from collections.abc import Callable
 from pathlib import Path
 
 
@@ -31,3 +34,17 @@ def alive(pid: int) -> bool:
     except OSError:
         return False
     return state != "Z"
+
+
+def connectable(host: str, port: int) -> bool:
+    with socket.socket() as probe:
+        return probe.connect_ex((host, port)) == 0
+
+
+def wait_until(predicate: Callable[[], bool], timeout: float, what: str) -> None:
+    """Poll ``predicate`` until it holds; TimeoutError naming ``what`` after ``timeout`` s."""
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        if time.monotonic() >= deadline:
+            raise TimeoutError(f"timed out after {timeout} s waiting for {what}")
+        time.sleep(0.01)

@@ -9,12 +9,10 @@ from __future__ import annotations
 
 import os
 import signal
-import socket
 import subprocess
 import sys
 import threading
-import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,20 +24,12 @@ from shared.bus.keys import CellKeys
 from shared.bus.schemas import Decoder, Tick
 from shared.client import MotionClient, StateListener
 from shared.config import Cell, load_cell
-from shared.processes import alive, descendants
+from shared.processes import alive, connectable, descendants, wait_until
 from shared.protocol.codec import ByteOrder
 from shared.protocol.constants import Command, NotReadySubcode
 
 REPO = Path(__file__).resolve().parent.parent
 START_TIMEOUT_S = 30.0
-
-
-def wait_until(predicate: Callable[[], bool], timeout: float, what: str) -> None:
-    deadline = time.monotonic() + timeout
-    while not predicate():
-        if time.monotonic() >= deadline:
-            raise TimeoutError(f"timed out after {timeout} s waiting for {what}")
-        time.sleep(0.02)
 
 
 @dataclass
@@ -133,11 +123,6 @@ def running_cell(
         wait_until(
             lambda: not any(alive(pid) for pid in started), 5.0, "every service process to exit"
         )
-
-
-def connectable(host: str, port: int) -> bool:
-    with socket.socket() as probe:
-        return probe.connect_ex((host, port)) == 0
 
 
 class TickLog:

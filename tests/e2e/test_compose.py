@@ -20,10 +20,10 @@ from services.cell.launcher import free_port, free_port_block
 from shared.client import MotionClient, StateListener, smooth_move, stream_ex
 from shared.config import load_cell
 from shared.motion.kinematics import AxisMap
-from shared.processes import alive
+from shared.processes import alive, wait_until
 from shared.protocol.codec import ByteOrder
 from shared.protocol.constants import Command, Result
-from tests.cells import REPO, wait_for_whole_cell, wait_until
+from tests.cells import REPO, wait_for_whole_cell
 
 pytestmark = pytest.mark.cell
 

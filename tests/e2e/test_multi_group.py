@@ -24,6 +24,7 @@ from shared.client import (
     stream_messages,
 )
 from shared.motion.kinematics import AxisMap
+from shared.processes import wait_until
 from shared.protocol.codec import Role, decode_frames
 from shared.protocol.constants import (
     Command,
@@ -34,7 +35,7 @@ from shared.protocol.constants import (
 )
 from shared.protocol.messages import JointFeedbackEx
 from shared.protocol.replies import ex_group, traj_point, traj_point_ex
-from tests.cells import REPO, RunningCell, TickLog, running_cell, wait_until
+from tests.cells import REPO, RunningCell, TickLog, running_cell
 
 pytestmark = pytest.mark.cell
 

@@ -15,8 +15,9 @@ from services.cell.launcher import free_port
 from shared.bus import catalog
 from shared.bus.session import open_session
 from shared.client import smooth_move, stream
+from shared.processes import wait_until
 from shared.protocol.constants import Command, Result
-from tests.cells import REPO, RunningCell, running_cell, wait_until
+from tests.cells import REPO, RunningCell, running_cell
 
 pytestmark = pytest.mark.cell
 

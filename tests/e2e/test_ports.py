@@ -9,6 +9,7 @@ from collections.abc import Iterator
 import pytest
 
 from shared.client import MotionClient, smooth_move, stream
+from shared.processes import wait_until
 from shared.protocol.constants import (
     Command,
     CommType,
@@ -44,7 +45,7 @@ from shared.protocol.replies import (
     write_io_group,
     write_mregister,
 )
-from tests.cells import RunningCell, running_cell, wait_until
+from tests.cells import RunningCell, running_cell
 
 pytestmark = pytest.mark.cell
 

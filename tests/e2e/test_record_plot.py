@@ -28,8 +28,9 @@ from shared.bus.keys import CellKeys
 from shared.bus.session import open_session
 from shared.client import smooth_move, stream
 from shared.motion.kinematics import AxisMap
+from shared.processes import wait_until
 from shared.protocol.constants import Command, Result
-from tests.cells import REPO, running_cell, wait_until
+from tests.cells import REPO, running_cell
 
 pytestmark = pytest.mark.cell
 

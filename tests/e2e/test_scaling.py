@@ -21,9 +21,9 @@ from services.cell.launcher import free_port
 from shared.bus.session import open_session
 from shared.client import MotionClient, StateListener, smooth_move, stream, stream_ex
 from shared.motion.kinematics import AxisMap
-from shared.processes import alive
+from shared.processes import alive, connectable, wait_until
 from shared.protocol.constants import Command, NotReadySubcode, Result
-from tests.cells import REPO, RunningCell, connectable, running_cell, wait_until
+from tests.cells import REPO, RunningCell, running_cell
 
 pytestmark = pytest.mark.cell
 

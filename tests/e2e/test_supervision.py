@@ -9,8 +9,9 @@ from pathlib import Path
 import pytest
 
 from shared.client import smooth_move, stream
+from shared.processes import wait_until
 from shared.protocol.constants import Command, NotReadySubcode, Result
-from tests.cells import running_cell, wait_until
+from tests.cells import running_cell
 
 pytestmark = pytest.mark.cell
 

@@ -17,10 +17,11 @@ from shared.client import (
     stream_messages,
 )
 from shared.motion.kinematics import AxisMap
+from shared.processes import wait_until
 from shared.protocol.constants import Command, InvalidSubcode, MsgType, NotReadySubcode, Result
 from shared.protocol.messages import JointTrajPtFull, Message
 from shared.protocol.replies import traj_point
-from tests.cells import RunningCell, running_cell, wait_until
+from tests.cells import RunningCell, running_cell
 
 pytestmark = pytest.mark.cell
 
