@@ -37,10 +37,10 @@ from bench.harness import (
     workdir,
 )
 from services.interpolator.feeder import MAX_BATCH
-from shared.client import PlannedPoint, ex_messages
 from shared.config import Group, load_catalogue
 from shared.motion.interpolation import Knot, Trajectory, time_to_ns
 from shared.motion.kinematics import AxisMap
+from testkit.client import PlannedPoint, ex_messages
 
 FIGURE = 8
 RUNS = 3

@@ -47,8 +47,8 @@ from bench.harness import (
     workdir,
 )
 from shared.bus.schemas import Decoder, GatewayMetrics
-from shared.client import ex_messages, point_messages
 from shared.protocol.constants import MsgType, Result
+from testkit.client import ex_messages, point_messages
 
 FIGURE = 4
 RUNS = 3

@@ -40,7 +40,7 @@ from bench.harness import (
     wait_moving,
     workdir,
 )
-from shared.client import ex_messages
+from testkit.client import ex_messages
 
 FIGURE = 7
 MAX_CELLS = 4

@@ -21,9 +21,9 @@ from pathlib import Path
 from typing import Any
 
 from bench.harness import figure_result, spawn_cell, stop_cell, workdir, write_cell_file
-from shared.client import MotionClient, StateListener
-from shared.processes import alive, connectable, wait_until
 from shared.protocol.constants import Command, NotReadySubcode, Result
+from testkit.client import MotionClient, StateListener
+from testkit.processes import alive, connectable, wait_until
 
 FIGURE = 9
 RUNS = 5

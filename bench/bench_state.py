@@ -5,7 +5,7 @@
 Measured in the same runs as figure 3 (``bench.harness.loaded_runs``): a 4-group cell with the
 state period at one tick (4 ms, so 250 Hz is configured), 4 state clients, all groups moving.
 
-Each state client is a ``shared.client.StateListener`` in its own process
+Each state client is a ``testkit.client.StateListener`` in its own process
 (``bench.state_client``); it stamps every state cycle with CLOCK_MONOTONIC when its ROBOT_STATUS
 has been read. All processes are on this machine, so that clock is the executor's clock.
 

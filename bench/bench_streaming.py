@@ -7,7 +7,7 @@ A 4-group cell (default 10 ms state period, one state client connected). Each ru
 every axis so that every executed period moves every axis. Three clients, each run 3 times:
 
 - motoman_driver (the goal's client): the next point at once after SUCCESS, a BUSY point
-  resent after 5 ms (``shared.client.stream_ex`` semantics);
+  resent after 5 ms (``testkit.client.stream_ex`` semantics);
 - paced 4 ms: point i is sent no earlier than i x 4 ms after the first, BUSY resent after 5 ms;
 - BUSY retry 1 ms (diagnostic): as motoman_driver but resending after 1 ms, to show what the
   cell sustains when the client's back-off is not the limit.
@@ -45,7 +45,7 @@ from bench.harness import (
     workdir,
 )
 from shared.bus.schemas import Decoder, Point, Slot, Tick
-from shared.client import ex_messages
+from testkit.client import ex_messages
 
 FIGURE = 5
 RUNS = 3

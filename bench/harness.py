@@ -33,18 +33,18 @@ from typing import Any
 import numpy as np
 import zenoh
 
-from services.cell.launcher import free_port, free_port_block
 from shared.bus.keys import CellKeys
 from shared.bus.schemas import Decoder, ExecutorMetrics, State, Tick
 from shared.bus.session import open_session
-from shared.client import MotionClient, PlannedPoint, StateListener, ex_messages
 from shared.config import Cell, load_cell
 from shared.motion.kinematics import AxisMap
-from shared.processes import alive, connectable, descendants, wait_until
+from shared.ports import free_port, free_port_block
 from shared.protocol.codec import ByteOrder
 from shared.protocol.constants import Command, NotReadySubcode, Result
 from shared.protocol.messages import Message, MotoMotionReply
 from shared.protocol.replies import motion_ctrl
+from testkit.client import MotionClient, PlannedPoint, StateListener, ex_messages
+from testkit.processes import alive, connectable, descendants, wait_until
 
 REPO = Path(__file__).resolve().parent.parent
 RESULTS_DIR = Path(__file__).resolve().parent / "results"
@@ -207,7 +207,7 @@ def process_kind(pid: int) -> str:
         return "gone"
     words = [a.decode(errors="replace") for a in argv]
     for word in words:
-        if word.startswith("services.") and word != "services.cell.cli":
+        if word.startswith("services.") and word != "tools.cli":
             return word.removeprefix("services.")
     if "up" in words:
         return "launcher+router"
@@ -335,7 +335,7 @@ def spawn_cell(config: Path, log: Path) -> BenchCell:
     port_base = free_port_block(3)
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     command = [
-        *(sys.executable, "-m", "services.cell.cli", "up", "--config", str(config)),
+        *(sys.executable, "-m", "tools.cli", "up", "--config", str(config)),
         *("--port-base", str(port_base), "--zenoh-listen", endpoint),
     ]
     env = {**os.environ, "MOTOCELL_LOG": "WARNING"}

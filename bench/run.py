@@ -44,7 +44,7 @@ from bench import (
     bench_streaming,
 )
 from bench.harness import RESULTS_DIR, compare, goal_text, machine_info
-from shared.processes import descendants
+from testkit.processes import descendants
 
 Results = list[dict[str, Any]]
 

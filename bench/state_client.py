@@ -2,7 +2,7 @@
 
     python -m bench.state_client --port P --config CELL.toml --out OUT.npz
 
-Connects a ``shared.client.StateListener``, prints ``ready``, records every state cycle until a
+Connects a ``testkit.client.StateListener``, prints ``ready``, records every state cycle until a
 line (or EOF) arrives on stdin, then writes ``received_ns`` (CLOCK_MONOTONIC when the cycle's
 ROBOT_STATUS was read) and ``pulses`` (each group's feedback positions converted back to pulses,
 Motoman order, groups concatenated) to OUT.npz. Running each client in its own process keeps
@@ -16,10 +16,10 @@ import sys
 
 import numpy as np
 
-from shared.client import StateListener
 from shared.config import load_cell
 from shared.motion.kinematics import AxisMap
 from shared.protocol.codec import ByteOrder
+from testkit.client import StateListener
 
 KEEP = 1_000_000
 

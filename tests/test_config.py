@@ -411,7 +411,7 @@ def test_up_refuses_a_bad_file_with_status_2(tmp_path: Path) -> None:
         [
             sys.executable,
             "-m",
-            "services.cell.cli",
+            "tools.cli",
             "up",
             "--config",
             str(path),

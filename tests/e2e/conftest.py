@@ -8,7 +8,7 @@ import pytest
 import zenoh
 
 from shared.bus.session import open_session
-from tests.cells import RunningCell
+from testkit.cell import RunningCell
 
 
 @pytest.fixture(scope="module")

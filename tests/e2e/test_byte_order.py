@@ -6,13 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from shared.client import MotionClient, smooth_move, stream
 from shared.motion.kinematics import AxisMap
 from shared.protocol.codec import ByteOrder, Role, decode_frames
 from shared.protocol.constants import Command, InvalidSubcode, Result
 from shared.protocol.messages import MotoMotionReply
 from shared.protocol.replies import motion_ctrl
-from tests.cells import REPO, running_cell
+from testkit.cell import REPO, running_cell
+from testkit.client import MotionClient, smooth_move, stream
 
 pytestmark = pytest.mark.cell
 

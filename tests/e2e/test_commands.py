@@ -12,10 +12,10 @@ import zenoh
 from shared.bus.keys import CellKeys
 from shared.bus.schemas import CommandRequest
 from shared.bus.session import call
-from shared.client import MotionClient, StateListener, smooth_move, stream
 from shared.protocol.constants import Command, NotReadySubcode, Result
 from shared.protocol.replies import motion_ctrl
-from tests.cells import REPO, RunningCell, running_cell
+from testkit.cell import REPO, RunningCell, running_cell
+from testkit.client import MotionClient, StateListener, smooth_move, stream
 
 pytestmark = pytest.mark.cell
 
@@ -143,7 +143,7 @@ def test_disconnect_fails_while_moving_and_closes_silently_when_idle(
 
 def test_the_fault_command_injects_and_clears(cell: RunningCell, motion: MotionClient) -> None:
     def fault_cli(*words: str) -> subprocess.CompletedProcess[str]:
-        command = [sys.executable, "-m", "services.cell.cli", "fault", *words]
+        command = [sys.executable, "-m", "tools.cli", "fault", *words]
         command += ["--cell", cell.cell.name, "--zenoh-connect", cell.zenoh_endpoint]
         return subprocess.run(
             command, cwd=REPO, capture_output=True, text=True, timeout=30, check=False

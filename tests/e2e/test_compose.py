@@ -16,14 +16,14 @@ import numpy as np
 import pytest
 import yaml
 
-from services.cell.launcher import free_port, free_port_block
-from shared.client import MotionClient, StateListener, smooth_move, stream_ex
 from shared.config import load_cell
 from shared.motion.kinematics import AxisMap
-from shared.processes import alive, wait_until
+from shared.ports import free_port, free_port_block
 from shared.protocol.codec import ByteOrder
 from shared.protocol.constants import Command, Result
-from tests.cells import REPO, wait_for_whole_cell
+from testkit.cell import REPO, wait_for_whole_cell
+from testkit.client import MotionClient, StateListener, smooth_move, stream_ex
+from testkit.processes import alive, wait_until
 
 pytestmark = pytest.mark.cell
 
@@ -57,7 +57,7 @@ def compose_cell() -> Iterator[int]:
     env = {**os.environ, "MOTOCELL_LOG": "WARNING"}
     processes = [
         subprocess.Popen(
-            [sys.executable, "-m", "services.cell.cli", "router", "--listen", router],
+            [sys.executable, "-m", "tools.cli", "router", "--listen", router],
             cwd=REPO,
             env=env,
         )

@@ -12,11 +12,11 @@ import zenoh
 from shared.bus.keys import CellKeys
 from shared.bus.schemas import CommandRequest, Tick
 from shared.bus.session import call
-from shared.client import MotionClient, StateListener, smooth_move, stream
-from shared.processes import wait_until
 from shared.protocol.constants import Command, NotReadySubcode, Result
 from shared.protocol.replies import traj_point
-from tests.cells import RunningCell, TickLog, running_cell
+from testkit.cell import RunningCell, TickLog, running_cell
+from testkit.client import MotionClient, StateListener, smooth_move, stream
+from testkit.processes import wait_until
 
 pytestmark = pytest.mark.cell
 

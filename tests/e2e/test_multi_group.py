@@ -14,17 +14,7 @@ import pytest
 import zenoh
 
 from shared.bus.keys import CellKeys
-from shared.client import (
-    Feedback,
-    PlannedPoint,
-    StateListener,
-    smooth_move,
-    stream,
-    stream_ex,
-    stream_messages,
-)
 from shared.motion.kinematics import AxisMap
-from shared.processes import wait_until
 from shared.protocol.codec import Role, decode_frames
 from shared.protocol.constants import (
     Command,
@@ -35,7 +25,17 @@ from shared.protocol.constants import (
 )
 from shared.protocol.messages import JointFeedbackEx
 from shared.protocol.replies import ex_group, traj_point, traj_point_ex
-from tests.cells import REPO, RunningCell, TickLog, running_cell
+from testkit.cell import REPO, RunningCell, TickLog, running_cell
+from testkit.client import (
+    Feedback,
+    PlannedPoint,
+    StateListener,
+    smooth_move,
+    stream,
+    stream_ex,
+    stream_messages,
+)
+from testkit.processes import wait_until
 
 pytestmark = pytest.mark.cell
 

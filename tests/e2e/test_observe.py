@@ -11,13 +11,13 @@ from pathlib import Path
 import pytest
 import zenoh
 
-from services.cell.launcher import free_port
 from shared.bus import catalog
 from shared.bus.session import open_session
-from shared.client import smooth_move, stream
-from shared.processes import wait_until
+from shared.ports import free_port
 from shared.protocol.constants import Command, Result
-from tests.cells import REPO, RunningCell, running_cell
+from testkit.cell import REPO, RunningCell, running_cell
+from testkit.client import smooth_move, stream
+from testkit.processes import wait_until
 
 pytestmark = pytest.mark.cell
 
@@ -30,7 +30,7 @@ def cell() -> Iterator[RunningCell]:
 
 def motocell(*args: str, timeout: float = 30.0) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
-        [sys.executable, "-m", "services.cell.cli", *args],
+        [sys.executable, "-m", "tools.cli", *args],
         cwd=REPO,
         capture_output=True,
         text=True,

@@ -8,8 +8,6 @@ from collections.abc import Iterator
 
 import pytest
 
-from shared.client import MotionClient, smooth_move, stream
-from shared.processes import wait_until
 from shared.protocol.constants import (
     Command,
     CommType,
@@ -45,7 +43,9 @@ from shared.protocol.replies import (
     write_io_group,
     write_mregister,
 )
-from tests.cells import RunningCell, running_cell
+from testkit.cell import RunningCell, running_cell
+from testkit.client import MotionClient, smooth_move, stream
+from testkit.processes import wait_until
 
 pytestmark = pytest.mark.cell
 

@@ -21,16 +21,16 @@ from matplotlib.image import imread
 from matplotlib.lines import Line2D
 from mcap.reader import make_reader
 
-from services.cell.launcher import free_port
-from services.cell.plot import plot_recording
-from services.cell.record import read_recording
 from shared.bus.keys import CellKeys
 from shared.bus.session import open_session
-from shared.client import smooth_move, stream
 from shared.motion.kinematics import AxisMap
-from shared.processes import wait_until
+from shared.ports import free_port
 from shared.protocol.constants import Command, Result
-from tests.cells import REPO, running_cell
+from testkit.cell import REPO, running_cell
+from testkit.client import smooth_move, stream
+from testkit.processes import wait_until
+from tools.plot import plot_recording
+from tools.record import read_recording
 
 pytestmark = pytest.mark.cell
 
@@ -42,7 +42,7 @@ TOLERANCE_RAD = 1e-4
 
 def record_command(out: Path, endpoint: str, *extra: str) -> list[str]:
     # `motocell record`, with -W error so the recorder itself is warning-free too.
-    module = ["-m", "services.cell.cli", "record"]
+    module = ["-m", "tools.cli", "record"]
     return [sys.executable, "-W", "error", *module, str(out), "--zenoh-connect", endpoint, *extra]
 
 

@@ -17,13 +17,13 @@ import numpy as np
 import pytest
 import zenoh
 
-from services.cell.launcher import free_port
 from shared.bus.session import open_session
-from shared.client import MotionClient, StateListener, smooth_move, stream, stream_ex
 from shared.motion.kinematics import AxisMap
-from shared.processes import alive, connectable, wait_until
+from shared.ports import free_port
 from shared.protocol.constants import Command, NotReadySubcode, Result
-from tests.cells import REPO, RunningCell, running_cell
+from testkit.cell import REPO, RunningCell, running_cell
+from testkit.client import MotionClient, StateListener, smooth_move, stream, stream_ex
+from testkit.processes import alive, connectable, wait_until
 
 pytestmark = pytest.mark.cell
 
@@ -31,7 +31,7 @@ pytestmark = pytest.mark.cell
 @contextmanager
 def router(listen: str) -> Iterator[str]:
     process = subprocess.Popen(
-        [sys.executable, "-m", "services.cell.cli", "router", "--listen", listen],
+        [sys.executable, "-m", "tools.cli", "router", "--listen", listen],
         cwd=REPO,
         env={**os.environ, "MOTOCELL_LOG": "WARNING"},
     )

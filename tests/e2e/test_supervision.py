@@ -8,10 +8,10 @@ from pathlib import Path
 
 import pytest
 
-from shared.client import smooth_move, stream
-from shared.processes import wait_until
 from shared.protocol.constants import Command, NotReadySubcode, Result
-from tests.cells import running_cell
+from testkit.cell import running_cell
+from testkit.client import smooth_move, stream
+from testkit.processes import wait_until
 
 pytestmark = pytest.mark.cell
 

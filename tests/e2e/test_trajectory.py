@@ -8,7 +8,12 @@ from collections.abc import Iterator
 import numpy as np
 import pytest
 
-from shared.client import (
+from shared.motion.kinematics import AxisMap
+from shared.protocol.constants import Command, InvalidSubcode, MsgType, NotReadySubcode, Result
+from shared.protocol.messages import JointTrajPtFull, Message
+from shared.protocol.replies import traj_point
+from testkit.cell import RunningCell, running_cell
+from testkit.client import (
     MotionClient,
     PlannedPoint,
     StateListener,
@@ -16,12 +21,7 @@ from shared.client import (
     stream,
     stream_messages,
 )
-from shared.motion.kinematics import AxisMap
-from shared.processes import wait_until
-from shared.protocol.constants import Command, InvalidSubcode, MsgType, NotReadySubcode, Result
-from shared.protocol.messages import JointTrajPtFull, Message
-from shared.protocol.replies import traj_point
-from tests.cells import RunningCell, running_cell
+from testkit.processes import wait_until
 
 pytestmark = pytest.mark.cell
 

@@ -17,12 +17,12 @@ from contextlib import ExitStack
 
 import numpy as np
 
-from services.cell.launcher import free_port, free_port_block
-from shared.client import MotionClient, StateListener, smooth_move, stream
 from shared.config import Cell, load_cell
 from shared.motion.kinematics import AxisMap
+from shared.ports import free_port, free_port_block
 from shared.protocol.codec import ByteOrder
 from shared.protocol.constants import Command, Result
+from testkit.client import MotionClient, StateListener, smooth_move, stream
 
 GOAL_TOLERANCE_RAD = 1e-4
 
@@ -31,7 +31,7 @@ def start_cell(cell_config: str | None, port_base: int) -> subprocess.Popen[byte
     command = [
         sys.executable,
         "-m",
-        "services.cell.cli",
+        "tools.cli",
         "up",
         "--port-base",
         str(port_base),

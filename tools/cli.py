@@ -7,8 +7,9 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from services.cell import bench, demo, fault, launcher, observe, plot, record
+from services.launcher import launcher
 from shared.service import add_zenoh_arguments
+from tools import bench, demo, fault, observe, plot, record
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -13,7 +13,6 @@ import argparse
 import logging
 import os
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -24,6 +23,7 @@ import zenoh
 
 from shared.bus.session import open_session
 from shared.config import Cell, ConfigError, load_cell
+from shared.ports import free_port, port_free
 from shared.service import PARENT_PID_ENV
 
 log = logging.getLogger("motocell")
@@ -50,31 +50,6 @@ class Child:
 
     def alive(self) -> bool:
         return self.process is not None and self.process.poll() is None
-
-
-def free_port(host: str = "127.0.0.1") -> int:
-    with socket.socket() as probe:
-        probe.bind((host, 0))
-        port: int = probe.getsockname()[1]
-        return port
-
-
-def free_port_block(count: int, host: str = "127.0.0.1") -> int:
-    """A base port with ``count`` consecutive free ports (for the motion/state/I/O trio)."""
-    while True:
-        base = free_port(host)
-        if base + count <= 65535 and all(port_free(base + i, host) for i in range(count)):
-            return base
-
-
-def port_free(port: int, host: str = "127.0.0.1") -> bool:
-    with socket.socket() as probe:
-        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        try:
-            probe.bind((host, port))
-        except OSError:
-            return False
-        return True
 
 
 def open_hub(listen: list[str], connect: list[str]) -> tuple[zenoh.Session, str]:

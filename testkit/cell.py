@@ -19,14 +19,14 @@ from pathlib import Path
 
 import zenoh
 
-from services.cell.launcher import free_port, free_port_block
 from shared.bus.keys import CellKeys
 from shared.bus.schemas import Decoder, Tick
-from shared.client import MotionClient, StateListener
 from shared.config import Cell, load_cell
-from shared.processes import alive, connectable, descendants, wait_until
+from shared.ports import free_port, free_port_block
 from shared.protocol.codec import ByteOrder
 from shared.protocol.constants import Command, NotReadySubcode
+from testkit.client import MotionClient, StateListener
+from testkit.processes import alive, connectable, descendants, wait_until
 
 REPO = Path(__file__).resolve().parent.parent
 START_TIMEOUT_S = 30.0
@@ -89,7 +89,7 @@ def running_cell(
     endpoint = router or f"tcp/127.0.0.1:{free_port()}"
     zenoh_option = "--zenoh-connect" if router else "--zenoh-listen"
     command = [
-        *(sys.executable, "-m", "services.cell.cli", "up", "--port-base", str(port_base)),
+        *(sys.executable, "-m", "tools.cli", "up", "--port-base", str(port_base)),
         *(zenoh_option, endpoint, *extra),
     ]
     for service in skip:

@@ -21,8 +21,8 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from mcap.exceptions import McapError
 
-from services.cell.record import read_recording
 from shared.bus import catalog
+from tools.record import read_recording
 
 WIDTH_IN = 12.0
 ROW_HEIGHT_IN = 2.5
