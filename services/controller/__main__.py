@@ -16,7 +16,7 @@ from services.controller.model import OT_ROS_READY, START_TIMEOUT_S, Controller
 from shared.bus.keys import service_of_alive
 from shared.bus.schemas import CommandReply, CommandRequest, Decoder, Tick, encode
 from shared.bus.session import Inbox, Liveness, answer, command_of, publisher
-from shared.protocol.constants import InvalidSubcode, Result
+from shared.protocol.constants import TOOL_NUMBERS, InvalidSubcode, Result
 from shared.service import ServiceContext, argument_parser, required_alive_keys, running_service
 
 log = logging.getLogger("controller")
@@ -216,7 +216,7 @@ class ControllerService:
         elif verb == "select_tool":
             if not 0 <= request.group < model.groups:
                 self.reply(query, CommandReply(Result.INVALID, InvalidSubcode.GROUPNO))
-            elif not 0 <= request.value <= 63:
+            elif request.value not in TOOL_NUMBERS:
                 self.reply(query, CommandReply(Result.INVALID, InvalidSubcode.DATA_TOOLNO))
             else:
                 model.select_tool(request.group, request.value)

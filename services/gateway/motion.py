@@ -26,6 +26,7 @@ from shared.motion.kinematics import AxisMap
 from shared.protocol.constants import (
     DH_LINKS,
     MAX_GROUPS,
+    TOOL_NUMBERS,
     Command,
     CommType,
     InvalidSubcode,
@@ -391,7 +392,7 @@ class MotionHandler:
     def select_tool(self, body: SelectTool) -> Verdict:
         if not 0 <= body.group_no < self.groups:
             return invalid(InvalidSubcode.GROUPNO)
-        if not 0 <= body.tool <= 63:
+        if body.tool not in TOOL_NUMBERS:
             return invalid(InvalidSubcode.DATA_TOOLNO)
         return self._controller_with(
             "select_tool", CommandRequest(group=body.group_no, value=body.tool)

@@ -17,6 +17,8 @@ MAX_AXES = 8
 MAX_GROUPS = 4
 """Groups in the _EX messages (MOT_MAX_GR)."""
 DH_LINKS = 8
+TOOL_NUMBERS = range(64)
+"""Tool files a controller has (0-63); MOTO_SELECT_TOOL refuses others with INVALID 3017."""
 
 
 class MsgType(IntEnum):

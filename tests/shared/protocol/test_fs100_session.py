@@ -25,7 +25,7 @@ from shared.protocol.messages import (
     UnknownMessage,
 )
 
-REPO_ROOT = Path(__file__).resolve().parents[2]
+REPO_ROOT = Path(__file__).resolve().parents[3]
 SHARED_DIR = Path(os.environ.get("MOTOCELL_SHARED_DIR", REPO_ROOT.parent / "shared"))
 SESSION_FILE = SHARED_DIR / "data" / "fs100-session.jsonl"
 

@@ -22,7 +22,7 @@ from shared.config import (
 )
 from shared.protocol.constants import MAX_AXES
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 CELLS = REPO / "deploy" / "cells"
 
 CATALOGUE_NAMES = ("arm6", "arm7", "positioner2", "track1")
