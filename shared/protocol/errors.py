@@ -2,12 +2,9 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Final
+from typing import Final
 
 from shared.protocol.constants import InvalidSubcode, Result
-
-if TYPE_CHECKING:
-    from shared.protocol.messages import Message
 
 
 class LocalProtocolError(Exception):
@@ -15,9 +12,11 @@ class LocalProtocolError(Exception):
 
 
 class PeerProtocolError(Exception):
-    """The peer sent bytes we cannot accept; carries the INVALID reply MotoROS would send.
+    """The peer sent bytes we cannot accept; carries what the INVALID reply MotoROS sends needs.
 
     ``msg_type`` is the offending frame's type, or 0 when the framing itself was unreadable.
+    ``shared.protocol.replies`` turns it into the reply: ``invalid_reply`` on the motion port,
+    ``io_error_reply`` on the I/O port.
     """
 
     result: Final = Result.INVALID
@@ -26,13 +25,3 @@ class PeerProtocolError(Exception):
         super().__init__(detail)
         self.subcode = subcode
         self.msg_type = msg_type
-
-    def reply(self) -> Message:
-        """The MOTO_MOTION_REPLY a motion port answers with (motoros1-behaviour.md §1.4, §2.7).
-
-        The I/O port answers in its own form instead: ``replies.io_error_reply(self.subcode)``.
-        """
-        # Imported here because replies (through layouts) imports this module.
-        from shared.protocol.replies import invalid_reply
-
-        return invalid_reply(self)

@@ -214,7 +214,8 @@ def test_largest_length_per_role() -> None:
 
 def test_peer_error_carries_its_reply() -> None:
     error = PeerProtocolError("bad", InvalidSubcode.MSGSIZE, 14)
-    assert error.reply() == Message(2002, 3, 1, MotoMotionReply(-1, -1, 14, 3, 3001, (0.0,) * 10))
+    expected = Message(2002, 3, 1, MotoMotionReply(-1, -1, 14, 3, 3001, (0.0,) * 10))
+    assert replies.invalid_reply(error) == expected
     assert str(error) == "bad"
 
 
