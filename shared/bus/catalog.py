@@ -1,7 +1,14 @@
-"""Which payload type travels on which key: one decoder per key, for any observer."""
+"""The cell's key map: every key, what travels on it, who may send it and who receives it.
+
+This table is the one place that knows the bus. Observers decode any sample through it, the
+tests check every key a service builds against it, and access control is derived from it: a
+role may do on a key exactly what its route lists, nothing else.
+"""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from enum import StrEnum
 from typing import Any
 
 import msgspec
@@ -16,26 +23,144 @@ from shared.bus.schemas import (
     InterpolatorMetrics,
     Point,
     QueueState,
+    ServiceInfo,
     Slot,
     State,
     Tick,
 )
 
-# Key suffixes after ``motocell/<cell>/``; "*" is one level (a group number).
+
+class Op(StrEnum):
+    """How a key is used."""
+
+    PUT = "put"
+    """Senders publish, receivers subscribe."""
+    QUERY = "query"
+    """Senders query, receivers declare the queryable and reply."""
+    TOKEN = "token"
+    """Senders declare a liveliness token, receivers watch liveliness."""
+
+
+class Role(StrEnum):
+    """Who acts on a cell's bus: its services, and the two kinds of outside tool."""
+
+    CONTROLLER = "controller"
+    EXECUTOR = "executor"
+    BROADCASTER = "broadcaster"
+    GATEWAY = "gateway"
+    INTERPOLATOR = "interpolator"
+    OPERATOR = "operator"
+    """Injects faults (``motocell fault``, tests); acts only on the fault keys."""
+    OBSERVER = "observer"
+    """Watches (``ps``, ``watch``, ``record``): receives, never sends anything that acts."""
+
+
+SERVICES = frozenset(
+    {Role.CONTROLLER, Role.EXECUTOR, Role.BROADCASTER, Role.GATEWAY, Role.INTERPOLATOR}
+)
+WATCHERS = frozenset({Role.OBSERVER, Role.OPERATOR})
+
+
+@dataclass(frozen=True)
+class Route:
+    suffix: str
+    """The key after ``motocell/<cell>/`` (``@motocell/<cell>/`` for tokens); ``*`` is one
+    level: a group number, a verb, a service name or an instance."""
+    op: Op
+    payload: type[msgspec.Struct] | None
+    """What a put carries, or a query's request; None for tokens."""
+    senders: frozenset[Role]
+    receivers: frozenset[Role]
+    reply: type[msgspec.Struct] | None = None
+    """A query's reply."""
+
+
+def _roles(*roles: Role) -> frozenset[Role]:
+    return frozenset(roles)
+
+
+CONTROLLER, EXECUTOR, BROADCASTER = Role.CONTROLLER, Role.EXECUTOR, Role.BROADCASTER
+GATEWAY, INTERPOLATOR = Role.GATEWAY, Role.INTERPOLATOR
+
+ROUTES: tuple[Route, ...] = (
+    Route(
+        "controller/status",
+        Op.PUT,
+        ControllerStatus,
+        _roles(CONTROLLER),
+        _roles(EXECUTOR, BROADCASTER, GATEWAY, INTERPOLATOR) | WATCHERS,
+    ),
+    Route(
+        "controller/cmd/*",
+        Op.QUERY,
+        CommandRequest,
+        _roles(GATEWAY, EXECUTOR),
+        _roles(CONTROLLER),
+        CommandReply,
+    ),
+    Route(
+        "controller/cmd/incmove_error",
+        Op.PUT,
+        CommandReply,
+        _roles(EXECUTOR),
+        _roles(CONTROLLER) | WATCHERS,
+    ),
+    Route(
+        "controller/cmd/connections",
+        Op.PUT,
+        CommandRequest,
+        _roles(GATEWAY),
+        _roles(CONTROLLER) | WATCHERS,
+    ),
+    Route(
+        "controller/fault/*",
+        Op.QUERY,
+        CommandRequest,
+        _roles(Role.OPERATOR),
+        _roles(CONTROLLER),
+        CommandReply,
+    ),
+    Route("group/*/point", Op.PUT, Point, _roles(GATEWAY), _roles(INTERPOLATOR) | WATCHERS),
+    Route("group/*/slot", Op.PUT, Slot, _roles(INTERPOLATOR), _roles(GATEWAY) | WATCHERS),
+    Route(
+        "group/*/increments",
+        Op.PUT,
+        IncrementBatch,
+        _roles(INTERPOLATOR),
+        _roles(EXECUTOR) | WATCHERS,
+    ),
+    Route(
+        "group/*/queue",
+        Op.PUT,
+        QueueState,
+        _roles(EXECUTOR),
+        _roles(GATEWAY, INTERPOLATOR) | WATCHERS,
+    ),
+    Route("group/*/metrics", Op.PUT, InterpolatorMetrics, _roles(INTERPOLATOR), WATCHERS),
+    Route(
+        "executor/tick", Op.PUT, Tick, _roles(EXECUTOR), _roles(CONTROLLER, BROADCASTER) | WATCHERS
+    ),
+    Route(
+        "executor/cmd/*", Op.QUERY, CommandRequest, _roles(GATEWAY), _roles(EXECUTOR), CommandReply
+    ),
+    Route("executor/metrics", Op.PUT, ExecutorMetrics, _roles(EXECUTOR), WATCHERS),
+    Route("gateway/metrics", Op.PUT, GatewayMetrics, _roles(GATEWAY), WATCHERS),
+    Route("state", Op.PUT, State, _roles(BROADCASTER), _roles(GATEWAY) | WATCHERS),
+    Route("service/*/*", Op.QUERY, None, WATCHERS, SERVICES, ServiceInfo),
+    Route(
+        "alive/*/*",
+        Op.TOKEN,
+        None,
+        SERVICES,
+        _roles(CONTROLLER, EXECUTOR, BROADCASTER, GATEWAY) | WATCHERS,
+    ),
+)
+"""Every key of a cell. ``motocell ps`` queries ``service/*/*`` with no request body."""
+
 PAYLOADS: dict[str, type[msgspec.Struct]] = {
-    "controller/status": ControllerStatus,
-    "controller/cmd/incmove_error": CommandReply,
-    "controller/cmd/connections": CommandRequest,
-    "executor/tick": Tick,
-    "executor/metrics": ExecutorMetrics,
-    "gateway/metrics": GatewayMetrics,
-    "state": State,
-    "group/*/point": Point,
-    "group/*/slot": Slot,
-    "group/*/increments": IncrementBatch,
-    "group/*/queue": QueueState,
-    "group/*/metrics": InterpolatorMetrics,
+    route.suffix: route.payload for route in ROUTES if route.op is Op.PUT and route.payload
 }
+"""What a subscriber receives, by key suffix (queries and tokens are not samples)."""
 
 _decoders = {suffix: msgspec.msgpack.Decoder(kind) for suffix, kind in PAYLOADS.items()}
 
@@ -46,6 +171,26 @@ def suffix_of(key: str) -> str:
     if len(parts) >= 2 and parts[0] == "group":
         parts[1] = "*"
     return "/".join(parts)
+
+
+def route_of(key: str) -> Route | None:
+    """The route a concrete key (``motocell/<cell>/...`` or ``@motocell/<cell>/...``) is on;
+    an exact suffix wins over a wildcard one."""
+    parts = key.split("/")[2:]
+    matches = [
+        route
+        for route in ROUTES
+        if _matches(route.suffix.split("/"), parts)
+        and (route.op is Op.TOKEN) == key.startswith("@")
+    ]
+    matches.sort(key=lambda route: route.suffix.count("*"))
+    return matches[0] if matches else None
+
+
+def _matches(pattern: list[str], parts: list[str]) -> bool:
+    if len(pattern) != len(parts):
+        return False
+    return all(level in ("*", part) for level, part in zip(pattern, parts, strict=True))
 
 
 def cell_of(key: str) -> str:
