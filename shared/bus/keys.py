@@ -19,7 +19,7 @@ class CellKeys:
         self.state = f"{self.prefix}/state"
         self.group_queue_all = f"{self.prefix}/group/*/queue"
         self.group_slot_all = f"{self.prefix}/group/*/slot"
-        self.alive_all = f"{ALIVE_ROOT}/{cell}/alive/**"
+        self.alive_all = f"{ALIVE_ROOT}/{cell}/alive/*/*"
 
     def controller_cmd(self, verb: str) -> str:
         return f"{self.prefix}/controller/cmd/{verb}"

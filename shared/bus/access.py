@@ -1,0 +1,130 @@
+"""Zenoh access control for a cell, derived from the key map (``catalog.ROUTES``).
+
+Default deny. Each identity may do exactly what its role's routes list, on its own cell's keys:
+an interpolator only on its own group's keys, every service only its own liveliness token and
+info queryable. Observers receive and ask services who they are; operators may also inject
+faults. Nothing else is written here: change a route in the catalogue and the ACL follows.
+
+How Zenoh applies it (measured in ../shared notes, zenoh-security): the router filters each
+message per connection, ``ingress`` as it arrives from a client and ``egress`` as it leaves
+towards one; a denied message is dropped silently.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+from typing import Any
+
+from shared.bus.catalog import ROUTES, Op, Role, Route
+from shared.bus.keys import ALIVE_ROOT, ROOT
+
+INGRESS, EGRESS = "ingress", "egress"
+
+# What a sender and a receiver of each kind of route need, as (flow, message kinds).
+SENDING: dict[Op, tuple[tuple[str, tuple[str, ...]], ...]] = {
+    Op.PUT: ((INGRESS, ("put",)),),
+    Op.QUERY: ((INGRESS, ("query",)), (EGRESS, ("reply",))),
+    Op.TOKEN: ((INGRESS, ("liveliness_token",)),),
+}
+RECEIVING: dict[Op, tuple[tuple[str, tuple[str, ...]], ...]] = {
+    Op.PUT: ((INGRESS, ("declare_subscriber",)), (EGRESS, ("put",))),
+    Op.QUERY: ((INGRESS, ("declare_queryable", "reply")), (EGRESS, ("query",))),
+    Op.TOKEN: (
+        (INGRESS, ("declare_liveliness_subscriber", "liveliness_query")),
+        (EGRESS, ("liveliness_token", "reply")),
+    ),
+}
+DECLARATIONS = ("declare_subscriber", "declare_queryable", "declare_liveliness_subscriber")
+"""Told to every identity of the cell: a publisher or querier learns that someone listens (and
+routes to it) only from these. They carry key expressions, never data."""
+
+
+@dataclass(frozen=True)
+class Identity:
+    """One party on a cell's bus: a service instance (``interpolator`` ``2``) or a tool."""
+
+    role: Role
+    instance: str = "0"
+
+    @property
+    def name(self) -> str:
+        """``gateway``, ``interpolator-2``: unique within a cell."""
+        return self.role.value if self.instance == "0" else f"{self.role.value}-{self.instance}"
+
+    def username(self, cell: str) -> str:
+        return f"{cell}.{self.name}"
+
+
+def cell_identities(groups: int) -> list[Identity]:
+    """Every identity a cell with ``groups`` control groups has."""
+    services = [
+        Identity(Role.CONTROLLER),
+        Identity(Role.EXECUTOR),
+        Identity(Role.BROADCASTER),
+        Identity(Role.GATEWAY),
+        *(Identity(Role.INTERPOLATOR, str(group)) for group in range(groups)),
+    ]
+    return [*services, Identity(Role.OPERATOR), Identity(Role.OBSERVER)]
+
+
+def own_keys(route: Route, cell: str, identity: Identity, sending: bool) -> list[str]:
+    """The concrete key expression(s) of ``route`` that ``identity`` acts on.
+
+    A group's keys belong to that group's interpolator; a service's token and info queryable
+    are its own. Everyone else acts on the route's whole wildcard.
+    """
+    root = ALIVE_ROOT if route.op is Op.TOKEN else ROOT
+    levels = route.suffix.split("/")
+    if levels[0] == "group" and identity.role is Role.INTERPOLATOR:
+        levels[1] = identity.instance
+    declares_itself = (route.op is Op.TOKEN and sending) or (route.op is Op.QUERY and not sending)
+    if levels[0] in ("alive", "service") and declares_itself:
+        # A service declares its own liveliness token and its own info queryable only.
+        levels[1:] = [identity.role.value, identity.instance]
+    return [f"{root}/{cell}/{'/'.join(levels)}"]
+
+
+def _rules_for(cell: str, identity: Identity) -> Iterator[tuple[str, tuple[str, ...], str]]:
+    for route in ROUTES:
+        if identity.role in route.senders:
+            for flow, messages in SENDING[route.op]:
+                for key in own_keys(route, cell, identity, sending=True):
+                    yield flow, messages, key
+        if identity.role in route.receivers:
+            for flow, messages in RECEIVING[route.op]:
+                for key in own_keys(route, cell, identity, sending=False):
+                    yield flow, messages, key
+    for root in (ROOT, ALIVE_ROOT):
+        yield EGRESS, DECLARATIONS, f"{root}/{cell}/**"
+
+
+def access_control(cell: str, identities: Iterable[Identity]) -> dict[str, Any]:
+    """The ``access_control`` section of the router's Zenoh config for ``cell``."""
+    rules: list[dict[str, Any]] = []
+    subjects: list[dict[str, Any]] = []
+    policies: list[dict[str, Any]] = []
+    for identity in identities:
+        username = identity.username(cell)
+        subjects.append({"id": username, "usernames": [username]})
+        ids = []
+        for index, (flow, messages, key) in enumerate(_rules_for(cell, identity)):
+            rule_id = f"{username}#{index}"
+            ids.append(rule_id)
+            rules.append(
+                {
+                    "id": rule_id,
+                    "permission": "allow",
+                    "flows": [flow],
+                    "messages": list(messages),
+                    "key_exprs": [key],
+                }
+            )
+        policies.append({"id": username, "subjects": [username], "rules": ids})
+    return {
+        "enabled": True,
+        "default_permission": "deny",
+        "rules": rules,
+        "subjects": subjects,
+        "policies": policies,
+    }

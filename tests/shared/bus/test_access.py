@@ -1,0 +1,141 @@
+"""Access control derived from the key map: default deny, each identity its own keys only.
+
+The pure tests read the generated rules; the router test opens a real Zenoh router with the
+rules and password authentication and checks what actually gets through.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+import zenoh
+
+from shared.bus.access import Identity, access_control, cell_identities
+from shared.bus.catalog import Role
+from shared.ports import free_port
+from testkit.processes import wait_until
+
+CELL = "c1"
+
+
+def allowed(config: dict[str, Any], identity: Identity, flow: str, message: str) -> set[str]:
+    """The key expressions ``identity`` may use ``message`` on in ``flow``."""
+    policy = next(p for p in config["policies"] if p["id"] == identity.username(CELL))
+    rules = {rule["id"]: rule for rule in config["rules"]}
+    return {
+        key
+        for rule_id in policy["rules"]
+        if flow in rules[rule_id]["flows"] and message in rules[rule_id]["messages"]
+        for key in rules[rule_id]["key_exprs"]
+    }
+
+
+CONFIG = access_control(CELL, cell_identities(2))
+
+
+def test_default_deny_and_one_subject_per_identity() -> None:
+    assert CONFIG["default_permission"] == "deny"
+    names = [subject["usernames"] for subject in CONFIG["subjects"]]
+    assert ["c1.interpolator-1"] in names and ["c1.observer"] in names
+    assert len(names) == len(cell_identities(2))
+
+
+def test_an_interpolator_sends_only_on_its_own_group() -> None:
+    puts = allowed(CONFIG, Identity(Role.INTERPOLATOR, "1"), "ingress", "put")
+    assert "motocell/c1/group/1/increments" in puts
+    assert not any("/group/0/" in key or "/group/*/" in key for key in puts)
+
+
+def test_only_the_gateway_sends_points() -> None:
+    for identity in cell_identities(2):
+        puts = allowed(CONFIG, identity, "ingress", "put")
+        sends_points = any(key.endswith("/point") for key in puts)
+        assert sends_points == (identity.role is Role.GATEWAY), identity
+
+
+def test_watchers_put_nothing_and_query_only_faults_or_service_info() -> None:
+    for role in (Role.OBSERVER, Role.OPERATOR):
+        identity = Identity(role)
+        assert allowed(CONFIG, identity, "ingress", "put") == set()
+        assert allowed(CONFIG, identity, "ingress", "liveliness_token") == set()
+        queries = allowed(CONFIG, identity, "ingress", "query")
+        expected = {"motocell/c1/service/*/*"}
+        if role is Role.OPERATOR:
+            expected.add("motocell/c1/controller/fault/*")
+        assert queries == expected
+
+
+def test_a_service_declares_only_its_own_token_and_info() -> None:
+    identity = Identity(Role.EXECUTOR)
+    assert allowed(CONFIG, identity, "ingress", "liveliness_token") == {
+        "@motocell/c1/alive/executor/0"
+    }
+    assert "motocell/c1/service/executor/0" in allowed(
+        CONFIG, identity, "ingress", "declare_queryable"
+    )
+
+
+@pytest.fixture
+def router(tmp_path: Path) -> Iterator[str]:
+    users = tmp_path / "users"
+    users.write_text("".join(f"{i.username(CELL)}:pw-{i.name}\n" for i in cell_identities(1)))
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    config = _config("router", endpoint)
+    config.insert_json5("listen/endpoints", json.dumps([endpoint]))
+    config.insert_json5("connect/endpoints", "[]")
+    config.insert_json5("transport/auth/usrpwd/dictionary_file", json.dumps(str(users)))
+    config.insert_json5("access_control", json.dumps(access_control(CELL, cell_identities(1))))
+    session = zenoh.open(config)
+    yield endpoint
+    session.close()
+
+
+def _config(mode: str, endpoint: str, user: str | None = None) -> zenoh.Config:
+    config = zenoh.Config()
+    config.insert_json5("mode", json.dumps(mode))
+    config.insert_json5("scouting/multicast/enabled", "false")
+    config.insert_json5("connect/endpoints", json.dumps([endpoint]))
+    if user is not None:
+        config.insert_json5("transport/auth/usrpwd/user", json.dumps(f"{CELL}.{user}"))
+        config.insert_json5("transport/auth/usrpwd/password", json.dumps(f"pw-{user}"))
+    return config
+
+
+def test_the_router_lets_through_exactly_what_the_rules_say(router: str) -> None:
+    interpolator = zenoh.open(_config("client", router, "interpolator"))
+    gateway = zenoh.open(_config("client", router, "gateway"))
+    observer = zenoh.open(_config("client", router, "observer"))
+    received: list[bytes] = []
+    lock = threading.Lock()
+
+    def keep(sample: zenoh.Sample) -> None:
+        with lock:
+            received.append(sample.payload.to_bytes())
+
+    try:
+        subscriber = interpolator.declare_subscriber("motocell/c1/group/0/point", keep)
+        observer.put("motocell/c1/group/0/point", b"observer")
+        wait_until(lambda: _put_arrives(gateway, received, lock), 5.0, "the gateway's point")
+        assert b"observer" not in received
+        subscriber.undeclare()
+    finally:
+        for session in (interpolator, gateway, observer):
+            session.close()
+
+
+def _put_arrives(gateway: zenoh.Session, received: list[bytes], lock: threading.Lock) -> bool:
+    gateway.put("motocell/c1/group/0/point", b"gateway")
+    with lock:
+        return b"gateway" in received
+
+
+def test_a_wrong_password_is_refused(router: str) -> None:
+    config = _config("client", router, "gateway")
+    config.insert_json5("transport/auth/usrpwd/password", '"wrong"')
+    with pytest.raises(zenoh.ZError):
+        zenoh.open(config)
