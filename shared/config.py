@@ -38,8 +38,8 @@ class ControllerProfile:
     max_groups: int
 
 
-# FS100 is PowerPC and so big-endian; the others are x86 (motoros1-behaviour.md §1.1).
-# DX100 caps the group count at 3 (§0 step 5).
+# FS100 is PowerPC and so big-endian; the others are x86 (motoros1 §1.1).
+# DX100 caps the group count at 3 (motoros1 §0 step 5).
 PROFILES: dict[ControllerModel, ControllerProfile] = {
     ControllerModel.DX100: ControllerProfile("little", 3),
     ControllerModel.FS100: ControllerProfile("big", 4),

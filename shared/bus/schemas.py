@@ -32,14 +32,14 @@ class ControllerStatus(msgspec.Struct, array_like=True, frozen=True):
     operating: bool
     """A job is running (INIT_ROS parked at its WAIT counts)."""
     job_ready: bool
-    """OT#889 latched on its rising edge (motoros1-behaviour.md §7.1)."""
+    """OT#889 latched on its rising edge (motoros1 §7.1)."""
     pfl_active: bool
     incmove_error: bool
     eco: bool
     missing_services: list[str]
     motion_ready: bool
     not_ready_subcode: int
-    """The NOT_READY subcode (§7.2) when not ready, else 0."""
+    """The NOT_READY subcode (motoros1 §7.2) when not ready, else 0."""
     tools: list[int]
     """Selected tool per group."""
 

@@ -26,8 +26,12 @@ log = logging.getLogger(__name__)
 T = TypeVar("T")
 
 LEASE_MS = 1000
+"""Transport lease: a hung (not crashed) process is noticed after about this long
+(zenoh-facts §1.4)."""
 BLOCK_WAIT_US = 500_000
-"""Transport lease: a hung (not crashed) process is noticed after about this long (§1.4)."""
+"""A link whose queue stays full this long is closed: one stalled observer (a suspended
+`motocell watch`, a slow callback) must not hold back the cell's BLOCK streams for Zenoh's
+default 5 s."""
 
 
 def bus_config(
@@ -43,9 +47,6 @@ def bus_config(
     config.insert_json5("listen/endpoints", json.dumps(list(listen)))
     config.insert_json5("scouting/multicast/enabled", "false")
     config.insert_json5("transport/link/tx/lease", str(LEASE_MS))
-    # A link whose queue stays full this long is closed: one stalled observer (a suspended
-    # `motocell watch`, a slow callback) must not hold back the cell's BLOCK streams for
-    # Zenoh's default 5 s.
     config.insert_json5(
         "transport/link/tx/queue/congestion_control/block/wait_before_close", str(BLOCK_WAIT_US)
     )
@@ -92,7 +93,7 @@ def publisher(
 class Inbox:
     """One queue that several Zenoh callbacks feed, drained by the service's own thread.
 
-    Zenoh callbacks run on Zenoh's threads; they only append here (STYLE §10), so no service
+    Zenoh callbacks run on Zenoh's threads; they only append here (style §10), so no service
     logic ever runs on them. Bounded: a producer that outruns the consumer is logged and
     dropped rather than growing memory without limit.
     """

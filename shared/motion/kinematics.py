@@ -2,7 +2,7 @@
 (pulses, Motoman axis order).
 
 ROS order for a 7-axis arm is S-L-E-U-R-B-T; Motoman's pulse order is S-L-U-R-B-T-E
-(motoros1-behaviour.md §4.3). For every other group the two orders are the same.
+(motoros1 §4.3). For every other group the two orders are the same.
 """
 
 from __future__ import annotations
@@ -39,9 +39,9 @@ class AxisMap:
     def ros_to_pulses(self, ros: FloatArray) -> IntArray:
         """Absolute pulses (Motoman order) for ROS-order positions; works on (n,) or (k, n).
 
-        MotoROS truncates toward zero (``(int)(rad * PtoR)``, §4.3); we round to nearest, which
-        halves the worst error (0.5 pulse instead of 1) and keeps it unbiased. Either way
-        increments are differences of absolute pulses, so no error accumulates.
+        MotoROS truncates toward zero (``(int)(rad * PtoR)``, motoros1 §4.3); we round to
+        nearest, which halves the worst error (0.5 pulse instead of 1) and keeps it unbiased.
+        Either way increments are differences of absolute pulses, so no error accumulates.
         """
         moto = ros[..., self.ros_index_of_moto] * self.pulses_per_unit_moto
         return np.rint(moto).astype(np.int64)

@@ -5,7 +5,7 @@ Pure, in the manner of h11: no sockets, tasks or clocks. The caller feeds what i
 ``NEED_DATA`` (or ``CLOSED``), and writes what ``send`` returns.
 
 Unlike MotoROS, which ignores the length prefix and reads one ``recv`` at a time
-(motoros1-behaviour.md §1.1), the decoder frames by the prefix, so a frame split across reads
+(motoros1 §1.1), the decoder frames by the prefix, so a frame split across reads
 reassembles and several frames in one read all come out.
 """
 
@@ -125,7 +125,7 @@ class SimpleMessageCodec:
         self._pos = end
         decode = self._decoders.get(msg_type)
         if decode is None:
-            # The caller answers INVALID/3003 (§2.7), so this is an event, not an error.
+            # The caller answers INVALID/3003 (motoros1 §2.7), so this is an event, not an error.
             return UnknownMessage(msg_type, comm_type, reply_type, bytes(buf[body_at:end]))
         return Message(msg_type, comm_type, reply_type, decode(buf, body_at, end - body_at))
 
@@ -145,13 +145,13 @@ class SimpleMessageCodec:
 
     def _bad_length(self, length: int) -> PeerProtocolError:
         if length < HEADER_SIZE:
-            # Too short to hold even the header (§1.1): the header is what is broken.
+            # Too short to hold even the header (motoros1 §1.1): the header is what is broken.
             return PeerProtocolError(
                 f"length prefix {length} is shorter than the {HEADER_SIZE}-byte header",
                 InvalidSubcode.MSGHEADER,
             )
-        # MotoROS reads at most one 552-byte message per recv (§1.1), so nothing longer than
-        # the largest body this side receives can be a real message.
+        # MotoROS reads at most one 552-byte message per recv (motoros1 §1.1), so nothing
+        # longer than the largest body this side receives can be a real message.
         return PeerProtocolError(
             f"length prefix {length} exceeds the largest message ({self._max_length})",
             InvalidSubcode.MSGSIZE,

@@ -1,6 +1,6 @@
 """Numeric codes of the Simple Message protocol as MotoROS 1.9 uses them.
 
-Values come from spec §4.3-4.5 and motoros1-behaviour.md §1.3. Where the two disagree the
+Values come from incremental-motion §4.3-4.5 and motoros1 §1.3. Where the two disagree the
 MotoROS 1.9 value wins, because the real clients were built against it.
 """
 

@@ -2,11 +2,11 @@
 
 All fields are packed 32-bit words (int32 ``i``, uint32 ``I``, float32 ``f``) in the controller
 CPU's byte order: little-endian on DX100/DX200/YRC1000, big-endian on FS100; MotoROS never swaps
-(motoros1-behaviour.md §1.1). Each body has one precompiled ``struct.Struct`` per byte order.
+(motoros1 §1.1). Each body has one precompiled ``struct.Struct`` per byte order.
 
 Frame: ``@0 length`` (int32, the bytes after it = 12 + body), ``@4 msg_type``, ``@8 comm_type``,
 ``@12 reply_type``, ``@16 body``. Body offsets below are from the body's start; ``[10]`` is
-10 x float32 = 40 bytes; ``ctl``/``cli`` = received by the controller/client (§1.2):
+10 x float32 = 40 bytes; ``ctl``/``cli`` = received by the controller/client (motoros1 §1.2):
 
 ====  =======  ===========  =================================================================
 type  to       body bytes   fields @offset
@@ -39,7 +39,7 @@ type  to       body bytes   fields @offset
 ====  =======  ===========  =================================================================
 
 A controller knows the sizes of 13, 15, 2002 and 2017 although it never handles them: MotoROS
-then closes the connection (§2.7), so they decode rather than come out as unknown types.
+then closes the connection (motoros1 §2.7), so they decode rather than come out as unknown types.
 """
 
 from __future__ import annotations
@@ -92,7 +92,8 @@ Encode = Callable[[Body], bytes]
 
 
 class ByteOrder(StrEnum):
-    """The controller CPU's order (§1.1): LITTLE for DX100/DX200/YRC1000, BIG for FS100."""
+    """The controller CPU's order (motoros1 §1.1): LITTLE for DX100/DX200/YRC1000, BIG for
+    FS100."""
 
     LITTLE = "little"
     BIG = "big"
@@ -145,7 +146,7 @@ class BodyLayout(ABC):
     def encoder(self, order: ByteOrder) -> Encode: ...
 
     def _wrong_size(self, size: int, expected: str) -> PeerProtocolError:
-        # motoros1-behaviour.md §2.7: a known type with the wrong size gets INVALID/3001.
+        # motoros1 §2.7: a known type with the wrong size gets INVALID/3001.
         return PeerProtocolError(
             f"type {self.msg_type}: body of {size} bytes, expected {expected}",
             InvalidSubcode.MSGSIZE,
@@ -259,7 +260,7 @@ _ZERO_BLOCK: Final = bytes(JOINT_BLOCK_SIZE)
 
 
 def _feedback_ex_values(b: JointFeedbackEx) -> list[Any]:
-    # 2017 always has 4 slots; the real client rejects shorter frames (motoman-driver-client.md).
+    # 2017 always has 4 slots; the real client rejects shorter frames (docs/spec/driver-client.md).
     if len(b.groups) > MAX_GROUPS:
         raise LocalProtocolError(f"2017: {len(b.groups)} groups; it has {MAX_GROUPS} slots")
     slots = (*b.groups, *(ZERO_FEEDBACK,) * (MAX_GROUPS - len(b.groups)))
@@ -284,7 +285,7 @@ def _dh_body(v: tuple[Any, ...]) -> GetDhParametersReply:
 
 
 def _dh_values(b: GetDhParametersReply) -> tuple[float, ...]:
-    # §1.2: always 4 groups x 8 links; groups beyond the cell's count are zero.
+    # motoros1 §1.2: always 4 groups x 8 links; groups beyond the cell's count are zero.
     if len(b.groups) > MAX_GROUPS:
         raise LocalProtocolError(f"2020: {len(b.groups)} groups; the reply has {MAX_GROUPS}")
     values: list[float] = []
@@ -297,7 +298,8 @@ def _dh_values(b: GetDhParametersReply) -> tuple[float, ...]:
 
 
 class FeedbackExLayout(FixedLayout):
-    """2017: int32 number_of_valid_groups, then always 4 slots of 15's body (§1.2, §6).
+    """2017: int32 number_of_valid_groups, then always 4 slots of 15's body (motoros1 §1.2,
+    motoros1 §6).
 
     Encodes as any fixed layout; decodes slot by slot.
     """
@@ -318,8 +320,8 @@ class FeedbackExLayout(FixedLayout):
         size = self.max_size
 
         def slot(buf: Buffer, at: int) -> JointFeedback:
-            # Slots beyond the cell's groups are all zero (§6). Sharing one zero slot instead of
-            # unpacking 33 zeros decodes a 2-group frame about 1.5 times as fast.
+            # Slots beyond the cell's groups are all zero (motoros1 §6). Sharing one zero slot
+            # instead of unpacking 33 zeros decodes a 2-group frame about 1.5 times as fast.
             if buf[at : at + JOINT_BLOCK_SIZE] == _ZERO_BLOCK:
                 return ZERO_FEEDBACK
             return _feedback(unpack_slot(buf, at))
@@ -366,11 +368,12 @@ class TrajPtFullExLayout(BodyLayout):
                 raise self._wrong_size(body_size, "8 + 132 x groups")
             n, sequence = unpack_head(buf, offset)
             # MotoROS does not range-check n: n > 4 cannot fit and gets 3001, while n <= 0
-            # answers from a stale reply buffer [quirk, §1.2, §2.5]. We answer 3001 for both.
+            # answers from a stale reply buffer [quirk, motoros1 §1.2, motoros1 §2.5]. We
+            # answer 3001 for both.
             if not 1 <= n <= MAX_GROUPS:
                 raise self._wrong_size(body_size, f"1 to {MAX_GROUPS} groups, not {n}")
-            # §1.2 (v1.3.0/v1.5.1): the exact size for n groups, or the full 4-group size with
-            # its padding ignored (not taken as the start of the next message).
+            # motoros1 §1.2 (v1.3.0/v1.5.1): the exact size for n groups, or the full 4-group
+            # size with its padding ignored (not taken as the start of the next message).
             if body_size != head_size + n * JOINT_BLOCK_SIZE and body_size != padded_size:
                 raise self._wrong_size(body_size, f"{head_size + n * JOINT_BLOCK_SIZE} for {n}")
             v = unpack_blocks[n](buf, offset + head_size)
@@ -463,7 +466,7 @@ _RECEIVED: Final[Mapping[Direction, tuple[BodyLayout, ...]]] = {
         _TRAJ_PT_FULL_EX,
         _SELECT_TOOL,
         _GET_DH_PARAMETERS,
-        # Known sizes without a handler: MotoROS closes the connection on these (§2.7).
+        # Known sizes without a handler: MotoROS closes the connection on these (motoros1 §2.7).
         _ROBOT_STATUS,
         _JOINT_FEEDBACK,
         _MOTION_REPLY,

@@ -2,7 +2,7 @@
 
 Headers follow MotoROS: replies are comm type 3 (SERVICE_REPLY), state messages comm type 1
 (TOPIC) with reply type 0, and requests comm type 2 with reply type 0, as motoman_driver sends
-them (motoman-driver-client.md). Header fields are stored as plain ints, and joint arrays are
+them (docs/spec/driver-client.md). Header fields are stored as plain ints, and joint arrays are
 widened to 10 slots, so a built message equals what the peer decodes.
 """
 
@@ -54,7 +54,7 @@ def service_reply(msg_type: int, body: Body, success: bool = True) -> Message:
 
 
 def _motion_reply(group_no: int, sequence: int, command: int, result: int, subcode: int) -> Message:
-    # §1.4: reply type is 1 (SUCCESS) whatever the result; the result is in the body.
+    # motoros1 §1.4: reply type is 1 (SUCCESS) whatever the result; the result is in the body.
     body = MotoMotionReply(
         int(group_no), int(sequence), int(command), int(result), int(subcode), ZERO_JOINTS
     )
@@ -64,11 +64,11 @@ def _motion_reply(group_no: int, sequence: int, command: int, result: int, subco
 def motion_reply(
     request: Message | UnknownMessage, result: int, subcode: int, group_no: int | None = None
 ) -> Message:
-    """The MOTO_MOTION_REPLY to ``request`` (motoros1-behaviour.md §1.4).
+    """The MOTO_MOTION_REPLY to ``request`` (motoros1 §1.4).
 
     ``group_no`` is the group the reply refers to; by default the request's group, for 2016 the
-    last listed group (MotoROS overwrites one reply buffer per group, §2.5), and -1 for types
-    without a group.
+    last listed group (MotoROS overwrites one reply buffer per group, motoros1 §2.5), and -1
+    for types without a group.
     """
     body = None if isinstance(request, UnknownMessage) else request.body
     match body:
@@ -97,7 +97,7 @@ def invalid_reply(error: PeerProtocolError | UnknownMessage) -> Message:
 
 
 def io_error_reply(subcode: InvalidSubcode) -> Message:
-    """The I/O port's answer to an unknown type or a short message (§8).
+    """The I/O port's answer to an unknown type or a short message (motoros1 §8).
 
     MotoROS fills a {result, subcode} body (MOTO_IOCTRL_REPLY's) but sends it as msgType 2002
     with the motion reply's length, so a client reading a MOTO_MOTION_REPLY finds result (3) in
@@ -117,7 +117,7 @@ def io_error_reply(subcode: InvalidSubcode) -> Message:
 def io_reply(request: Message, result_code: int, value: int = 0) -> Message:
     """The reply to an I/O or M-register request; ``value`` is what was read (unused for writes).
 
-    Reply type is 1 when ``result_code`` is 0 (IoResult.OK, MotoROS 1.9.2+), else 2 (§8).
+    Reply type is 1 when ``result_code`` is 0 (IoResult.OK, MotoROS 1.9.2+), else 2 (motoros1 §8).
     """
     result_code, value = int(result_code), int(value)
     body: Body
