@@ -1,6 +1,6 @@
 """The executor's state as a function of (state, input): rings, epochs, one tick. No clock, no I/O.
 
-Each group has a 200-entry ring (MotoROS Q_SIZE, motoros1-behaviour.md §3.1). Entries arrive in
+Each group has a 200-entry ring (MotoROS Q_SIZE, motoros1 §3.1). Entries arrive in
 numbered batches; the ring's *epoch* changes whenever it is cleared, so batches produced for a
 cleared trajectory are recognised and dropped instead of moving the robot.
 """
@@ -79,8 +79,9 @@ class ExecutorCore:
         if batch.epoch != ring.epoch:
             return BatchOutcome.STALE
         if not self.ready:
-            # Nothing may be queued while motion is not ready (§3.3); renewing the epoch makes
-            # the interpolator drop the rest of this trajectory instead of leaving a gap.
+            # Nothing may be queued while motion is not ready (motoros1 §3.3); renewing the
+            # epoch makes the interpolator drop the rest of this trajectory instead of leaving
+            # a gap.
             self._clear(ring)
             return BatchOutcome.NOT_READY
         if (
@@ -125,14 +126,14 @@ class ExecutorCore:
             self._clear(ring)
 
     def set_ready(self, ready: bool) -> None:
-        """Motion-ready from the controller; dropping it clears every ring (§3.3)."""
+        """Motion-ready from the controller; dropping it clears every ring (motoros1 §3.3)."""
         if self.ready and not ready:
             self.clear_all()
         self.ready = ready
 
     def step(self) -> list[int]:
         """One interpolation period: at most one (merged) increment per group, all applied
-        together in one call, like MotoROS's single IncMove call per tick (§5.3).
+        together in one call, like MotoROS's single IncMove call per tick (motoros1 §5.3).
 
         Returns the groups whose increments the motion system refused (beyond an axis's
         maximum per period) or whose synchronized start waited too long. Then nothing is
@@ -183,7 +184,8 @@ class ExecutorCore:
     @staticmethod
     def _pop_period(ring: GroupRing) -> tuple[int, ...]:
         """Pop the head entry and, while the last popped is a partial period (an off-grid
-        waypoint), the next one too, so every tick moves one full period (§5.3 merge)."""
+        waypoint), the next one too, so every tick moves one full period (motoros1 §5.3
+        merge)."""
         if not ring.entries:
             return ZERO
         entry = ring.entries.popleft()

@@ -1,4 +1,4 @@
-"""One group's interpolator (MotoROS's AddToIncQueue task, §4).
+"""One group's interpolator (MotoROS's AddToIncQueue task, motoros1 §4).
 
 Takes the points the gateway accepted, turns each segment into per-period pulse increments and
 sends them to the executor only as far as the executor's ring has room, so nothing overflows

@@ -56,7 +56,7 @@ class Feeder:
     def on_queue(self, state: QueueState) -> None:
         if self.queue is not None and state.epoch != self.queue.epoch:
             # The executor cleared the ring (stop, fault, not ready): this trajectory is over.
-            # Dropping it also frees the pending slot, as MotoROS 1.9.10 does (§3.3).
+            # Dropping it also frees the pending slot, as MotoROS 1.9.10 does (motoros1 §3.3).
             if self.trajectory is not None or self.segment is not None:
                 log.info("queue cleared by the executor; trajectory dropped")
             self.trajectory = None
@@ -132,7 +132,7 @@ class Feeder:
         # The first segment of a 2016 trajectory starts in step with its partner groups.
         self.sync = (point.sync_id, point.sync_groups) if point.sync_groups else None
         # The tool is captured when a segment is interpolated, never changed mid-segment
-        # (motoros1-behaviour.md §2.7, SELECT_TOOL).
+        # (motoros1 §2.7, SELECT_TOOL).
         self.segment_tool = self.tool
         self.points_accepted += 1
 
