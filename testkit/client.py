@@ -138,7 +138,7 @@ class StateListener:
             elif isinstance(body, JointFeedbackEx):
                 self._current.ex = body
             elif isinstance(body, RobotStatus):
-                # ROBOT_STATUS ends a cycle (§6 order: feedback, feedback_ex, status).
+                # ROBOT_STATUS ends a cycle (motoros1 §6 order: feedback, feedback_ex, status).
                 self._current.status = body
                 self._current.received_ns = time.monotonic_ns()
                 if len(self.cycles) < self.keep:

@@ -1,4 +1,5 @@
-"""Every MOTO_MOTION_CTRL command's reply (result, subcode) in the states that matter (§2.3)."""
+"""Every MOTO_MOTION_CTRL command's reply (result, subcode) in the states that
+matter (motoros1 §2.3)."""
 
 from __future__ import annotations
 

@@ -61,7 +61,8 @@ def enable(motion: MotionClient) -> None:
 
 
 def closed_form_pulses(trajectory: list[PlannedPoint], axis_map: AxisMap) -> np.ndarray:
-    """Pulses at every 4 ms grid instant and at every waypoint, from spec §2.7.2 directly."""
+    """Pulses at every 4 ms grid instant and at every waypoint, from incremental-motion §2.7.2
+    directly."""
     rows = []
     for p0, p1 in itertools.pairwise(trajectory):
         x0, x1 = np.array(p0.positions), np.array(p1.positions)

@@ -1,4 +1,4 @@
-"""Trajectory/Segment against the closed form of spec §2.7.2, computed here in float64.
+"""Trajectory/Segment against the closed form of incremental-motion §2.7.2, here in float64.
 
 Every entry's cumulative absolute pulse position (start pulses + running sum of increments) must
 equal round(p(t) * pulses_per_unit) in Motoman axis order, i.e. deviate by at most 0.5 pulse from
@@ -26,7 +26,7 @@ from shared.motion.kinematics import AxisMap, FloatArray, IntArray
 MS = 1_000_000
 PERIOD = 4 * MS
 
-# moto[i] = ros[SEVEN_AXIS[i]]: ROS S-L-E-U-R-B-T -> Motoman S-L-U-R-B-T-E (spec §4.3).
+# moto[i] = ros[SEVEN_AXIS[i]]: ROS S-L-E-U-R-B-T -> Motoman S-L-U-R-B-T-E (motoros1 §4.3).
 SEVEN_AXIS = [0, 1, 3, 4, 5, 6, 2]
 
 
@@ -55,7 +55,8 @@ def knot(time_ns: int, positions: list[float], velocities: list[float] | None = 
 
 
 def cubic(start: Knot, end: Knot, times_ns: npt.NDArray[np.int64]) -> FloatArray:
-    """Spec §2.7.2 in float64: ROS-order positions at absolute times inside the segment."""
+    """incremental-motion §2.7.2 in float64: ROS-order positions at absolute times inside the
+    segment."""
     duration = (end.time_ns - start.time_ns) / 1e9
     p0, p1, v0, v1 = start.positions, end.positions, start.velocities, end.velocities
     a1 = 6 * (p1 - p0) / duration**2 - 2 * (v1 + 2 * v0) / duration

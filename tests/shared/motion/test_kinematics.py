@@ -1,4 +1,4 @@
-"""AxisMap: ROS order/units <-> Motoman order/pulses (motoros1-behaviour.md §4.3)."""
+"""AxisMap: ROS order/units <-> Motoman order/pulses (motoros1 §4.3)."""
 
 from __future__ import annotations
 

@@ -393,7 +393,7 @@ def test_encoder_pads_to_the_wire_shape() -> None:
 
 
 def assert_motion_reply(reply: Message, group: int, sequence: int, command: int) -> None:
-    # §1.4: comm type 3 and reply type 1 whatever the result; data all zero.
+    # motoros1 §1.4: comm type 3 and reply type 1 whatever the result; data all zero.
     assert (reply.msg_type, reply.comm_type, reply.reply_type) == (2002, 3, 1)
     assert isinstance(reply.body, MotoMotionReply)
     assert (reply.body.group_no, reply.body.sequence, reply.body.command) == (

@@ -126,7 +126,8 @@ def test_state_port_sends_feedback_and_status(frames: list[Frame]) -> None:
             assert (m.body.drives_powered, m.body.e_stopped, m.body.in_error) == (1, 0, 0)
         else:
             assert isinstance(m.body, JointFeedback)
-            # This MotoROS predates velocity feedback: position only, time never filled (§6).
+            # This MotoROS predates velocity feedback: position only, time never filled
+            # (motoros1 §6).
             assert (m.body.group_no, m.body.valid_fields, m.body.time) == (0, 2, 0.0)
             assert m.body.positions[7:] == (0.0,) * 3  # a 7-axis arm: slots 7..9 unused
             assert m.body.velocities == (0.0,) * 10

@@ -1,4 +1,4 @@
-"""Golden frames written by hand from motoros1-behaviour.md §1.2, checked both ways.
+"""Golden frames written by hand from motoros1 §1.2, checked both ways.
 
 Each vector is the big-endian (FS100) frame, one 32-bit word per string. Every field is a 32-bit
 word, so the little-endian frame is the same words each byte-reversed; a few little-endian
@@ -385,7 +385,8 @@ LITTLE_ENDIAN_WRITTEN_OUT = {
 }
 
 KNOWN_TO_BOTH = {1, 13, 15, 2002, 2017}
-"""Types whose golden frames also decode on the other side (§2.7: MotoROS knows their size)."""
+"""Types whose golden frames also decode on the other side (motoros1 §2.7: MotoROS knows their
+size)."""
 
 
 def receiver(sender: Role) -> Role:
@@ -425,7 +426,8 @@ def test_controller_decodes_what_only_it_sends(golden: Golden, order: ByteOrder)
 
 
 def test_golden_sizes_match_the_catalogue() -> None:
-    """Total bytes on the wire per §1.2, so the hand-written vectors themselves are checked."""
+    """Total bytes on the wire per motoros1 §1.2, so the hand-written vectors themselves are
+    checked."""
     sizes = {g.name: len(g.big_endian) for g in GOLDEN}
     assert sizes["14 JOINT_TRAJ_PT_FULL"] == 152
     assert sizes["15 JOINT_FEEDBACK"] == 148
