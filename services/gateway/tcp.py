@@ -1,7 +1,9 @@
-"""The gateway's TCP servers: thin blocking-socket shells around the pure codec and handlers.
+"""The motion and I/O ports' TCP servers: thin blocking-socket shells around the pure codec and
+the handlers (the state port's is in ``state_port``).
 
 A thread per connection keeps the reply path short: recv, decode, decide, send, with no event
-loop hop in between. Connection limits and take-over follow MotoROS 1.9.4+ (§2.1, §6, §8).
+loop hop in between. Connection limits and take-over follow MotoROS 1.9.4+ (motoros1 §2.1,
+motoros1 §8).
 """
 
 from __future__ import annotations
@@ -11,10 +13,9 @@ import logging
 import socket
 import threading
 import time
-from collections import deque
 from collections.abc import Callable
 
-from services.gateway.motion import Answer
+from services.gateway.core.answer import Answer
 from shared.protocol.codec import CLOSED, NEED_DATA, ByteOrder, Role, SimpleMessageCodec
 from shared.protocol.errors import PeerProtocolError
 from shared.protocol.messages import Message, UnknownMessage
@@ -22,12 +23,10 @@ from shared.protocol.messages import Message, UnknownMessage
 log = logging.getLogger("gateway")
 
 RECV_BYTES = 65536
-STATE_BACKLOG_FRAMES = 64
-"""Frames buffered per state client; a slower client loses the oldest, never stalls others."""
 HANGUP_GRACE_S = 0.3
 """How long a newcomer waits for a previous client that is already closing."""
 CLOSE_DELAY_S = 0.05
-"""MotoROS sleeps 50 ms before it closes a motion connection (§2.1)."""
+"""MotoROS sleeps 50 ms before it closes a motion connection (motoros1 §2.1)."""
 
 Respond = Callable[[Message | UnknownMessage], Answer]
 Observe = Callable[[int, Message | None, int], None]
@@ -111,7 +110,7 @@ class Connection:
 
 
 class RequestServer:
-    """The motion port or the I/O port: one client at a time (§2.1, §8).
+    """The motion port or the I/O port: one client at a time (motoros1 §2.1, motoros1 §8).
 
     A newcomer replaces an idle client; while the robot moves it is refused. The old client's
     clean-up (``on_disconnect``) finishes before the newcomer is served, so a new motion client
@@ -196,94 +195,3 @@ class RequestServer:
         self.server.close()
         if self.current is not None:
             self.current.close()
-
-
-class StateClient:
-    def __init__(self, sock: socket.socket, peer: tuple[str, int]) -> None:
-        self.sock = sock
-        self.peer = peer
-        self.frames: deque[bytes] = deque(maxlen=STATE_BACKLOG_FRAMES)
-        self.ready = threading.Condition()
-        self.closed = False
-        self.thread = threading.Thread(target=self._write_loop, name="state-client", daemon=True)
-        self.thread.start()
-
-    def push(self, data: bytes) -> None:
-        with self.ready:
-            self.frames.append(data)
-            self.ready.notify()
-
-    def _write_loop(self) -> None:
-        while True:
-            with self.ready:
-                while not self.frames and not self.closed:
-                    self.ready.wait()
-                if self.closed:
-                    return
-                data = b"".join(self.frames)
-                self.frames.clear()
-            try:
-                self.sock.sendall(data)
-            except OSError:
-                self.close()
-                return
-
-    def close(self) -> None:
-        with self.ready:
-            self.closed = True
-            self.ready.notify()
-        with contextlib.suppress(OSError):
-            self.sock.shutdown(socket.SHUT_RDWR)
-        self.sock.close()
-
-
-class StateServer:
-    """Port 50241: up to 4 clients (§6). A 5th is refused while the robot moves, otherwise it
-    takes slot 0. The server never reads; a client goes when a send fails."""
-
-    MAX_CLIENTS = 4
-
-    def __init__(self, server: socket.socket, moving: Callable[[], bool]) -> None:
-        self.server = server
-        self.moving = moving
-        self.clients: list[StateClient] = []
-        self.lock = threading.Lock()
-        self.thread = threading.Thread(target=self._accept_loop, name="state-accept", daemon=True)
-
-    def start(self) -> None:
-        self.thread.start()
-
-    def _accept_loop(self) -> None:
-        while True:
-            try:
-                sock, peer = self.server.accept()
-            except OSError:
-                return
-            configure(sock)
-            with self.lock:
-                self.clients = [c for c in self.clients if not c.closed]
-                if len(self.clients) >= self.MAX_CLIENTS:
-                    if self.moving():
-                        log.warning("state: refused %s:%d, 4 clients and the robot moves", *peer)
-                        sock.close()
-                        continue
-                    self.clients.pop(0).close()
-                self.clients.append(StateClient(sock, peer))
-            log.info("state: client %s:%d connected", *peer)
-
-    def broadcast(self, data: bytes) -> None:
-        with self.lock:
-            clients = list(self.clients)
-        for client in clients:
-            if not client.closed:
-                client.push(data)
-
-    def client_count(self) -> int:
-        with self.lock:
-            return sum(not c.closed for c in self.clients)
-
-    def close(self) -> None:
-        self.server.close()
-        with self.lock:
-            for client in self.clients:
-                client.close()

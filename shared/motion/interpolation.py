@@ -56,6 +56,13 @@ def time_to_ns(seconds: float) -> int:
     return round(seconds * 1e9)
 
 
+def max_segment_entries(duration_ns: int, period_ns: int) -> int:
+    """An upper bound on the ring entries of a segment this long, wherever the grid falls in
+    it (``Segment.remaining`` before the first ``take``): at most ``duration // period + 1``
+    grid instants strictly inside it, plus the waypoint's own entry."""
+    return duration_ns // period_ns + 2
+
+
 _POWERS = np.arange(4)
 
 

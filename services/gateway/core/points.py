@@ -1,4 +1,4 @@
-"""Trajectory-point checks in MotoROS's order (motoros1-behaviour.md §2.4-2.6). Pure.
+"""Trajectory-point checks in MotoROS's order (motoros1 §2.4-2.6). Pure.
 
 The gateway answers a point from state it already holds (motion-ready, commanded position,
 the pending slot) because a Zenoh round trip alone costs more than a real controller's whole
@@ -17,12 +17,12 @@ from shared.motion.kinematics import AxisMap
 from shared.protocol.constants import REQUIRED_POINT_FIELDS, InvalidSubcode, Result
 
 MAX_TRAJECTORY_TIME_S = 14400.0
-"""4 h: beyond this float32 seconds lose millisecond precision (§2.4 step 4, 3016)."""
+"""4 h: beyond this float32 seconds lose millisecond precision (motoros1 §2.4 step 4, 3016)."""
 START_TOLERANCE_PULSES = 30
+"""Sequence-0 start position vs the *commanded* position, per axis (motoros1 §2.6, since v1.8.2)."""
 MAX_ABS_PULSES = 2**30
 """Positions whose pulses reach this are refused: differences of two such values still fit
 the int32 increments on the wire between interpolator and executor."""
-"""Sequence-0 start position vs the *commanded* position, per axis (§2.6, since v1.8.2)."""
 
 Verdict = tuple[int, int]
 OK: Verdict = (int(Result.SUCCESS), 0)
@@ -44,14 +44,14 @@ class PointData:
 
 
 def check_fields(point: PointData) -> Verdict | None:
-    """§2.4 step 3: time, position and velocity must all be present (3015)."""
+    """motoros1 §2.4 step 3: time, position and velocity must all be present (3015)."""
     if point.valid_fields & REQUIRED_POINT_FIELDS != REQUIRED_POINT_FIELDS:
         return invalid(InvalidSubcode.DATA_INSUFFICIENT)
     return None
 
 
 def check_time_limit(point: PointData) -> Verdict | None:
-    """§2.4 step 4 (3016). Also refuses NaN/infinite times, which MotoROS lets through."""
+    """motoros1 §2.4 step 4 (3016). Also refuses NaN/infinite times, which MotoROS lets through."""
     if not math.isfinite(point.time) or point.time >= MAX_TRAJECTORY_TIME_S:
         return invalid(InvalidSubcode.DATA_TIME)
     return None
@@ -70,9 +70,9 @@ def check_positions(point: PointData, axis_map: AxisMap) -> Verdict | None:
 
 
 def _speed_ok(velocity: float, limit: float) -> bool:
-    """MotoROS compares ``abs()`` of the *integer-truncated* velocity [quirk, §2.6]: 2.9 rad/s
-    passes a 2.0 limit there. We compare the real value; NaN is refused too (it would pass
-    any ``>`` comparison)."""
+    """MotoROS compares ``abs()`` of the *integer-truncated* velocity [quirk, motoros1 §2.6]:
+    2.9 rad/s passes a 2.0 limit there. We compare the real value; NaN is refused too (it
+    would pass any ``>`` comparison)."""
     return abs(velocity) <= limit
 
 
@@ -89,7 +89,7 @@ def check_speeds(point: PointData, axis_map: AxisMap) -> Verdict | None:
 def check_start(
     point: PointData, axis_map: AxisMap, command_pulses: Sequence[int]
 ) -> Verdict | None:
-    """§2.6, axis by axis as MotoROS loops: within 30 pulses of the *commanded* position
+    """motoros1 §2.6, axis by axis as MotoROS loops: within 30 pulses of the *commanded* position
     (3011), then that index's velocity within its limit (3013)."""
     requested = axis_map.ros_to_pulses(np.array(point.positions[: axis_map.axes], dtype=np.float64))
     limits = axis_map.max_speed_ros.tolist()

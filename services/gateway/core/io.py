@@ -1,11 +1,13 @@
 """I/O requests (port 50242, and the bit/group ones on the motion port too): forwarded to the
-controller, which owns the I/O table; the reply carries its result code (§8)."""
+controller, which owns the I/O table; the reply carries its result code (motoros1 §8)."""
 
 from __future__ import annotations
 
-from services.gateway.cell_view import CellView
+from services.gateway.core.answer import Answer
+from services.gateway.core.cell_port import CellPort
 from shared.bus.schemas import CommandRequest
 from shared.protocol.constants import InvalidSubcode, IoResult, MsgType
+from shared.protocol.errors import PeerProtocolError
 from shared.protocol.messages import (
     Message,
     ReadIOBit,
@@ -19,14 +21,24 @@ from shared.protocol.messages import (
 from shared.protocol.replies import io_error_reply, io_reply
 
 IO_TIMEOUT_S = 1.0
+WRITES = (MsgType.MOTO_WRITE_IO_BIT, MsgType.MOTO_WRITE_IO_GROUP, MsgType.MOTO_WRITE_MREGISTER)
 
 
 class IoHandler:
-    def __init__(self, view: CellView) -> None:
-        self.view = view
+    def __init__(self, cell: CellPort) -> None:
+        self.cell = cell
+
+    def answer(self, request: Message | UnknownMessage) -> Answer:
+        """The I/O port's answer: always a reply, never a close (motoros1 §8)."""
+        return Answer(self.handle(request))
+
+    @staticmethod
+    def error_reply(error: PeerProtocolError) -> Message:
+        """A frame the I/O port cannot read: its error reply, and the connection is kept."""
+        return io_error_reply(error.subcode)
 
     def handle(self, request: Message | UnknownMessage) -> Message:
-        """Every request is answered and the connection is always kept (§8)."""
+        """Every request is answered and the connection is always kept (motoros1 §8)."""
         if isinstance(request, UnknownMessage):
             return io_error_reply(InvalidSubcode.MSGTYPE)
         body = request.body
@@ -50,13 +62,9 @@ class IoHandler:
                 # The I/O port handles only 2003-2013; PING and the motion types included get
                 # the "unknown type" error reply here, as MotoROS does.
                 return io_error_reply(InvalidSubcode.MSGTYPE)
-        reply = self.view.controller(verb, command, timeout=IO_TIMEOUT_S)
+        reply = self.cell.controller(verb, command, timeout=IO_TIMEOUT_S)
         if reply is None:
-            is_write = request.msg_type in (
-                MsgType.MOTO_WRITE_IO_BIT,
-                MsgType.MOTO_WRITE_IO_GROUP,
-                MsgType.MOTO_WRITE_MREGISTER,
-            )
+            is_write = request.msg_type in WRITES
             code = IoResult.WRITE_API_ERROR if is_write else IoResult.READ_API_ERROR
             return io_reply(request, code)
         return io_reply(request, reply.result, reply.value)

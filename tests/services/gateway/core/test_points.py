@@ -1,4 +1,4 @@
-"""Trajectory-point checks (motoros1-behaviour.md §2.4-2.6): fields 3015, time 3016,
+"""Trajectory-point checks (motoros1 §2.4-2.6): fields 3015, time 3016,
 position 3012, speed 3013, start position 3011."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ from collections.abc import Sequence
 
 import pytest
 
-from services.gateway.points import (
+from services.gateway.core.points import (
     MAX_TRAJECTORY_TIME_S,
     OK,
     START_TOLERANCE_PULSES,

@@ -1,0 +1,47 @@
+"""The rest of the cell as the gateway's decisions see it (STYLE 13): the state the adapter keeps
+current, and the few things the gateway asks of other services. ``ZenohCell`` is the real one;
+the unit tests drive the handlers with a fake."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Protocol
+
+from services.gateway.core.cell_state import CellState
+from shared.bus.schemas import CommandReply, CommandRequest, Point
+
+
+class CellPort(Protocol):
+    @property
+    def state(self) -> CellState:
+        """Kept current by the port as samples arrive; read by the handlers."""
+        ...
+
+    def controller_alive(self) -> bool: ...
+
+    def send_point(self, group: int, point: Point) -> None:
+        """Publish a point numbered by the group's ``GroupCredit.number``."""
+        ...
+
+    def controller(
+        self, verb: str, request: CommandRequest | None = None, timeout: float = 2.0
+    ) -> CommandReply | None:
+        """A controller command; returns once ``state`` has the status that follows it.
+        None when the controller did not answer in time."""
+        ...
+
+    def executor(
+        self, verb: str, request: CommandRequest | None = None, timeout: float = 1.0
+    ) -> CommandReply | None:
+        """An executor command; None when the executor did not answer in time."""
+        ...
+
+    def wait_for(self, condition: Callable[[], bool], timeout: float) -> bool:
+        """Block until ``condition()`` (evaluated on ``state``) holds, at most ``timeout`` s;
+        whether it does."""
+        ...
+
+
+def readiness(cell: CellPort) -> tuple[bool, int]:
+    """Motion-ready and the NOT_READY subcode, as CHECK_MOTION_READY and every point see it."""
+    return cell.state.readiness(cell.controller_alive())

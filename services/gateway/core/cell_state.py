@@ -1,0 +1,63 @@
+"""What the gateway knows of the rest of the cell. Pure: the cell adapter feeds it each sample
+as it arrives (controller status, the executor's ring per group, each interpolator's slot), and
+the handlers answer from it without a round trip (ARCHITECTURE "The reply path")."""
+
+from __future__ import annotations
+
+from services.gateway.core.credits import GroupCredit
+from shared.bus.schemas import ControllerStatus, QueueState, Slot
+from shared.protocol.constants import NotReadySubcode
+
+EXECUTOR = "executor/0"
+INTERPOLATOR = "interpolator"
+
+
+class CellState:
+    def __init__(self, groups: int) -> None:
+        self.status: ControllerStatus | None = None
+        self.not_ready_count = 0
+        """Counts not-ready statuses seen; a trajectory started before a change is over."""
+        self.groups = [GroupCredit() for _ in range(groups)]
+
+    def on_status(self, status: ControllerStatus) -> None:
+        if not status.motion_ready:
+            self.not_ready_count += 1
+        self.status = status
+        if EXECUTOR in status.missing_services:
+            # Its rings and epochs died with it; wait for the next executor's.
+            for group in self.groups:
+                group.queue = None
+        for service in status.missing_services:
+            kind, _, index = service.partition("/")
+            if kind == INTERPOLATOR and index.isdigit() and int(index) < len(self.groups):
+                self.groups[int(index)].interpolator_gone()
+
+    def on_queue(self, group: int, queue: QueueState) -> None:
+        if 0 <= group < len(self.groups):
+            self.groups[group].queue = queue
+
+    def on_slot(self, group: int, slot: Slot) -> None:
+        if 0 <= group < len(self.groups):
+            self.groups[group].on_slot(slot)
+
+    def rings_ready(self) -> bool:
+        """Every interpolator heard from, and the executor itself taking increments."""
+        return all(group.known and group.ring_ready for group in self.groups)
+
+    def readiness(self, controller_alive: bool) -> tuple[bool, int]:
+        """Motion-ready and the NOT_READY subcode, from the controller's last status. Without a
+        live controller nothing can move: INC_MOVE_ERROR, as for any missing service."""
+        status = self.status
+        if status is None or not controller_alive:
+            return False, int(NotReadySubcode.INC_MOVE_ERROR)
+        if status.motion_ready and not self.rings_ready():
+            # An interpolator not heard from yet: its points could not be numbered.
+            return False, int(NotReadySubcode.INC_MOVE_ERROR)
+        return status.motion_ready, status.not_ready_subcode
+
+    def slots_free(self) -> bool:
+        return all(group.free for group in self.groups)
+
+    def moving(self) -> bool:
+        """Something is queued for the robot (the motion and state ports refuse newcomers)."""
+        return any(group.moving for group in self.groups)

@@ -1,0 +1,183 @@
+"""A ``CellPort`` for unit tests (as httpcore's MockStream): the test sets the cell's state and
+the other services' replies, and reads what the gateway sent and asked."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+from services.gateway.core.answer import Answer
+from services.gateway.core.cell_state import CellState
+from services.gateway.core.io import IoHandler
+from services.gateway.core.motion import MotionHandler
+from shared.bus.schemas import (
+    CommandReply,
+    CommandRequest,
+    ControllerStatus,
+    Point,
+    QueueState,
+    Slot,
+)
+from shared.config import Cell, parse_cell
+from shared.protocol.constants import Result
+from shared.protocol.messages import Message, MotoMotionReply, UnknownMessage
+
+INSTANCE = 7
+"""The interpolator process every group's slot reports come from."""
+EPOCH = 3
+CAPACITY = 200
+SYNC_SEED = 1000
+OK_REPLY = CommandReply(int(Result.SUCCESS))
+
+
+def one_group() -> Cell:
+    return parse_cell({})
+
+
+def two_groups() -> Cell:
+    return parse_cell({"groups": [{"name": "R1"}, {"name": "R2"}]})
+
+
+def status(
+    ready: bool = True, subcode: int = 0, missing: Sequence[str] = (), seq: int = 1
+) -> ControllerStatus:
+    return ControllerStatus(
+        seq=seq,
+        servo_on=ready,
+        estop=False,
+        hold=False,
+        alarms=[],
+        error=0,
+        play=True,
+        remote=True,
+        operating=ready,
+        job_ready=ready,
+        pfl_active=False,
+        incmove_error=False,
+        eco=False,
+        missing_services=list(missing),
+        motion_ready=ready,
+        not_ready_subcode=subcode,
+        tools=[0],
+    )
+
+
+def queue(
+    depth: int = 0,
+    epoch: int = EPOCH,
+    command_pulses: Sequence[int] = (0,) * 8,
+    ready: bool = True,
+) -> QueueState:
+    return QueueState(
+        epoch=epoch,
+        received=0,
+        depth=depth,
+        capacity=CAPACITY,
+        command_pulses=list(command_pulses),
+        tick=0,
+        ready=ready,
+    )
+
+
+def slot(taken: int = 0, trajectory_id: int = 0, instance: int = INSTANCE) -> Slot:
+    return Slot(taken_id=taken, epoch=EPOCH, instance=instance, trajectory_id=trajectory_id)
+
+
+@dataclass
+class Call:
+    service: str
+    verb: str
+    request: CommandRequest | None
+    timeout: float
+
+
+class FakeCell:
+    def __init__(self, groups: int) -> None:
+        self.state = CellState(groups)
+        self.alive = True
+        self.sent: list[tuple[int, Point]] = []
+        self.calls: list[Call] = []
+        self.replies: dict[str, CommandReply | None] = {}
+        """By "service/verb"; a missing entry answers SUCCESS, None does not answer."""
+        self.effects: dict[str, Callable[[], None]] = {}
+        """By "service/verb": what the command does to the cell before it replies."""
+        self.while_waiting: list[Callable[[], None]] = []
+        """Changes the cell goes through while the gateway waits on it, then they are gone."""
+        self.waits: list[float] = []
+
+    def controller_alive(self) -> bool:
+        return self.alive
+
+    def send_point(self, group: int, point: Point) -> None:
+        self.sent.append((group, point))
+
+    def _call(
+        self, service: str, verb: str, request: CommandRequest | None, timeout: float
+    ) -> CommandReply | None:
+        self.calls.append(Call(service, verb, request, timeout))
+        key = f"{service}/{verb}"
+        if key in self.effects:
+            self.effects[key]()
+        return self.replies.get(key, OK_REPLY)
+
+    def controller(
+        self, verb: str, request: CommandRequest | None = None, timeout: float = 2.0
+    ) -> CommandReply | None:
+        return self._call("controller", verb, request, timeout)
+
+    def executor(
+        self, verb: str, request: CommandRequest | None = None, timeout: float = 1.0
+    ) -> CommandReply | None:
+        return self._call("executor", verb, request, timeout)
+
+    def wait_for(self, condition: Callable[[], bool], timeout: float) -> bool:
+        self.waits.append(timeout)
+        if not condition():
+            for change in self.while_waiting:
+                change()
+            self.while_waiting.clear()
+        return condition()
+
+    def verbs(self, service: str) -> list[str]:
+        return [call.verb for call in self.calls if call.service == service]
+
+    # -- the rest of the cell, as its samples would arrive --------------------------------
+    def ready(self) -> FakeCell:
+        """Motion-ready: controller status, executor rings and every interpolator heard."""
+        self.state.on_status(status())
+        for group in range(len(self.state.groups)):
+            self.state.on_queue(group, queue())
+            self.state.on_slot(group, slot())
+        return self
+
+    def take_all(self, group: int = 0, trajectory_id: int = 1) -> None:
+        """The group's interpolator reports every point published to it taken, running the
+        trajectory begun by point ``trajectory_id``."""
+        self.state.on_slot(group, slot(self.state.groups[group].published, trajectory_id))
+
+
+def gateway(cell: Cell | None = None) -> tuple[MotionHandler, FakeCell]:
+    """A motion handler on a ready fake cell."""
+    cell = cell or one_group()
+    fake = FakeCell(len(cell.groups)).ready()
+    return MotionHandler(cell, fake, IoHandler(fake), SYNC_SEED), fake
+
+
+def exchange(handler: MotionHandler, request: Message | UnknownMessage) -> Answer:
+    """One request as the TCP server handles it: the answer, then its ``then``."""
+    answer = handler.handle(request)
+    if answer.then is not None:
+        answer.then()
+    return answer
+
+
+def reply_of(message: Message | None) -> MotoMotionReply:
+    assert message is not None
+    body = message.body
+    assert isinstance(body, MotoMotionReply)
+    return body
+
+
+def verdict_of(message: Message | None) -> tuple[int, int]:
+    body = reply_of(message)
+    return body.result, body.subcode

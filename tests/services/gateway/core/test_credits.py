@@ -1,0 +1,259 @@
+"""The pending-slot credits (GroupCredit) and what the gateway knows of the cell (CellState):
+numbering, BUSY's look-ahead, interpolator restarts, readiness."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from services.gateway.core.cell_state import CellState
+from services.gateway.core.credits import MAX_AHEAD, GroupCredit
+from shared.bus.schemas import Point
+from shared.config import parse_cell
+from shared.motion.interpolation import Knot, Trajectory, max_segment_entries
+from shared.motion.kinematics import AxisMap
+from shared.protocol.constants import NotReadySubcode
+from tests.services.gateway.core.fake_cell import CAPACITY, EPOCH, INSTANCE, queue, slot, status
+
+POINT = Point(0, 1, 0.1, [0.0] * 6, [0.0] * 6)
+INC_MOVE_ERROR = int(NotReadySubcode.INC_MOVE_ERROR)
+
+
+def credit(depth: int = 0) -> GroupCredit:
+    """A group whose interpolator has been heard from, its ring holding ``depth`` entries."""
+    group = GroupCredit(queue=queue(depth))
+    group.on_slot(slot())
+    return group
+
+
+def test_a_group_not_heard_from_is_unknown_free_and_still() -> None:
+    group = GroupCredit()
+    assert not group.known
+    assert group.free
+    assert not group.moving
+    assert not group.pending_fits()
+
+
+def test_numbering_counts_up_and_carries_the_ring_epoch() -> None:
+    group = credit()
+    first = group.number(POINT, 0)
+    second = group.number(POINT, 27)
+    assert (first.point_id, second.point_id) == (1, 2)
+    assert first.epoch == second.epoch == EPOCH
+    assert list(group.outstanding) == [(1, 0), (2, 27)]
+    assert not group.free
+    assert group.moving
+
+
+def test_a_point_numbered_without_a_ring_carries_epoch_0() -> None:
+    group = GroupCredit()
+    assert group.number(POINT, 0).epoch == 0
+
+
+def test_the_slot_frees_when_the_interpolator_has_taken_every_point() -> None:
+    group = credit()
+    group.number(POINT, 0)
+    group.number(POINT, 5)
+    group.on_slot(slot(taken=1))
+    assert not group.free
+    group.on_slot(slot(taken=2))
+    assert group.free
+    assert not group.moving
+
+
+def test_pending_points_fit_while_their_segments_fit_the_ring() -> None:
+    group = credit(depth=CAPACITY - 30)
+    group.number(POINT, 30)
+    assert group.pending_fits()
+    group.number(POINT, 1)
+    assert not group.pending_fits()  # 31 entries more than the 30 free
+
+
+def test_pending_fits_forgets_points_the_interpolator_has_taken() -> None:
+    group = credit(depth=CAPACITY - 30)
+    group.number(POINT, 30)
+    group.number(POINT, 30)
+    assert not group.pending_fits()
+    group.on_slot(slot(taken=1))
+    assert group.pending_fits()
+    assert list(group.outstanding) == [(2, 30)]
+
+
+def test_at_most_max_ahead_points_are_outstanding_even_when_they_fit() -> None:
+    group = credit()
+    for _ in range(MAX_AHEAD - 1):
+        group.number(POINT, 1)
+    assert group.pending_fits()
+    group.number(POINT, 1)
+    assert not group.pending_fits()
+
+
+def test_pending_fits_needs_the_ring_state() -> None:
+    group = credit()
+    group.number(POINT, 0)
+    group.queue = None
+    assert not group.pending_fits()
+
+
+def test_pending_fits_only_when_every_unacknowledged_point_is_accounted_for() -> None:
+    group = credit()
+    group.number(POINT, 0)
+    group.outstanding.clear()
+    assert group.published - group.taken == 1
+    assert not group.pending_fits()
+
+
+def test_a_new_interpolator_instance_restarts_the_numbering_from_what_it_has_taken() -> None:
+    group = credit()
+    for _ in range(3):
+        group.number(POINT, 4)
+    group.on_slot(slot(taken=0, instance=INSTANCE + 1))
+    assert (group.instance, group.published, group.taken) == (INSTANCE + 1, 0, 0)
+    assert group.free
+    assert not group.outstanding
+    assert group.number(POINT, 0).point_id == 1
+
+
+def test_a_restarted_gateway_continues_after_the_interpolators_last_point() -> None:
+    group = GroupCredit(queue=queue())
+    group.on_slot(slot(taken=41, trajectory_id=30))
+    assert group.known
+    assert group.free
+    assert group.number(POINT, 0).point_id == 42
+
+
+def test_a_gone_interpolator_is_unknown_until_the_next_one_reports() -> None:
+    group = credit()
+    group.interpolator_gone()
+    assert not group.known
+    group.on_slot(slot())
+    assert group.known
+
+
+@pytest.mark.parametrize(
+    ("taken", "trajectory_id", "lost"),
+    [
+        (0, 0, False),  # the start point is not taken yet
+        (5, 5, False),  # running the trajectory it began
+        (6, 5, False),
+        (5, 0, True),  # ring cleared: no trajectory any more
+        (7, 7, True),  # another trajectory began since
+    ],
+)
+def test_trajectory_lost(taken: int, trajectory_id: int, lost: bool) -> None:
+    group = credit()
+    group.on_slot(slot(taken=taken, trajectory_id=trajectory_id))
+    assert group.trajectory_lost(5) is lost
+
+
+def test_a_queued_ring_means_the_group_moves() -> None:
+    assert credit(depth=1).moving
+    assert not credit(depth=0).moving
+
+
+# -- the whole cell ------------------------------------------------------------------------
+def ready_state(groups: int = 2) -> CellState:
+    state = CellState(groups)
+    state.on_status(status())
+    for group in range(groups):
+        state.on_queue(group, queue())
+        state.on_slot(group, slot())
+    return state
+
+
+def test_readiness_follows_the_controller_status() -> None:
+    state = ready_state()
+    assert state.readiness(controller_alive=True) == (True, 0)
+    state.on_status(status(ready=False, subcode=int(NotReadySubcode.SERVO_OFF)))
+    assert state.readiness(controller_alive=True) == (False, int(NotReadySubcode.SERVO_OFF))
+
+
+def test_without_a_status_or_a_live_controller_nothing_is_ready() -> None:
+    assert CellState(1).readiness(controller_alive=True) == (False, INC_MOVE_ERROR)
+    assert ready_state().readiness(controller_alive=False) == (False, INC_MOVE_ERROR)
+
+
+def test_ready_only_once_every_interpolator_and_ring_is_ready() -> None:
+    state = CellState(2)
+    state.on_status(status())
+    state.on_queue(0, queue())
+    state.on_queue(1, queue())
+    state.on_slot(0, slot())
+    assert not state.rings_ready()
+    assert state.readiness(controller_alive=True) == (False, INC_MOVE_ERROR)
+    state.on_slot(1, slot())
+    assert state.rings_ready()
+    state.on_queue(1, queue(ready=False))
+    assert not state.rings_ready()
+
+
+def test_not_ready_statuses_are_counted() -> None:
+    state = ready_state()
+    state.on_status(status())
+    assert state.not_ready_count == 0
+    state.on_status(status(ready=False))
+    state.on_status(status(ready=False))
+    state.on_status(status())
+    assert state.not_ready_count == 2
+
+
+def test_a_missing_executor_takes_every_ring_with_it() -> None:
+    state = ready_state()
+    state.on_status(status(ready=False, missing=["executor/0"]))
+    assert [group.queue for group in state.groups] == [None, None]
+    assert not state.rings_ready()
+
+
+def test_a_missing_interpolator_makes_its_group_unknown() -> None:
+    state = ready_state()
+    state.on_status(
+        status(ready=False, missing=["interpolator/1", "interpolator/9", "broadcaster/0"])
+    )
+    assert [group.known for group in state.groups] == [True, False]
+
+
+def test_samples_for_groups_the_cell_does_not_have_are_ignored() -> None:
+    state = ready_state(1)
+    state.on_queue(1, queue(depth=5))
+    state.on_slot(-1, slot(taken=9))
+    assert len(state.groups) == 1
+    assert state.groups[0].queue == queue()
+    assert state.groups[0].taken == 0
+
+
+def test_the_cell_moves_while_any_group_has_points_or_entries() -> None:
+    state = ready_state()
+    assert not state.moving()
+    assert state.slots_free()
+    state.groups[1].number(POINT, 3)
+    assert state.moving()
+    assert not state.slots_free()
+    state.on_slot(1, slot(taken=1))
+    state.on_queue(0, queue(depth=1))
+    assert state.moving()
+    assert state.slots_free()
+
+
+# -- the look-ahead's entry count ----------------------------------------------------------
+ARM6 = AxisMap(parse_cell({}).groups[0])
+PERIOD_NS = 4_000_000
+
+
+@pytest.mark.parametrize("anchor_ns", [0, 1, 1_999_999, 3_999_999])
+@pytest.mark.parametrize("offset_ns", [0, 1, 2_000_000, 3_999_999, 4_000_000])
+@pytest.mark.parametrize("duration_ns", [1, 3_999_999, 4_000_000, 4_000_001, 100_000_000])
+def test_max_segment_entries_never_undercounts_the_interpolators_segment(
+    anchor_ns: int, offset_ns: int, duration_ns: int
+) -> None:
+    zeros = np.zeros(6)
+    start = Knot(anchor_ns, zeros, zeros)
+    trajectory = Trajectory(ARM6, PERIOD_NS, start, np.zeros(6, dtype=np.int64))
+    if offset_ns:
+        trajectory.segment_to(Knot(anchor_ns + offset_ns, zeros, zeros))
+    segment = trajectory.segment_to(Knot(anchor_ns + offset_ns + duration_ns, zeros, zeros))
+    exact = segment.remaining
+    assert exact <= max_segment_entries(duration_ns, PERIOD_NS) <= exact + 2
+
+
+def test_max_segment_entries_of_a_100_ms_segment_at_4_ms() -> None:
+    assert max_segment_entries(100_000_000, PERIOD_NS) == 27

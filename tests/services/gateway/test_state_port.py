@@ -1,0 +1,110 @@
+"""The state port's frames (motoros1 §6), read back by a client's codec: JOINT_FEEDBACK per group,
+JOINT_FEEDBACK_EX with 2+ groups, then ROBOT_STATUS; all as topics (comm type 1)."""
+
+from __future__ import annotations
+
+import pytest
+
+from services.gateway.state_port import FEEDBACK_FIELDS, decode_state, state_frames
+from shared.bus.schemas import GroupState, RobotStatusFields, State, encode
+from shared.protocol.codec import NEED_DATA, ByteOrder, Role, SimpleMessageCodec
+from shared.protocol.constants import CommType, MsgType, ReplyType
+from shared.protocol.messages import JointFeedback, JointFeedbackEx, Message, RobotStatus
+
+STATUS = RobotStatusFields(
+    drives_powered=1,
+    e_stopped=0,
+    error_code=4321,
+    in_error=1,
+    in_motion=1,
+    mode=2,
+    motion_possible=0,
+)
+ZEROS = (0.0,) * 10
+
+
+def group(index: int, axes: int = 6) -> GroupState:
+    # Exact in float32, as the wire carries them.
+    positions = [index + axis / 8 for axis in range(axes)]
+    velocities = [-(index + axis / 64) for axis in range(axes)]
+    return GroupState(index, positions, velocities, command_positions=positions)
+
+
+def state(*groups: GroupState) -> State:
+    return State(seq=1, tick=2, tick_ns=3, groups=list(groups), status=STATUS)
+
+
+def read_back(data: bytes, byte_order: ByteOrder = ByteOrder.LITTLE) -> list[Message]:
+    codec = SimpleMessageCodec(Role.CLIENT, byte_order)
+    codec.receive_data(data)
+    messages = []
+    while (event := codec.next_event()) is not NEED_DATA:
+        assert isinstance(event, Message)
+        messages.append(event)
+    return messages
+
+
+def feedback(g: GroupState) -> JointFeedback:
+    pad = (0.0,) * (10 - len(g.positions))
+    return JointFeedback(
+        g.group_no,
+        FEEDBACK_FIELDS,
+        0.0,
+        (*g.positions, *pad),
+        (*g.velocities, *pad),
+        ZEROS,
+    )
+
+
+ROBOT_STATUS = RobotStatus(1, 0, 4321, 1, 1, 2, 0)
+
+
+def test_one_group_sends_its_feedback_and_the_robot_status() -> None:
+    arm = group(0)
+    messages = read_back(state_frames(state(arm), ByteOrder.LITTLE))
+    assert [m.msg_type for m in messages] == [MsgType.JOINT_FEEDBACK, MsgType.ROBOT_STATUS]
+    assert messages[0].body == feedback(arm)
+    assert messages[1].body == ROBOT_STATUS
+
+
+def test_feedback_carries_positions_and_velocities() -> None:
+    messages = read_back(state_frames(state(group(0)), ByteOrder.LITTLE))
+    body = messages[0].body
+    assert isinstance(body, JointFeedback)
+    assert body.valid_fields == 6
+    assert body.time == 0.0
+
+
+def test_every_message_is_a_topic() -> None:
+    messages = read_back(state_frames(state(group(0), group(1)), ByteOrder.LITTLE))
+    assert {(m.comm_type, m.reply_type) for m in messages} == {(CommType.TOPIC, ReplyType.INVALID)}
+
+
+@pytest.mark.parametrize("count", [2, 3, 4])
+def test_several_groups_add_the_combined_feedback(count: int) -> None:
+    groups = [group(index, axes=6 if index % 2 == 0 else 1) for index in range(count)]
+    messages = read_back(state_frames(state(*groups), ByteOrder.LITTLE))
+    assert [m.msg_type for m in messages] == [
+        *[MsgType.JOINT_FEEDBACK] * count,
+        MsgType.MOTO_JOINT_FEEDBACK_EX,
+        MsgType.ROBOT_STATUS,
+    ]
+    assert [m.body for m in messages[:count]] == [feedback(g) for g in groups]
+    combined = messages[count].body
+    assert isinstance(combined, JointFeedbackEx)
+    assert combined.number_of_valid_groups == count
+    assert list(combined.groups[:count]) == [feedback(g) for g in groups]
+    assert messages[-1].body == ROBOT_STATUS
+
+
+def test_big_endian_frames_read_back_the_same() -> None:
+    two = state(group(0), group(1))
+    little = read_back(state_frames(two, ByteOrder.LITTLE))
+    big_bytes = state_frames(two, ByteOrder.BIG)
+    assert big_bytes != state_frames(two, ByteOrder.LITTLE)
+    assert read_back(big_bytes, ByteOrder.BIG) == little
+
+
+def test_a_state_sample_decodes_to_the_state_the_broadcaster_sent() -> None:
+    sent = state(group(0), group(1))
+    assert decode_state(encode(sent)) == sent
