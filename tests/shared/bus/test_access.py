@@ -17,6 +17,8 @@ import zenoh
 
 from shared.bus.access import Identity, access_control, cell_identities
 from shared.bus.catalog import Role
+from shared.bus.credentials import load, write_passwords
+from shared.bus.router import router_settings, zenoh_config
 from shared.ports import free_port
 from testkit.processes import wait_until
 
@@ -81,35 +83,36 @@ def test_a_service_declares_only_its_own_token_and_info() -> None:
 
 
 @pytest.fixture
-def router(tmp_path: Path) -> Iterator[str]:
-    users = tmp_path / "users"
-    users.write_text("".join(f"{i.username(CELL)}:pw-{i.name}\n" for i in cell_identities(1)))
+def router(tmp_path: Path) -> Iterator[tuple[str, Path]]:
+    """A secured router for a one-group cell, as the launcher runs it."""
+    write_passwords(tmp_path, CELL, cell_identities(1))
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    config = _config("router", endpoint)
-    config.insert_json5("listen/endpoints", json.dumps([endpoint]))
-    config.insert_json5("connect/endpoints", "[]")
-    config.insert_json5("transport/auth/usrpwd/dictionary_file", json.dumps(str(users)))
-    config.insert_json5("access_control", json.dumps(access_control(CELL, cell_identities(1))))
-    session = zenoh.open(config)
-    yield endpoint
+    settings = router_settings(
+        [endpoint], cell=CELL, identities=cell_identities(1), credentials=tmp_path
+    )
+    session = zenoh.open(zenoh_config(settings))
+    yield endpoint, tmp_path
     session.close()
 
 
-def _config(mode: str, endpoint: str, user: str | None = None) -> zenoh.Config:
+def client(router: tuple[str, Path], role: Role, password: str | None = None) -> zenoh.Session:
+    endpoint, directory = router
+    credentials = load(directory, CELL, Identity(role))
     config = zenoh.Config()
-    config.insert_json5("mode", json.dumps(mode))
+    config.insert_json5("mode", '"client"')
     config.insert_json5("scouting/multicast/enabled", "false")
     config.insert_json5("connect/endpoints", json.dumps([endpoint]))
-    if user is not None:
-        config.insert_json5("transport/auth/usrpwd/user", json.dumps(f"{CELL}.{user}"))
-        config.insert_json5("transport/auth/usrpwd/password", json.dumps(f"pw-{user}"))
-    return config
+    config.insert_json5("transport/auth/usrpwd/user", json.dumps(credentials.user))
+    config.insert_json5(
+        "transport/auth/usrpwd/password", json.dumps(password or credentials.password)
+    )
+    return zenoh.open(config)
 
 
-def test_the_router_lets_through_exactly_what_the_rules_say(router: str) -> None:
-    interpolator = zenoh.open(_config("client", router, "interpolator"))
-    gateway = zenoh.open(_config("client", router, "gateway"))
-    observer = zenoh.open(_config("client", router, "observer"))
+def test_the_router_lets_through_exactly_what_the_rules_say(router: tuple[str, Path]) -> None:
+    interpolator = client(router, Role.INTERPOLATOR)
+    gateway = client(router, Role.GATEWAY)
+    observer = client(router, Role.OBSERVER)
     received: list[bytes] = []
     lock = threading.Lock()
 
@@ -134,8 +137,6 @@ def _put_arrives(gateway: zenoh.Session, received: list[bytes], lock: threading.
         return b"gateway" in received
 
 
-def test_a_wrong_password_is_refused(router: str) -> None:
-    config = _config("client", router, "gateway")
-    config.insert_json5("transport/auth/usrpwd/password", '"wrong"')
+def test_a_wrong_password_is_refused(router: tuple[str, Path]) -> None:
     with pytest.raises(zenoh.ZError):
-        zenoh.open(config)
+        client(router, Role.GATEWAY, password="wrong")
