@@ -49,9 +49,9 @@ def write_passwords(directory: Path, cell: str, identities: list[Identity]) -> N
     lines = []
     for identity in identities:
         password = secrets.token_urlsafe(32)
-        _write_private(directory / f"{identity.name}.password", password + "\n")
+        write_private(directory / f"{identity.name}.password", password + "\n")
         lines.append(f"{identity.username(cell)}:{password}\n")
-    _write_private(directory / USERS_FILE, "".join(lines))
+    write_private(directory / USERS_FILE, "".join(lines))
 
 
 def load(directory: Path, cell: str, identity: Identity) -> Credentials:
@@ -81,9 +81,10 @@ def load(directory: Path, cell: str, identity: Identity) -> Credentials:
     )
 
 
-def _write_private(path: Path, text: str) -> None:
+def write_private(path: Path, content: str | bytes) -> None:
     """Written so that no other user can ever read it, not even for a moment."""
+    data = content.encode() if isinstance(content, str) else content
     descriptor = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
-    with os.fdopen(descriptor, "w") as file:
-        file.write(text)
+    with os.fdopen(descriptor, "wb") as file:
+        file.write(data)
     path.chmod(0o600)

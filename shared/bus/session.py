@@ -19,6 +19,7 @@ from typing import Any, TypeVar
 import msgspec
 import zenoh
 
+from shared.bus.credentials import Credentials
 from shared.bus.schemas import CommandReply, CommandRequest, Decoder, encode
 
 log = logging.getLogger(__name__)
@@ -40,6 +41,7 @@ def bus_config(
     listen: Sequence[str] = ("tcp/127.0.0.1:0",),
     *,
     wait: bool = True,
+    credentials: Credentials | None = None,
 ) -> zenoh.Config:
     config = zenoh.Config()
     config.insert_json5("mode", json.dumps(mode))
@@ -54,7 +56,26 @@ def bus_config(
         # Services wait for the router instead of failing at once, so start order does not
         # matter; command-line tools (wait=False) fail at once instead.
         config.insert_json5("connect/timeout_ms", "-1")
+    if credentials is not None:
+        _insert_credentials(config, credentials)
     return config
+
+
+def _insert_credentials(config: zenoh.Config, credentials: Credentials) -> None:
+    config.insert_json5("transport/auth/usrpwd/user", json.dumps(credentials.user))
+    config.insert_json5("transport/auth/usrpwd/password", json.dumps(credentials.password))
+    if credentials.ca is not None:
+        config.insert_json5(
+            "transport/link/tls/root_ca_certificate", json.dumps(str(credentials.ca))
+        )
+    if credentials.certificate is not None and credentials.key is not None:
+        tls = {
+            "enable_mtls": True,
+            "connect_certificate": str(credentials.certificate),
+            "connect_private_key": str(credentials.key),
+        }
+        for field, value in tls.items():
+            config.insert_json5(f"transport/link/tls/{field}", json.dumps(value))
 
 
 def open_session(
@@ -63,11 +84,12 @@ def open_session(
     listen: Sequence[str] | None = None,
     *,
     wait: bool = True,
+    credentials: Credentials | None = None,
 ) -> zenoh.Session:
     if listen is None:
         listen = () if mode == "client" else ("tcp/127.0.0.1:0",)
     try:
-        return zenoh.open(bus_config(mode, connect, listen, wait=wait))
+        return zenoh.open(bus_config(mode, connect, listen, wait=wait, credentials=credentials))
     except zenoh.ZError as exc:
         raise ConnectionError(
             f"cannot open Zenoh session ({mode}, connect={connect}): {exc}"
