@@ -8,10 +8,10 @@ nanosecond times, so waypoints are off the 4 ms grid; random positions and veloc
 speed limits) goes through ``shared.motion.interpolation`` (Trajectory/Segment with AxisMap,
 taken in feeder-sized chunks). The increments are summed from the start pulses, as the executor
 applies them, and compared at every entry time with the closed form computed here
-independently: the spec §2.7 cubic in float64, mapped to Motoman order and multiplied by the
-pulses per unit. Reported: the largest |applied - closed form| (goal <= 0.5 pulse), how many
-entries differ from round(closed form), and the final error (applied after the last entry -
-the last waypoint's pulses; goal 0). Three runs, three seeds.
+independently: the incremental-motion §2.7 cubic in float64, mapped to Motoman order and
+multiplied by the pulses per unit. Reported: the largest |applied - closed form| (goal <= 0.5
+pulse), how many entries differ from round(closed form), and the final error (applied after
+the last entry - the last waypoint's pulses; goal 0). Three runs, three seeds.
 
 End-to-end part: one real 4-group cell streams a random 2016 trajectory (off-grid times,
 non-zero start velocity, within the speed limits); the executor's commanded pulses, tick by
@@ -30,9 +30,9 @@ import numpy as np
 from bench.harness import (
     Observer,
     Streamer,
+    bench_cell,
     figure_result,
     positions_of,
-    running_cell,
     start_traj_mode,
     workdir,
 )
@@ -73,8 +73,8 @@ def random_knots(
 
 
 def closed_form(knots: Sequence[Knot], times_ns: np.ndarray, axis_map: AxisMap) -> np.ndarray:
-    """Spec §2.7 in float64 at ``times_ns`` (each in (first, last] knot time), in Motoman-order
-    pulses (unrounded)."""
+    """incremental-motion §2.7 in float64 at ``times_ns`` (each in (first, last] knot time), in
+    Motoman-order pulses (unrounded)."""
     knot_times = np.array([k.time_ns for k in knots], dtype=np.int64)
     segment = np.searchsorted(knot_times, times_ns, side="left") - 1
     result = np.empty((len(times_ns), axis_map.axes))
@@ -155,7 +155,7 @@ def e2e_plans(
 def e2e_runs(points: int) -> tuple[list[float], list[float]]:
     deviations: list[float] = []
     finals: list[float] = []
-    with workdir() as directory, running_cell(directory, "bench8") as cell:
+    with workdir() as directory, bench_cell(directory, "bench8") as cell:
         maps = [AxisMap(group) for group in cell.cell.groups]
         with Observer(cell) as observer, cell.motion() as motion:
             observer.record_ticks()

@@ -15,9 +15,9 @@ import platform
 import statistics
 import time
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
+from bench.harness import RESULTS_DIR
 from shared.protocol.codec import NEED_DATA, ByteOrder, Role, SimpleMessageCodec
 from shared.protocol.constants import MsgType
 from shared.protocol.messages import JointFeedback, JointFeedbackEx, Message
@@ -27,7 +27,7 @@ RUNS = 5
 FRAMES = 50_000
 QUICK_FRAMES = 5_000
 READ_SIZE = 65_536
-RESULTS_FILE = Path(__file__).parent / "results" / "codec.json"
+RESULTS_FILE = RESULTS_DIR / "codec.json"
 
 JOINTS = (0.5, -1.25, 0.75, 1.5, -0.25, 2.0)
 POINT = traj_point(0, 7, 0.5, JOINTS, JOINTS, accelerations=JOINTS)

@@ -24,11 +24,11 @@ import statistics
 import time
 from collections import deque
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from bench.harness import RESULTS_DIR
 from services.interpolator.feeder import MAX_BATCH, Feeder
 from shared.bus.schemas import IncrementBatch, Point, QueueState
 from shared.config import load_cell
@@ -38,7 +38,7 @@ from shared.motion.kinematics import AxisMap
 RUNS = 5
 GOAL = 1_000_000.0
 UNIT = "entries/s"
-RESULTS_FILE = Path(__file__).parent / "results" / "interpolation.json"
+RESULTS_FILE = RESULTS_DIR / "interpolation.json"
 
 CELL = load_cell()
 GROUP = CELL.groups[0]

@@ -36,13 +36,13 @@ from bench.harness import (
     CHECK_MOTION_READY,
     Observer,
     Streamer,
+    bench_cell,
     figure_result,
     percentiles,
     positions_of,
     ramp,
     ramps,
     request_rtts,
-    running_cell,
     start_traj_mode,
     workdir,
 )
@@ -76,7 +76,7 @@ def run(quick: bool) -> list[dict[str, Any]]:
     counts: dict[str, list[float]] = {name: [] for name in series}
     with (
         workdir() as directory,
-        running_cell(directory, "bench4") as cell,
+        bench_cell(directory, "bench4") as cell,
         Observer(cell) as observer,
         cell.state(),
         cell.motion() as motion,

@@ -27,19 +27,20 @@ from pathlib import Path
 from typing import Any
 
 from bench.harness import (
-    BenchCell,
     CpuSampler,
     Observer,
     Streamer,
+    bench_cell,
     figure_result,
     percentiles,
     positions_of,
+    process_kinds,
     ramps,
-    running_cell,
     start_traj_mode,
     wait_moving,
     workdir,
 )
+from testkit.cell import RunningCell
 from testkit.client import ex_messages
 
 FIGURE = 7
@@ -65,7 +66,7 @@ class Loaded:
     """One cell with a state client and a trajectory streaming until stopped."""
 
     def __init__(self, stack: ExitStack, directory: Path, name: str, seconds: float) -> None:
-        self.cell: BenchCell = stack.enter_context(running_cell(directory, name))
+        self.cell: RunningCell = stack.enter_context(bench_cell(directory, name))
         self.observer = stack.enter_context(Observer(self.cell))
         self.observer.record_ticks()
         stack.enter_context(self.cell.state())
@@ -105,7 +106,9 @@ def run(quick: bool) -> list[dict[str, Any]]:
             rss_by_n[n] = {k: [] for k in KINDS}
             for _ in range(WINDOWS):
                 marks = [c.observer.mark() for c in cells]
-                sampler = CpuSampler({p: k for c in cells for p, k in c.cell.processes().items()})
+                sampler = CpuSampler(
+                    {p: k for c in cells for p, k in process_kinds(c.cell).items()}
+                )
                 time.sleep(window_s)
                 rows = sampler.finish()
                 missed = 0

@@ -5,7 +5,7 @@
 Each run spawns ``motocell up`` (a 4-group cell: launcher with its router, controller,
 executor, broadcaster, 4 interpolators, gateway) and measures from the spawn (CLOCK_MONOTONIC):
 
-- the first ROBOT_STATUS frame on the state port (the port is polled every 5 ms);
+- the first ROBOT_STATUS frame on the state port (the port is polled every 10 ms);
 - every service alive: CHECK_MOTION_READY no longer answers NOT_READY 5012 (polled);
 - START_TRAJ_MODE's own reply time, and spawn -> motion-ready (its SUCCESS reply);
 - stop: SIGTERM to the launcher -> every process of the cell has exited.
@@ -15,15 +15,15 @@ executor, broadcaster, 4 interpolators, gateway) and measures from the spawn (CL
 
 from __future__ import annotations
 
-import signal
 import time
 from pathlib import Path
 from typing import Any
 
-from bench.harness import figure_result, spawn_cell, stop_cell, workdir, write_cell_file
+from bench.harness import figure_result, workdir, write_cell_file
 from shared.protocol.constants import Command, NotReadySubcode, Result
+from testkit.cell import start_cell
 from testkit.client import MotionClient, StateListener
-from testkit.processes import alive, connectable, wait_until
+from testkit.processes import connectable, wait_until
 
 FIGURE = 9
 RUNS = 5
@@ -33,7 +33,7 @@ TIMEOUT_S = 60.0
 
 def once(directory: Path, index: int) -> dict[str, float]:
     config = write_cell_file(directory, f"bench9x{index}")
-    cell = spawn_cell(config, directory / f"startup{index}.log")
+    cell = start_cell(config, log=directory / f"startup{index}.log")
     spawned = cell.spawned_ns
     try:
         wait_until(lambda: connectable(cell.host, cell.port_base + 1), TIMEOUT_S, "state port")
@@ -55,15 +55,10 @@ def once(directory: Path, index: int) -> dict[str, float]:
             done = time.monotonic_ns()
             if reply.result != Result.SUCCESS:
                 raise RuntimeError(f"START_TRAJ_MODE refused: {reply}")
-        cell.started = cell.children()
         stopping = time.monotonic_ns()
-        cell.process.send_signal(signal.SIGTERM)
-        pids = {cell.process.pid, *cell.started}
-        wait_until(lambda: cell.process.poll() is not None, 15.0, "the launcher to stop")
-        wait_until(lambda: not any(alive(p) for p in pids), 10.0, "every process to stop")
-        stopped = time.monotonic_ns()
     finally:
-        stop_cell(cell)
+        cell.stop()
+    stopped = time.monotonic_ns()
     return {
         "first_status": first_status,
         "all_alive": all_alive,

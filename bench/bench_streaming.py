@@ -35,11 +35,11 @@ from bench.harness import (
     BUSY_RETRY_S,
     Observer,
     Streamer,
+    bench_cell,
     figure_result,
     percentiles,
     positions_of,
     ramps,
-    running_cell,
     start_traj_mode,
     wake_ns,
     workdir,
@@ -122,7 +122,7 @@ def run(quick: bool) -> list[dict[str, Any]]:
     turnaround: list[float] = []
     with (
         workdir() as directory,
-        running_cell(directory, "bench5") as cell,
+        bench_cell(directory, "bench5") as cell,
         Observer(cell) as observer,
         cell.state(),
         cell.motion() as motion,

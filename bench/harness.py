@@ -1,10 +1,10 @@
-"""Real cells for benchmarks: start, drive, observe and stop ``motocell up`` on free ports.
+"""What the benchmarks share: results and goals, the machine, CPU per process, loaded cells,
+observers, and streaming like motoman_driver.
 
-The same approach as ``tests/cells.py`` (without importing the tests): each cell gets its own
-Zenoh router on a free loopback port (never 7447, so no benchmark cell links to another cell on
-this machine) and its own TCP port block. A cell file is written to a temporary directory: four
-groups (arm6, arm6, arm7, positioner2) on a YRC1000. Stopping is SIGTERM to the launcher, then
-a wait until every process it started has exited (SIGKILL for stragglers), also on Ctrl-C.
+Cells come from the test kit's harness (``testkit.cell``: free ports, a router of their own,
+every process reaped on exit, also on Ctrl-C); ``bench_cell`` writes their cell file first:
+four groups (arm6, arm6, arm7, positioner2) on a YRC1000, in a temporary directory that also
+keeps the cell's log.
 
 Observers are Zenoh client sessions on the cell's router. Tick samples are stored raw (bytes)
 in the Zenoh callback and decoded afterwards, so observing costs the cell as little as we can.
@@ -13,11 +13,11 @@ in the Zenoh callback and decoded afterwards, so observing costs the cell as lit
 from __future__ import annotations
 
 import contextlib
+import importlib.metadata
 import itertools
 import os
 import platform
 import shutil
-import signal
 import statistics
 import subprocess
 import sys
@@ -26,29 +26,28 @@ import threading
 import time
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import zenoh
 
-from shared.bus.keys import CellKeys
 from shared.bus.schemas import Decoder, ExecutorMetrics, State, Tick
 from shared.bus.session import open_session
-from shared.config import Cell, load_cell
+from shared.config import Cell
 from shared.motion.kinematics import AxisMap
-from shared.ports import free_port, free_port_block
-from shared.protocol.codec import ByteOrder
-from shared.protocol.constants import Command, NotReadySubcode, Result
+from shared.protocol.constants import Command, Result
 from shared.protocol.messages import Message, MotoMotionReply
 from shared.protocol.replies import motion_ctrl
-from testkit.client import MotionClient, PlannedPoint, StateListener, ex_messages
-from testkit.processes import alive, connectable, descendants, wait_until
+from testkit.cell import RunningCell, running_cell
+from testkit.client import MotionClient, PlannedPoint, ex_messages
+from testkit.processes import cmdline, wait_until
 
-REPO = Path(__file__).resolve().parent.parent
-RESULTS_DIR = Path(__file__).resolve().parent / "results"
+SOURCE = Path(__file__).resolve().parent.parent
+"""Where the bench package is: a checkout (git then names the commit measured) or an install."""
 START_TIMEOUT_S = 60.0
+"""Twice the tests' deadline: a benchmark may start a cell while others load the machine."""
 GROUP_MODELS = ("arm6", "arm6", "arm7", "positioner2")
 BUSY_RETRY_S = 0.005
 """motoman_driver resends a BUSY point after 5 ms."""
@@ -57,6 +56,10 @@ Result_ = dict[str, Any]
 
 
 # -- results ---------------------------------------------------------------------------------
+RESULTS_DIR = Path("bench", "results")
+"""Relative, so under the current directory: never inside an installed package."""
+
+
 def compare(value: float, goal: tuple[str, float]) -> bool:
     op, target = goal
     if op == "<=":
@@ -154,19 +157,19 @@ def git_state() -> dict[str, Any]:
     def git(*args: str) -> str:
         try:
             done = subprocess.run(
-                ["git", *args], cwd=REPO, capture_output=True, text=True, timeout=10, check=False
+                ["git", *args], cwd=SOURCE, capture_output=True, text=True, timeout=10, check=False
             )
         except (OSError, subprocess.TimeoutExpired):
             return ""
         return done.stdout.rstrip()
 
+    if not (SOURCE / ".git").exists():
+        return {"commit": "", "modified": []}
     changed = [line[3:] for line in git("status", "--porcelain").splitlines() if line[:2] != "??"]
     return {"commit": git("rev-parse", "--short", "HEAD"), "modified": changed}
 
 
 def _version(package: str) -> str:
-    import importlib.metadata
-
     try:
         return importlib.metadata.version(package)
     except importlib.metadata.PackageNotFoundError:
@@ -199,19 +202,14 @@ def rss_mib(pid: int) -> float | None:
     return None
 
 
-def process_kind(pid: int) -> str:
-    """The service a process runs: executor, gateway, interpolator, ..., or launcher."""
-    try:
-        argv = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
-    except OSError:
-        return "gone"
-    words = [a.decode(errors="replace") for a in argv]
-    for word in words:
-        if word.startswith("services.") and word != "tools.cli":
-            return word.removeprefix("services.")
-    if "up" in words:
-        return "launcher+router"
-    return Path(words[0]).name if words else "unknown"
+def process_kinds(cell: RunningCell) -> dict[int, str]:
+    """Every process of the cell: the launcher (which runs the router), and each service by
+    its module (executor, gateway, interpolator, ...)."""
+    kinds = {cell.process.pid: "launcher+router"}
+    for pid in cell.children():
+        modules = [word for word in cmdline(pid) if word.startswith("services.")]
+        kinds[pid] = modules[0].removeprefix("services.") if modules else "gone"
+    return kinds
 
 
 class CpuSampler:
@@ -257,118 +255,21 @@ def write_cell_file(
     return path
 
 
-@dataclass
-class BenchCell:
-    cell: Cell
-    config: Path
-    host: str
-    port_base: int
-    endpoint: str
-    process: subprocess.Popen[bytes]
-    log: Path
-    spawned_ns: int
-    started: set[int] = field(default_factory=set)
-
-    @property
-    def byte_order(self) -> ByteOrder:
-        return ByteOrder(self.cell.byte_order)
-
-    @property
-    def keys(self) -> CellKeys:
-        return CellKeys(self.cell.name)
-
-    def motion(self) -> MotionClient:
-        return MotionClient(self.host, self.port_base, self.byte_order)
-
-    def state(self) -> StateListener:
-        return StateListener(self.host, self.port_base + 1, self.byte_order)
-
-    def children(self) -> set[int]:
-        return descendants(self.process.pid)
-
-    def processes(self) -> dict[int, str]:
-        pids = {self.process.pid, *self.children()}
-        return {pid: process_kind(pid) for pid in pids}
-
-    @property
-    def expected_children(self) -> int:
-        return 4 + len(self.cell.groups)
-
-
-def wait_for_whole_cell(cell: BenchCell, timeout: float = START_TIMEOUT_S) -> None:
-    """State flows and motion-ready no longer reports a missing service (5012)."""
-    host, port = cell.host, cell.port_base
-    deadline = time.monotonic() + timeout
-
-    def remaining() -> float:
-        return max(0.1, deadline - time.monotonic())
-
-    wait_until(lambda: connectable(host, port + 1), remaining(), "the state port to listen")
-    with StateListener(host, port + 1, cell.byte_order) as state:
-        state.wait_for(lambda f: f.status is not None, remaining())
-    with MotionClient(host, port, cell.byte_order) as motion:
-        wait_until(
-            lambda: (
-                motion.command(Command.CHECK_MOTION_READY).subcode != NotReadySubcode.INC_MOVE_ERROR
-            ),
-            remaining(),
-            "every service of the cell to be alive",
-        )
-    # The gateway accepts a group's points only once it has heard that group's interpolator
-    # (its slot, published on change and every 0.5 s); wait until we have heard every one too.
-    session = open_session("client", [cell.endpoint], wait=False)
+def wait_for_every_slot(cell: RunningCell, timeout: float = START_TIMEOUT_S) -> None:
+    """The gateway accepts a group's points only once it has heard that group's interpolator
+    (its slot, published on change and every 0.5 s); wait until we have heard every one too."""
+    session = open_session("client", [cell.zenoh_endpoint], wait=False)
     try:
         heard: set[str] = set()
         subscriber = session.declare_subscriber(
             cell.keys.group_slot_all, lambda sample: heard.add(str(sample.key_expr))
         )
         groups = len(cell.cell.groups)
-        wait_until(lambda: len(heard) >= groups, remaining(), "every interpolator's slot")
+        wait_until(lambda: len(heard) >= groups, timeout, "every interpolator's slot")
         subscriber.undeclare()
     finally:
         session.close()
     time.sleep(0.05)
-
-
-def spawn_cell(config: Path, log: Path) -> BenchCell:
-    cell = load_cell(config)
-    port_base = free_port_block(3)
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    command = [
-        *(sys.executable, "-m", "tools.cli", "up", "--config", str(config)),
-        *("--port-base", str(port_base), "--zenoh-listen", endpoint),
-    ]
-    env = {**os.environ, "MOTOCELL_LOG": "WARNING"}
-    with log.open("ab") as out:
-        spawned = time.monotonic_ns()
-        process = subprocess.Popen(command, cwd=REPO, env=env, stdout=out, stderr=subprocess.STDOUT)
-    return BenchCell(cell, config, "127.0.0.1", port_base, endpoint, process, log, spawned)
-
-
-def stop_cell(cell: BenchCell) -> None:
-    """SIGTERM to the launcher, wait; then make sure every process it started is gone."""
-    cell.started |= cell.children()
-    process = cell.process
-    if process.poll() is None:
-        process.send_signal(signal.SIGTERM)
-        try:
-            process.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
-    deadline = time.monotonic() + 5.0
-    while any(alive(pid) for pid in cell.started) and time.monotonic() < deadline:
-        time.sleep(0.02)
-    for pid in cell.started:
-        if alive(pid):
-            with contextlib.suppress(OSError):
-                os.kill(pid, signal.SIGKILL)
-
-
-def log_tail(path: Path, lines: int = 20) -> str:
-    with contextlib.suppress(OSError):
-        return "\n".join(path.read_text(errors="replace").splitlines()[-lines:])
-    return ""
 
 
 @contextmanager
@@ -380,57 +281,25 @@ def workdir() -> Iterator[Path]:
         shutil.rmtree(path, ignore_errors=True)
 
 
-def start_cell(cell: BenchCell, wait: bool) -> None:
-    wait_until(
-        lambda: len(cell.children()) >= cell.expected_children,
-        START_TIMEOUT_S,
-        "every service process to start",
-    )
-    cell.started = cell.children()
-    if wait:
-        wait_for_whole_cell(cell)
-
-
 @contextmanager
-def running_cell(
-    directory: Path,
-    name: str = "bench",
-    state_period_ms: float = 10.0,
-    wait: bool = True,
-    attempts: int = 2,
-) -> Iterator[BenchCell]:
-    """A started cell; stopped (every process reaped) on exit, also on errors and Ctrl-C. A
-    start that fails (e.g. a port taken between choosing and binding it) is retried once on
-    new ports."""
+def bench_cell(
+    directory: Path, name: str = "bench", state_period_ms: float = 10.0
+) -> Iterator[RunningCell]:
+    """A whole 4-group cell (``write_cell_file``), its output in ``directory/<name>.log``;
+    stopped (every process reaped) on exit. A failed start is tried once more."""
     config = write_cell_file(directory, name, state_period_ms)
     log = directory / f"{name}.log"
-    for attempt in range(1, attempts + 1):
-        cell = spawn_cell(config, log)
-        try:
-            start_cell(cell, wait)
-        except (TimeoutError, OSError) as exc:
-            stop_cell(cell)
-            message = f"cell {name} did not start: {exc}\n{log_tail(log)}"
-            if attempt == attempts:
-                raise RuntimeError(message) from exc
-            print(f"warning: {message}\nretrying on new ports", file=sys.stderr)
-            continue
-        except BaseException:
-            stop_cell(cell)
-            raise
-        break
-    try:
+    with running_cell(config, log=log, timeout=START_TIMEOUT_S, attempts=2) as cell:
+        wait_for_every_slot(cell)
         yield cell
-    finally:
-        stop_cell(cell)
 
 
 # -- observing -------------------------------------------------------------------------------
 class Observer:
     """A Zenoh client session on a cell's router that records raw samples of some keys."""
 
-    def __init__(self, cell: BenchCell) -> None:
-        self.session = open_session("client", [cell.endpoint], wait=False)
+    def __init__(self, cell: RunningCell) -> None:
+        self.session = open_session("client", [cell.zenoh_endpoint], wait=False)
         self.keys = cell.keys
         self.ticks: list[bytes] = []
         self.metrics: list[tuple[int, bytes]] = []
@@ -679,16 +548,14 @@ class StateClientProcess:
     """``python -m bench.state_client``: a StateListener in its own process (as a real client
     is), which records every state cycle and writes it to an .npz file when told to stop."""
 
-    def __init__(self, cell: BenchCell, out: Path) -> None:
+    def __init__(self, cell: RunningCell, out: Path) -> None:
         self.out = out
         command = [
             *(sys.executable, "-m", "bench.state_client", "--host", cell.host),
             *("--port", str(cell.port_base + 1), "--config", str(cell.config)),
             *("--out", str(out)),
         ]
-        self.process = subprocess.Popen(
-            command, cwd=REPO, stdin=subprocess.PIPE, stdout=subprocess.PIPE
-        )
+        self.process = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE)
         assert self.process.stdout is not None
         line = self.process.stdout.readline()
         if line.strip() != b"ready":
@@ -763,7 +630,7 @@ def _measure_loaded(runs: int, seconds: float) -> list[LoadedRun]:
     results: list[LoadedRun] = []
     with contextlib.ExitStack() as stack:
         directory = stack.enter_context(workdir())
-        cell = stack.enter_context(running_cell(directory, "bench34", state_period_ms=4.0))
+        cell = stack.enter_context(bench_cell(directory, "bench34", state_period_ms=4.0))
         observer = stack.enter_context(Observer(cell))
         observer.record_ticks()
         observer.record_states()
@@ -826,7 +693,7 @@ def _measure_loaded(runs: int, seconds: float) -> list[LoadedRun]:
 
 def _loaded_run(
     *,
-    cell: BenchCell,
+    cell: RunningCell,
     ticks: list[Tick],
     states: list[tuple[int, State]],
     start_ns: int,

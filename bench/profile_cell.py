@@ -33,9 +33,10 @@ from bench.harness import (
     Observer,
     StateClientProcess,
     Streamer,
+    bench_cell,
     positions_of,
+    process_kinds,
     ramps,
-    running_cell,
     start_traj_mode,
     wait_moving,
     workdir,
@@ -125,7 +126,7 @@ def main(argv: list[str] | None = None) -> int:
     state_period = 4.0 if args.scenario == "state" else 10.0
     with ExitStack() as stack:
         directory = stack.enter_context(workdir())
-        cell = stack.enter_context(running_cell(directory, "profile", state_period_ms=state_period))
+        cell = stack.enter_context(bench_cell(directory, "profile", state_period_ms=state_period))
         observer = stack.enter_context(Observer(cell))
         observer.record_ticks()
         clients: list[StateClientProcess] = []
@@ -162,7 +163,7 @@ def main(argv: list[str] | None = None) -> int:
         time.sleep(1.0)
         targets = {
             pid: kind
-            for pid, kind in cell.processes().items()
+            for pid, kind in process_kinds(cell).items()
             if kind in wanted or kind.split("/")[0] in wanted
         }
         samplers = []

@@ -1,6 +1,6 @@
-"""The whole benchmark suite: one table, and JSON in bench/results/.
+"""The whole benchmark suite: one table, and JSON in bench/results/ (under the current directory).
 
-    python -m bench.run [--quick] [--only 3,6]      (or: motocell bench [--quick] [--only ...])
+    motocell bench [--quick] [--only 3,6] [--out DIR]       (or: python -m bench.run ...)
 
 Figures (goals are for a 2-core machine running the whole cell):
 
@@ -16,7 +16,9 @@ Figures (goals are for a 2-core machine running the whole cell):
 
 Every figure is the median and [min-max] of at least 3 runs. Benchmarks report; they never fail
 on a time. The full suite takes about 11 minutes here (figure 3: 3 x 60 s runs), ``--quick``
-about one minute. Results: ``bench/results/<UTC timestamp>.json`` and ``latest.json``.
+about one minute. Results: ``<UTC timestamp>.json`` and ``latest.json`` in ``--out``, by default
+``bench/results`` under the current directory: in a checkout's root that is the repository's
+``bench/results``, and an installed motocell never writes into its own package.
 """
 
 from __future__ import annotations
@@ -28,8 +30,9 @@ import os
 import sys
 import time
 import traceback
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from datetime import UTC, datetime
+from pathlib import Path
 from typing import Any
 
 from bench import (
@@ -163,24 +166,38 @@ def parse_only(text: str | None) -> list[int]:
     return sorted(set(chosen))
 
 
-def write(report: dict[str, Any], stamp: str) -> list[str]:
-    RESULTS_DIR.mkdir(parents=True, exist_ok=True)
+def write(report: dict[str, Any], stamp: str, directory: Path) -> list[Path]:
+    directory.mkdir(parents=True, exist_ok=True)
     text = json.dumps(report, indent=1, default=str) + "\n"
-    paths = [RESULTS_DIR / f"{stamp}.json", RESULTS_DIR / "latest.json"]
+    paths = [directory / f"{stamp}.json", directory / "latest.json"]
     for path in paths:
         path.write_text(text)
-    return [str(p) for p in paths]
+    return paths
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m bench.run", description=__doc__.split("\n")[0])
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quick", action="store_true", help="every benchmark briefly (~1 min)")
     parser.add_argument("--only", metavar="N,N", help="only these figures, e.g. 3,6")
-    args = parser.parse_args(argv)
-    return run_suite(args.quick, parse_only(args.only))
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=RESULTS_DIR,
+        metavar="DIR",
+        help=f"where the JSON results go (default: {RESULTS_DIR} under the current directory)",
+    )
 
 
-def run_suite(quick: bool, figures: list[int]) -> int:
+def run(args: argparse.Namespace) -> int:
+    return run_suite(args.quick, parse_only(args.only), args.out)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m bench.run", description=__doc__.split("\n")[0])
+    add_arguments(parser)
+    return run(parser.parse_args(argv))
+
+
+def run_suite(quick: bool, figures: list[int], out: Path) -> int:
     stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
     report: dict[str, Any] = {
         "timestamp": stamp,
@@ -227,7 +244,7 @@ def run_suite(quick: bool, figures: list[int]) -> int:
         f"{machine['loadavg_at_start'][0]:.2f}, at end {machine['loadavg_at_end'][0]:.2f}; "
         f"{report['seconds']:.0f} s"
     )
-    for path in write(report, stamp):
+    for path in write(report, stamp, out):
         print(f"written: {path}")
     leftovers = descendants(os.getpid())
     if leftovers:

@@ -1,20 +1,30 @@
-"""Running real cells for tests: real processes, real TCP, real Zenoh, on free loopback ports.
+"""Real cells on free loopback ports, for the tests, the benchmarks and the demo.
 
-Each cell gets its own Zenoh router on a free port (never the well-known 7447, never
-multicast), so tests cannot see each other's cells. Teardown stops the launcher and then
-proves that no process it started is left.
+``running_cell`` starts the launcher (``python -m services.launcher``, what ``motocell up``
+runs) as a child process, waits until the cell is whole, and on exit stops it and proves that
+no process it started is left. Each cell gets its own Zenoh router on a free port (never the
+well-known 7447, never multicast) and its own registry of running cells, so cells started here
+cannot see each other, nor a cell someone runs on this machine.
+
+Nothing here depends on the current directory or a source checkout: the processes are modules
+of the installed motocell, so the harness works from a wheel as well as from the repository.
 """
 
 from __future__ import annotations
 
+import contextlib
+import itertools
 import os
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
+import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import zenoh
@@ -25,24 +35,52 @@ from shared.config import Cell, load_cell
 from shared.ports import free_port, free_port_block
 from shared.protocol.codec import ByteOrder
 from shared.protocol.constants import Command, NotReadySubcode
+from shared.registry import ENV as RUNTIME_DIR_ENV
+from shared.service import REQUIRED_SERVICES
 from testkit.client import MotionClient, StateListener
-from testkit.processes import alive, connectable, descendants, wait_until
+from testkit.processes import alive, cmdline, connectable, descendants, wait_until
 
-REPO = Path(__file__).resolve().parent.parent
+LAUNCHER = (sys.executable, "-m", "services.launcher")
+"""What ``motocell up`` runs, by the Python that runs the harness."""
+ROUTER = (sys.executable, "-m", "tools.cli", "router")
+"""``motocell router``: a Zenoh router of its own, for cells that join one."""
+
+HOST = "127.0.0.1"
 START_TIMEOUT_S = 30.0
+STOP_TIMEOUT_S = 10.0
+"""The launcher stops its services within 5 s of SIGTERM; twice that is a hang."""
+EXIT_TIMEOUT_S = 5.0
+LOG_LEVEL = os.environ.get("MOTOCELL_TEST_LOG", "WARNING")
+"""The services' log level: quiet by default, so a test's or benchmark's output is its own."""
 
 
 @dataclass
 class RunningCell:
+    """A cell the harness started: where to reach it, and the launcher that runs it."""
+
     cell: Cell
+    config: str | None
+    """The cell file (``None``: the default cell)."""
     host: str
     port_base: int
     zenoh_endpoint: str
     process: subprocess.Popen[bytes]
+    """The launcher."""
+    spawned_ns: int
+    """When the launcher was spawned (CLOCK_MONOTONIC)."""
+    runtime_dir: Path
+    """Where its launcher registers it (``shared.registry``): a directory of its own, so its
+    name never clashes with a cell running elsewhere on this machine."""
+    expected_children: int
+    _seen: set[int] = field(default_factory=set, init=False, repr=False)
 
     @property
     def byte_order(self) -> ByteOrder:
         return ByteOrder(self.cell.byte_order)
+
+    @property
+    def keys(self) -> CellKeys:
+        return CellKeys(self.cell.name)
 
     def motion(self) -> MotionClient:
         return MotionClient(self.host, self.port_base, self.byte_order)
@@ -54,7 +92,134 @@ class RunningCell:
         return StateListener(self.host, self.port_base + 1, self.byte_order)
 
     def children(self) -> set[int]:
-        return descendants(self.process.pid)
+        """The launcher's processes now (remembered, so ``stop`` can prove they exited)."""
+        current = descendants(self.process.pid)
+        self._seen |= current
+        return current
+
+    def service_pids(self, module: str, group: int | None = None) -> set[int]:
+        """The cell's processes running ``services.<module>`` (only ``group``'s, if given)."""
+        found = set()
+        for pid in self.children():
+            argv = cmdline(pid)
+            if f"services.{module}" not in argv:
+                continue
+            if group is None or ("--group", str(group)) in itertools.pairwise(argv):
+                found.add(pid)
+        return found
+
+    def wait_started(self, timeout: float = START_TIMEOUT_S) -> None:
+        """Until the launcher has started every service process it runs. ChildProcessError if
+        the launcher exits first (a bad cell file, its router's port taken)."""
+
+        def started() -> bool:
+            if self.process.poll() is not None:
+                raise ChildProcessError(f"the launcher exited with {self.process.returncode}")
+            return len(self.children()) >= self.expected_children
+
+        wait_until(started, timeout, "every service process to start")
+
+    def stop(self) -> None:
+        """SIGTERM to the launcher, which stops its services. AssertionError if the launcher or
+        any service outlives its deadline (killed first, so nothing is left either way)."""
+        self.children()
+        if self.process.poll() is None:
+            self.process.send_signal(signal.SIGTERM)
+        problems = []
+        try:
+            wait_until(lambda: self.process.poll() is not None, STOP_TIMEOUT_S, "the launcher")
+        except TimeoutError:
+            self.process.kill()
+            problems.append(f"the launcher did not stop within {STOP_TIMEOUT_S} s of SIGTERM")
+        self.process.wait()
+        try:
+            wait_until(self._services_gone, EXIT_TIMEOUT_S, "every service process to exit")
+        except TimeoutError:
+            left = sorted(pid for pid in self._seen if alive(pid))
+            for pid in left:
+                with contextlib.suppress(ProcessLookupError):
+                    os.kill(pid, signal.SIGKILL)
+            problems.append(f"service processes {left} outlived the launcher")
+        shutil.rmtree(self.runtime_dir, ignore_errors=True)
+        if problems:
+            raise AssertionError("; ".join(problems))
+
+    def _services_gone(self) -> bool:
+        return not any(alive(pid) for pid in self._seen)
+
+
+def start_cell(
+    config: str | Path | None = None,
+    *,
+    router: str | None = None,
+    skip: Sequence[str] = (),
+    log: Path | None = None,
+    log_level: str = LOG_LEVEL,
+) -> RunningCell:
+    """Spawn the launcher on free ports and return at once. It runs its own router, or joins
+    ``router``; ``skip``ped services are the caller's to run. ``log``: the launcher's and its
+    services' output goes there (appended) instead of this process's."""
+    cell_file = None if config is None else str(config)
+    cell = load_cell(cell_file)
+    port_base = free_port_block(3, HOST)
+    endpoint = router or f"tcp/{HOST}:{free_port(HOST)}"
+    zenoh_option = "--zenoh-connect" if router else "--zenoh-listen"
+    command = [*LAUNCHER, "--port-base", str(port_base), zenoh_option, endpoint]
+    for service in skip:
+        command += ["--skip", service]
+    if cell_file is not None:
+        command += ["--config", cell_file]
+    runtime_dir = Path(tempfile.mkdtemp(prefix="motocell-cell-"))
+    env = {**os.environ, "MOTOCELL_LOG": log_level, RUNTIME_DIR_ENV: str(runtime_dir)}
+    spawned_ns = time.monotonic_ns()
+    if log is None:
+        process = subprocess.Popen(command, env=env)
+    else:
+        with log.open("ab") as out:
+            process = subprocess.Popen(command, env=env, stdout=out, stderr=subprocess.STDOUT)
+    expected = len(REQUIRED_SERVICES) + len(cell.groups) - len(skip)
+    return RunningCell(
+        cell, cell_file, HOST, port_base, endpoint, process, spawned_ns, runtime_dir, expected
+    )
+
+
+@contextmanager
+def running_cell(
+    config: str | Path | None = None,
+    *,
+    router: str | None = None,
+    skip: Sequence[str] = (),
+    log: Path | None = None,
+    log_level: str = LOG_LEVEL,
+    timeout: float = START_TIMEOUT_S,
+    attempts: int = 1,
+) -> Iterator[RunningCell]:
+    """A started cell (see ``start_cell``), whole unless services are skipped; stopped on exit,
+    also on errors and Ctrl-C. A start that fails is tried ``attempts`` times in all, each on
+    new ports (another process may take one between choosing and binding it)."""
+    attempt = 1
+    while True:
+        running = start_cell(config, router=router, skip=skip, log=log, log_level=log_level)
+        try:
+            running.wait_started(timeout)
+            if not skip:
+                wait_for_whole_cell(running.host, running.port_base, running.byte_order, timeout)
+            break
+        except (TimeoutError, OSError) as exc:
+            running.stop()
+            if attempt == attempts:
+                if log is not None:
+                    exc.add_note(f"the end of {log}:\n{_log_tail(log)}")
+                raise
+            print(f"warning: the cell did not start ({exc}); again on new ports", file=sys.stderr)
+            attempt += 1
+        except BaseException:
+            running.stop()
+            raise
+    try:
+        yield running
+    finally:
+        running.stop()
 
 
 def wait_for_whole_cell(
@@ -75,54 +240,28 @@ def wait_for_whole_cell(
         )
 
 
-@contextmanager
-def running_cell(
-    config: str | None = None,
-    extra: Sequence[str] = (),
-    router: str | None = None,
-    skip: Sequence[str] = (),
-) -> Iterator[RunningCell]:
-    """``motocell up`` on free ports: with its own router, or joining ``router``. ``skip``ped
-    services are the test's to run; the cell is only waited for when nothing is skipped."""
-    cell = load_cell(config)
-    port_base = free_port_block(3)
-    endpoint = router or f"tcp/127.0.0.1:{free_port()}"
-    zenoh_option = "--zenoh-connect" if router else "--zenoh-listen"
-    command = [
-        *(sys.executable, "-m", "tools.cli", "up", "--port-base", str(port_base)),
-        *(zenoh_option, endpoint, *extra),
-    ]
-    for service in skip:
-        command += ["--skip", service]
-    if config:
-        command += ["--config", config]
-    env = {**os.environ, "MOTOCELL_LOG": os.environ.get("MOTOCELL_TEST_LOG", "WARNING")}
-    process = subprocess.Popen(command, cwd=REPO, env=env)
-    running = RunningCell(cell, "127.0.0.1", port_base, endpoint, process)
-    started: set[int] = set()
+def _log_tail(path: Path, lines: int = 20) -> str:
     try:
-        expected = 4 + len(cell.groups) - len(skip)
-        wait_until(
-            lambda: len(running.children()) >= expected,
-            START_TIMEOUT_S,
-            "every service process to start",
-        )
-        started = running.children()
-        if not skip:
-            wait_for_whole_cell(running.host, port_base, running.byte_order)
-        yield running
+        return "\n".join(path.read_text(errors="replace").splitlines()[-lines:])
+    except OSError as exc:
+        return f"(unreadable: {exc})"
+
+
+@contextmanager
+def zenoh_router(listen: str) -> Iterator[str]:
+    """A Zenoh router in a process of its own, listening on ``listen``; stopped on exit."""
+    env = {**os.environ, "MOTOCELL_LOG": LOG_LEVEL}
+    process = subprocess.Popen([*ROUTER, "--listen", listen], env=env)
+    try:
+        yield listen
     finally:
-        started |= running.children()
         process.send_signal(signal.SIGTERM)
         try:
-            process.wait(timeout=10)
+            process.wait(timeout=STOP_TIMEOUT_S)
         except subprocess.TimeoutExpired:
             process.kill()
             process.wait()
-            raise AssertionError("motocell up did not stop within 10 s of SIGTERM") from None
-        wait_until(
-            lambda: not any(alive(pid) for pid in started), 5.0, "every service process to exit"
-        )
+            raise AssertionError(f"the router did not stop within {STOP_TIMEOUT_S} s") from None
 
 
 class TickLog:

@@ -165,6 +165,10 @@ class StateListener:
                     raise TimeoutError(f"no matching state within {timeout} s")
                 self.changed.wait(remaining)
 
+    def wait_still(self, timeout: float = 5.0) -> Feedback:
+        """The first state cycle, from now on, in which the robot is not moving."""
+        return self.wait_for(lambda f: f.status is not None and f.status.in_motion == 0, timeout)
+
     def close(self) -> None:
         with contextlib.suppress(OSError):
             self.sock.shutdown(socket.SHUT_RDWR)

@@ -9,21 +9,25 @@ from collections.abc import Callable
 from pathlib import Path
 
 
+def children(pid: int) -> set[int]:
+    """The processes ``pid`` started (and that have not been reparented since)."""
+    found: set[int] = set()
+    for task in Path(f"/proc/{pid}/task").glob("*"):
+        try:
+            found.update(map(int, (task / "children").read_text().split()))
+        except OSError:
+            continue
+    return found
+
+
 def descendants(pid: int) -> set[int]:
     """Every process below ``pid``, children of children included."""
     found: set[int] = set()
     frontier = [pid]
     while frontier:
-        parent = frontier.pop()
-        for task in Path(f"/proc/{parent}/task").glob("*"):
-            try:
-                children = (task / "children").read_text().split()
-            except OSError:
-                continue
-            for child in map(int, children):
-                if child not in found:
-                    found.add(child)
-                    frontier.append(child)
+        for child in children(frontier.pop()) - found:
+            found.add(child)
+            frontier.append(child)
     return found
 
 
@@ -34,6 +38,15 @@ def alive(pid: int) -> bool:
     except OSError:
         return False
     return state != "Z"
+
+
+def cmdline(pid: int) -> list[str]:
+    """The process's arguments (``[]`` once it is gone)."""
+    try:
+        raw = Path(f"/proc/{pid}/cmdline").read_bytes()
+    except OSError:
+        return []
+    return raw.decode(errors="replace").split("\0")[:-1]
 
 
 def connectable(host: str, port: int) -> bool:

@@ -9,9 +9,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import signal
-import subprocess
-import sys
 import time
 from contextlib import ExitStack
 
@@ -19,54 +16,24 @@ import numpy as np
 
 from shared.config import Cell, load_cell
 from shared.motion.kinematics import AxisMap
-from shared.ports import free_port, free_port_block
 from shared.protocol.codec import ByteOrder
 from shared.protocol.constants import Command, Result
+from testkit.cell import running_cell
 from testkit.client import MotionClient, StateListener, smooth_move, stream
+from testkit.processes import connectable, wait_until
 
 GOAL_TOLERANCE_RAD = 1e-4
-
-
-def start_cell(cell_config: str | None, port_base: int) -> subprocess.Popen[bytes]:
-    command = [
-        sys.executable,
-        "-m",
-        "tools.cli",
-        "up",
-        "--port-base",
-        str(port_base),
-        "--zenoh-listen",
-        f"tcp/127.0.0.1:{free_port()}",
-    ]
-    if cell_config:
-        command += ["--config", cell_config]
-    env = {**os.environ, "MOTOCELL_LOG": os.environ.get("MOTOCELL_LOG", "WARNING")}
-    return subprocess.Popen(command, env=env)
-
-
-def wait_for_state_port(
-    host: str, port: int, byte_order: ByteOrder, timeout: float
-) -> StateListener:
-    deadline = time.monotonic() + timeout
-    while True:
-        try:
-            listener = StateListener(host, port, byte_order)
-            listener.wait_for(
-                lambda f: f.status is not None, timeout=max(0.1, deadline - time.monotonic())
-            )
-            return listener
-        except (OSError, TimeoutError):
-            if time.monotonic() >= deadline:
-                raise
-            time.sleep(0.1)
+CONNECT_TIMEOUT_S = 20.0
 
 
 def drive(cell: Cell, host: str, port_base: int, points: int, duration: float) -> int:
     byte_order = ByteOrder(cell.byte_order)
     axis_map = AxisMap(cell.groups[0])
     axes = axis_map.axes
+    wait_until(lambda: connectable(host, port_base + 1), CONNECT_TIMEOUT_S, "the state port")
     with ExitStack() as stack:
-        state = stack.enter_context(wait_for_state_port(host, port_base + 1, byte_order, 20.0))
+        state = stack.enter_context(StateListener(host, port_base + 1, byte_order))
+        state.wait_for(lambda f: f.status is not None, CONNECT_TIMEOUT_S)
         motion = stack.enter_context(MotionClient(host, port_base, byte_order))
         started = time.monotonic()
         reply = motion.command(Command.START_TRAJ_MODE)
@@ -118,11 +85,8 @@ def run(args: argparse.Namespace) -> int:
     cell = load_cell(args.config)
     if args.port_base:
         return drive(cell, args.host, args.port_base, args.points, args.duration)
-    port_base = free_port_block(3)
-    print(f"starting a cell on {args.host}:{port_base}-{port_base + 2} ...")
-    process = start_cell(args.config, port_base)
-    try:
-        return drive(cell, args.host, port_base, args.points, args.duration)
-    finally:
-        process.send_signal(signal.SIGTERM)
-        process.wait(timeout=10)
+    print("starting a cell ...", flush=True)
+    log_level = os.environ.get("MOTOCELL_LOG", "WARNING")
+    with running_cell(args.config, log_level=log_level) as started:
+        print(f"cell {cell.name} up on {started.host}:{started.port_base}-{started.port_base + 2}")
+        return drive(cell, started.host, started.port_base, args.points, args.duration)

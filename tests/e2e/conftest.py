@@ -1,14 +1,36 @@
-"""Fixtures the end-to-end modules share; each module defines its own ``cell``."""
+"""Fixtures the end-to-end modules share.
+
+``cell`` is one running cell per module: the default cell, or the file of ``deploy/cells`` that
+the module names with ``pytest.mark.parametrize("cell", ["fs100.toml"], indirect=True)`` in its
+``pytestmark``. The other fixtures are clients of that cell, opened for one test and closed after.
+"""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+import subprocess
+import sys
+from collections.abc import Callable, Iterator
+from pathlib import Path
 
 import pytest
 import zenoh
 
 from shared.bus.session import open_session
-from testkit.cell import RunningCell
+from testkit.cell import RunningCell, TickLog, running_cell
+from testkit.client import MotionClient, StateListener
+
+
+@pytest.fixture(scope="session")
+def repo() -> Path:
+    """The source tree: ``deploy/`` (cell files, Dockerfile) and ``compose.yaml``."""
+    return Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def cell(request: pytest.FixtureRequest, repo: Path) -> Iterator[RunningCell]:
+    name: str | None = getattr(request, "param", None)
+    with running_cell(None if name is None else repo / "deploy" / "cells" / name) as running:
+        yield running
 
 
 @pytest.fixture(scope="module")
@@ -17,3 +39,35 @@ def bus(cell: RunningCell) -> Iterator[zenoh.Session]:
     session = open_session("client", [cell.zenoh_endpoint], wait=False)
     yield session
     session.close()
+
+
+@pytest.fixture
+def motion(cell: RunningCell) -> Iterator[MotionClient]:
+    with cell.motion() as client:
+        yield client
+
+
+@pytest.fixture
+def state(cell: RunningCell) -> Iterator[StateListener]:
+    """A state port client that has seen at least one whole state cycle."""
+    with cell.state() as listener:
+        listener.wait_for(lambda f: f.status is not None, 10.0)
+        yield listener
+
+
+@pytest.fixture
+def ticks(cell: RunningCell, bus: zenoh.Session) -> Iterator[TickLog]:
+    log = TickLog(bus, cell.keys)
+    yield log
+    log.subscriber.undeclare()
+
+
+@pytest.fixture(scope="session")
+def motocell() -> Callable[..., subprocess.CompletedProcess[str]]:
+    """Runs ``motocell <args>`` to the end, as an operator at a terminal would."""
+
+    def run(*args: str, timeout: float = 30.0) -> subprocess.CompletedProcess[str]:
+        command = [sys.executable, "-m", "tools.cli", *args]
+        return subprocess.run(command, capture_output=True, text=True, timeout=timeout, check=False)
+
+    return run

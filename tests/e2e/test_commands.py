@@ -4,37 +4,23 @@ matter (motoros1 §2.3)."""
 from __future__ import annotations
 
 import subprocess
-import sys
-from collections.abc import Iterator
+from collections.abc import Callable
 
 import pytest
 import zenoh
 
-from shared.bus.keys import CellKeys
 from shared.bus.schemas import CommandRequest
 from shared.bus.session import call
 from shared.protocol.constants import Command, NotReadySubcode, Result
 from shared.protocol.replies import motion_ctrl
-from testkit.cell import REPO, RunningCell, running_cell
+from testkit.cell import RunningCell
 from testkit.client import MotionClient, StateListener, smooth_move, stream
 
 pytestmark = pytest.mark.cell
 
 
-@pytest.fixture(scope="module")
-def cell() -> Iterator[RunningCell]:
-    with running_cell() as running:
-        yield running
-
-
-@pytest.fixture
-def motion(cell: RunningCell) -> Iterator[MotionClient]:
-    with cell.motion() as client:
-        yield client
-
-
 def fault(bus: zenoh.Session, cell: RunningCell, kind: str, value: int, *args: int) -> None:
-    key = CellKeys(cell.cell.name).controller_fault(kind)
+    key = cell.keys.controller_fault(kind)
     reply = call(bus, key, CommandRequest(value=value, args=list(args)))
     assert reply is not None and reply.result == Result.SUCCESS
 
@@ -47,8 +33,7 @@ def answer(motion: MotionClient, command: Command) -> tuple[int, int]:
 
 def start_moving(motion: MotionClient, state: StateListener) -> None:
     assert answer(motion, Command.START_TRAJ_MODE) == (Result.SUCCESS, 0)
-    still = state.wait_for(lambda f: f.status is not None and f.status.in_motion == 0, 5.0)
-    start = still.groups[0].positions[:6]
+    start = state.wait_still().groups[0].positions[:6]
     result = stream(motion, smooth_move(start, tuple(p + 0.3 for p in start), 1.5, 8))
     assert result.points == 8
 
@@ -115,40 +100,39 @@ def test_reset_alarm(cell: RunningCell, bus: zenoh.Session, motion: MotionClient
 
 
 def test_stop_traj_mode_refuses_while_queued_then_ends_the_job(
-    cell: RunningCell, motion: MotionClient
+    motion: MotionClient, state: StateListener
 ) -> None:
-    with cell.state() as state:
-        start_moving(motion, state)
-        assert answer(motion, Command.STOP_TRAJ_MODE) == (Result.FAILURE, 0)
-        assert answer(motion, Command.STOP_MOTION) == (Result.SUCCESS, 0)
-        assert answer(motion, Command.CHECK_QUEUE_CNT) == (Result.SUCCESS, 0)
-        assert answer(motion, Command.CHECK_MOTION_READY) == (Result.TRUE, 0)
-        assert answer(motion, Command.STOP_TRAJ_MODE) == (Result.SUCCESS, 0)
-        assert answer(motion, Command.CHECK_MOTION_READY) == (
-            Result.FALSE,
-            NotReadySubcode.NOT_STARTED,
-        )
+    start_moving(motion, state)
+    assert answer(motion, Command.STOP_TRAJ_MODE) == (Result.FAILURE, 0)
+    assert answer(motion, Command.STOP_MOTION) == (Result.SUCCESS, 0)
+    assert answer(motion, Command.CHECK_QUEUE_CNT) == (Result.SUCCESS, 0)
+    assert answer(motion, Command.CHECK_MOTION_READY) == (Result.TRUE, 0)
+    assert answer(motion, Command.STOP_TRAJ_MODE) == (Result.SUCCESS, 0)
+    assert answer(motion, Command.CHECK_MOTION_READY) == (
+        Result.FALSE,
+        NotReadySubcode.NOT_STARTED,
+    )
 
 
 def test_disconnect_fails_while_moving_and_closes_silently_when_idle(
-    cell: RunningCell, motion: MotionClient
+    motion: MotionClient, state: StateListener
 ) -> None:
-    with cell.state() as state:
-        start_moving(motion, state)
-        assert answer(motion, Command.DISCONNECT) == (Result.FAILURE, 0)
-        assert answer(motion, Command.STOP_MOTION) == (Result.SUCCESS, 0)
+    start_moving(motion, state)
+    assert answer(motion, Command.DISCONNECT) == (Result.FAILURE, 0)
+    assert answer(motion, Command.STOP_MOTION) == (Result.SUCCESS, 0)
     motion.send(motion_ctrl(Command.DISCONNECT))
     motion.sock.settimeout(5.0)
     assert motion.sock.recv(1) == b"", "closed without a reply (MotoROS 1.9.4+)"
 
 
-def test_the_fault_command_injects_and_clears(cell: RunningCell, motion: MotionClient) -> None:
+def test_the_fault_command_injects_and_clears(
+    cell: RunningCell,
+    motion: MotionClient,
+    motocell: Callable[..., subprocess.CompletedProcess[str]],
+) -> None:
     def fault_cli(*words: str) -> subprocess.CompletedProcess[str]:
-        command = [sys.executable, "-m", "tools.cli", "fault", *words]
-        command += ["--cell", cell.cell.name, "--zenoh-connect", cell.zenoh_endpoint]
-        return subprocess.run(
-            command, cwd=REPO, capture_output=True, text=True, timeout=30, check=False
-        )
+        where = ("--cell", cell.cell.name, "--zenoh-connect", cell.zenoh_endpoint)
+        return motocell("fault", *words, *where)
 
     assert answer(motion, Command.START_TRAJ_MODE) == (Result.SUCCESS, 0)
     injected = fault_cli("estop", "on")

@@ -21,15 +21,15 @@ from shared.motion.kinematics import AxisMap
 from shared.ports import free_port, free_port_block
 from shared.protocol.codec import ByteOrder
 from shared.protocol.constants import Command, Result
-from testkit.cell import REPO, wait_for_whole_cell
+from testkit.cell import wait_for_whole_cell, zenoh_router
 from testkit.client import MotionClient, StateListener, smooth_move, stream_ex
 from testkit.processes import alive, wait_until
 
 pytestmark = pytest.mark.cell
 
 
-def compose_commands(router: str, port_base: int) -> dict[str, list[str]]:
-    compose = yaml.safe_load((REPO / "compose.yaml").read_text())
+def compose_commands(repo: Path, router: str, port_base: int) -> dict[str, list[str]]:
+    compose = yaml.safe_load((repo / "compose.yaml").read_text())
     commands = {}
     for name, service in compose["services"].items():
         if name == "zenohd":
@@ -40,7 +40,7 @@ def compose_commands(router: str, port_base: int) -> dict[str, list[str]]:
         rewritten = [sys.executable, "-m"]
         for original in command[2:]:
             part = original.replace("tcp/zenohd:7447", router)
-            part = part.replace("/etc/motocell/cells/", f"{REPO}/deploy/cells/")
+            part = part.replace("/etc/motocell/cells/", f"{repo}/deploy/cells/")
             rewritten.append({"0.0.0.0": "127.0.0.1", "50240": str(port_base)}.get(part, part))
         assert (
             "--zenoh-mode" in rewritten
@@ -51,37 +51,35 @@ def compose_commands(router: str, port_base: int) -> dict[str, list[str]]:
 
 
 @pytest.fixture
-def compose_cell() -> Iterator[int]:
-    router = f"tcp/127.0.0.1:{free_port()}"
+def compose_cell(repo: Path) -> Iterator[int]:
     port_base = free_port_block(3)
     env = {**os.environ, "MOTOCELL_LOG": "WARNING"}
-    processes = [
-        subprocess.Popen(
-            [sys.executable, "-m", "tools.cli", "router", "--listen", router],
-            cwd=REPO,
-            env=env,
-        )
-    ]
-    try:
-        for command in compose_commands(router, port_base).values():
-            processes.append(subprocess.Popen(command, cwd=REPO, env=env))
-        yield port_base
-    finally:
-        # As `docker compose down`: services first, the router they depend on last.
-        for process in reversed(processes):
-            process.send_signal(signal.SIGTERM)
-        for process in reversed(processes):
-            try:
-                process.wait(timeout=5)
-            except subprocess.TimeoutExpired:
-                process.kill()
-                process.wait()
-                raise AssertionError(f"{process.args!r} ignored SIGTERM") from None
-        wait_until(lambda: not any(alive(p.pid) for p in processes), 5.0, "services to exit")
+    processes: list[subprocess.Popen[bytes]] = []
+    # As `docker compose down`: services first, the router they depend on last.
+    with zenoh_router(f"tcp/127.0.0.1:{free_port()}") as router:
+        try:
+            for command in compose_commands(repo, router, port_base).values():
+                processes.append(subprocess.Popen(command, env=env))
+            yield port_base
+        finally:
+            stop_services(processes)
 
 
-def test_compose_services_execute_a_trajectory(compose_cell: int) -> None:
-    cell = load_cell(REPO / "deploy/cells/dual-arm-positioner.toml")
+def stop_services(processes: list[subprocess.Popen[bytes]]) -> None:
+    for process in reversed(processes):
+        process.send_signal(signal.SIGTERM)
+    for process in reversed(processes):
+        try:
+            process.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+            raise AssertionError(f"{process.args!r} ignored SIGTERM") from None
+    wait_until(lambda: not any(alive(p.pid) for p in processes), 5.0, "services to exit")
+
+
+def test_compose_services_execute_a_trajectory(repo: Path, compose_cell: int) -> None:
+    cell = load_cell(repo / "deploy" / "cells" / "dual-arm-positioner.toml")
     maps = [AxisMap(group) for group in cell.groups]
     byte_order = ByteOrder(cell.byte_order)
 
@@ -92,7 +90,7 @@ def test_compose_services_execute_a_trajectory(compose_cell: int) -> None:
     ):
         reply = motion.command(Command.START_TRAJ_MODE)
         assert (reply.result, reply.subcode) == (Result.SUCCESS, 0)
-        still = state.wait_for(lambda f: f.status is not None and f.status.in_motion == 0, 5)
+        still = state.wait_still()
         start = {g: tuple(still.groups[g].positions[: m.axes]) for g, m in enumerate(maps)}
         goals = {g: tuple(p + 0.2 for p in start[g]) for g in start}
         result = stream_ex(motion, {g: smooth_move(start[g], goals[g], 0.5, 6) for g in start})
@@ -115,8 +113,8 @@ def test_compose_services_execute_a_trajectory(compose_cell: int) -> None:
         assert (reply.result, reply.subcode) == (Result.SUCCESS, 0)
 
 
-def test_compose_file_runs_every_service_and_an_interpolator_per_group() -> None:
-    commands = compose_commands("tcp/127.0.0.1:1", 1)
+def test_compose_file_runs_every_service_and_an_interpolator_per_group(repo: Path) -> None:
+    commands = compose_commands(repo, "tcp/127.0.0.1:1", 1)
     modules = sorted(command[2] for command in commands.values())
     assert modules == [
         "services.broadcaster",
@@ -129,4 +127,4 @@ def test_compose_file_runs_every_service_and_an_interpolator_per_group() -> None
     ]
     groups = sorted(c[c.index("--group") + 1] for c in commands.values() if "--group" in c)
     assert groups == ["0", "1", "2"]
-    assert Path(REPO / "deploy/Dockerfile").exists()
+    assert (repo / "deploy" / "Dockerfile").exists()

@@ -3,7 +3,6 @@ on its own; the next point is refused with the right NOT_READY subcode; recovery
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from dataclasses import dataclass
 
 import pytest
@@ -14,7 +13,7 @@ from shared.bus.schemas import CommandRequest, Tick
 from shared.bus.session import call
 from shared.protocol.constants import Command, NotReadySubcode, Result
 from shared.protocol.replies import traj_point
-from testkit.cell import RunningCell, TickLog, running_cell
+from testkit.cell import RunningCell, TickLog
 from testkit.client import MotionClient, StateListener, smooth_move, stream
 from testkit.processes import wait_until
 
@@ -55,65 +54,59 @@ FAULTS = [
 ]
 
 
-@pytest.fixture(scope="module")
-def cell() -> Iterator[RunningCell]:
-    with running_cell() as running:
-        yield running
-
-
 def position(state: StateListener) -> tuple[float, ...]:
     """Where the robot stands, once it stands still (as a client checks before planning)."""
-    still = state.wait_for(lambda f: f.status is not None and f.status.in_motion == 0, 5.0)
-    return tuple(still.groups[0].positions[:6])
+    return tuple(state.wait_still().groups[0].positions[:6])
 
 
 @pytest.mark.parametrize("fault", FAULTS, ids=[f.kind for f in FAULTS])
 def test_fault_during_motion_stops_everything_and_recovery_works(
-    cell: RunningCell, bus: zenoh.Session, fault: Fault
+    cell: RunningCell,
+    bus: zenoh.Session,
+    ticks: TickLog,
+    motion: MotionClient,
+    state: StateListener,
+    fault: Fault,
 ) -> None:
-    keys = CellKeys(cell.cell.name)
-    ticks = TickLog(bus, keys)
-    with cell.motion() as motion, cell.state() as state:
-        state.wait_for(lambda f: f.status is not None, 10.0)
-        assert motion.command(Command.START_TRAJ_MODE).result == Result.SUCCESS
-        start = position(state)
-        goal = tuple(p + 0.5 for p in start)
-        result = stream(motion, smooth_move(start, goal, 2.0, 9))
-        assert result.points == 9, result.last_reply
-        assert motion.command(Command.CHECK_QUEUE_CNT).subcode > 0, "still moving"
+    keys = cell.keys
+    assert motion.command(Command.START_TRAJ_MODE).result == Result.SUCCESS
+    start = position(state)
+    goal = tuple(p + 0.5 for p in start)
+    result = stream(motion, smooth_move(start, goal, 2.0, 9))
+    assert result.points == 9, result.last_reply
+    assert motion.command(Command.CHECK_QUEUE_CNT).subcode > 0, "still moving"
 
-        moving_from = len(ticks)
-        assert all(t.motion_ready for t in ticks.since(moving_from - 5))
-        reply = call(bus, keys.controller_fault(fault.kind), fault.inject)
-        assert reply is not None and reply.result == Result.SUCCESS
+    moving_from = len(ticks)
+    assert all(t.motion_ready for t in ticks.since(moving_from - 5))
+    reply = call(bus, keys.controller_fault(fault.kind), fault.inject)
+    assert reply is not None and reply.result == Result.SUCCESS
 
-        # The first tick that saw motion-ready gone: from it on, nothing moves.
-        def stopped() -> list[Tick]:
-            later = ticks.since(moving_from)
-            seen = [i for i, t in enumerate(later) if not t.motion_ready]
-            return later[seen[0] :] if seen else []
+    # The first tick that saw motion-ready gone: from it on, nothing moves.
+    def stopped() -> list[Tick]:
+        later = ticks.since(moving_from)
+        seen = [i for i, t in enumerate(later) if not t.motion_ready]
+        return later[seen[0] :] if seen else []
 
-        state.wait_for(lambda f: f.status is not None and f.status.motion_possible == 0, 5.0)
-        wait_until(lambda: len(stopped()) >= 25, 5.0, "100 ms of ticks after the fault")
-        after = stopped()
-        frozen = after[0].groups[0].command_pulses
-        assert all(t.groups[0].command_pulses == frozen for t in after)
-        assert all(not any(t.groups[0].increment) for t in after)
-        assert frozen != ticks.since(moving_from - 5)[0].groups[0].command_pulses, "it moved"
+    state.wait_for(lambda f: f.status is not None and f.status.motion_possible == 0, 5.0)
+    wait_until(lambda: len(stopped()) >= 25, 5.0, "100 ms of ticks after the fault")
+    after = stopped()
+    frozen = after[0].groups[0].command_pulses
+    assert all(t.groups[0].command_pulses == frozen for t in after)
+    assert all(not any(t.groups[0].increment) for t in after)
+    assert frozen != ticks.since(moving_from - 5)[0].groups[0].command_pulses, "it moved"
 
-        reply_cnt = motion.command(Command.CHECK_QUEUE_CNT)
-        assert (reply_cnt.result, reply_cnt.subcode) == (Result.SUCCESS, 0)
-        here = position(state)
-        refused = motion.motion(traj_point(0, 0, 0.0, here, (0.0,) * 6))
-        assert (refused.result, refused.subcode) == (Result.NOT_READY, fault.subcode)
-        ready = motion.command(Command.CHECK_MOTION_READY)
-        assert (ready.result, ready.subcode) == (Result.FALSE, fault.subcode)
+    reply_cnt = motion.command(Command.CHECK_QUEUE_CNT)
+    assert (reply_cnt.result, reply_cnt.subcode) == (Result.SUCCESS, 0)
+    here = position(state)
+    refused = motion.motion(traj_point(0, 0, 0.0, here, (0.0,) * 6))
+    assert (refused.result, refused.subcode) == (Result.NOT_READY, fault.subcode)
+    ready = motion.command(Command.CHECK_MOTION_READY)
+    assert (ready.result, ready.subcode) == (Result.FALSE, fault.subcode)
 
-        recover(motion, bus, keys, fault)
-        here = position(state)
-        result = stream(motion, smooth_move(here, tuple(p - 0.1 for p in here), 0.4, 5))
-        assert result.points == 5, result.last_reply
-    ticks.subscriber.undeclare()
+    recover(motion, bus, keys, fault)
+    here = position(state)
+    result = stream(motion, smooth_move(here, tuple(p - 0.1 for p in here), 0.4, 5))
+    assert result.points == 5, result.last_reply
 
 
 def recover(motion: MotionClient, bus: zenoh.Session, keys: CellKeys, fault: Fault) -> None:

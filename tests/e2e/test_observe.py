@@ -3,48 +3,27 @@
 from __future__ import annotations
 
 import subprocess
-import sys
 import threading
-from collections.abc import Iterator
-from pathlib import Path
+from collections.abc import Callable
 
 import pytest
 import zenoh
 
 from shared.bus import catalog
-from shared.bus.session import open_session
 from shared.ports import free_port
 from shared.protocol.constants import Command, Result
-from testkit.cell import REPO, RunningCell, running_cell
-from testkit.client import smooth_move, stream
-from testkit.processes import wait_until
+from testkit.cell import RunningCell
+from testkit.client import MotionClient, StateListener, smooth_move, stream
+from testkit.processes import cmdline, wait_until
 
 pytestmark = pytest.mark.cell
 
-
-@pytest.fixture(scope="module")
-def cell() -> Iterator[RunningCell]:
-    with running_cell() as running:
-        yield running
+Motocell = Callable[..., subprocess.CompletedProcess[str]]
 
 
-def motocell(*args: str, timeout: float = 30.0) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "tools.cli", *args],
-        cwd=REPO,
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-        check=False,
-    )
-
-
-def cmdline(pid: int) -> str:
-    return Path(f"/proc/{pid}/cmdline").read_bytes().decode().replace("\0", " ")
-
-
-def test_a_plain_subscriber_sees_and_decodes_every_key_of_the_cell(cell: RunningCell) -> None:
-    session = open_session("client", [cell.zenoh_endpoint], wait=False)
+def test_a_plain_subscriber_sees_and_decodes_every_key_of_the_cell(
+    bus: zenoh.Session, motion: MotionClient, state: StateListener
+) -> None:
     seen: dict[str, int] = {}
     undecodable: list[str] = []
     lock = threading.Lock()
@@ -62,13 +41,11 @@ def test_a_plain_subscriber_sees_and_decodes_every_key_of_the_cell(cell: Running
             if payload is None:
                 undecodable.append(key)
 
-    subscriber = session.declare_subscriber("**", on_sample)
+    subscriber = bus.declare_subscriber("**", on_sample)
     try:
-        with cell.motion() as motion, cell.state() as state:
-            assert motion.command(Command.START_TRAJ_MODE).result == Result.SUCCESS
-            still = state.wait_for(lambda f: f.status is not None and f.status.in_motion == 0, 5)
-            start = still.groups[0].positions[:6]
-            assert stream(motion, smooth_move(start, [p + 0.1 for p in start], 0.3, 4)).points == 4
+        assert motion.command(Command.START_TRAJ_MODE).result == Result.SUCCESS
+        start = state.wait_still().groups[0].positions[:6]
+        assert stream(motion, smooth_move(start, [p + 0.1 for p in start], 0.3, 4)).points == 4
         expected = {
             "controller/status",
             "controller/cmd/connections",
@@ -85,11 +62,12 @@ def test_a_plain_subscriber_sees_and_decodes_every_key_of_the_cell(cell: Running
         wait_until(lambda: expected <= set(seen), 5.0, f"every key (seen {sorted(seen)})")
     finally:
         subscriber.undeclare()
-        session.close()
     assert undecodable == []
 
 
-def test_ps_lists_every_live_service_with_its_details(cell: RunningCell) -> None:
+def test_ps_lists_every_live_service_with_its_details(
+    cell: RunningCell, motocell: Motocell
+) -> None:
     result = motocell("ps", "--zenoh-connect", cell.zenoh_endpoint)
     assert result.returncode == 0, result.stderr
     lines = result.stdout.splitlines()
@@ -109,7 +87,7 @@ def test_ps_lists_every_live_service_with_its_details(cell: RunningCell) -> None
         assert row[6] == "0.1.0"
 
 
-def test_ps_and_watch_fail_clearly_without_a_router() -> None:
+def test_ps_and_watch_fail_clearly_without_a_router(motocell: Motocell) -> None:
     nowhere = f"tcp/127.0.0.1:{free_port()}"
     for command in ("ps", "watch"):
         result = motocell(command, "--zenoh-connect", nowhere, timeout=10)
@@ -117,21 +95,22 @@ def test_ps_and_watch_fail_clearly_without_a_router() -> None:
         assert f"no Zenoh router at {nowhere}" in result.stderr
 
 
-def test_watch_shows_status_groups_lateness_clients_and_services(cell: RunningCell) -> None:
-    with cell.motion() as motion, cell.state() as state:
-        assert motion.command(Command.START_TRAJ_MODE).result == Result.SUCCESS
-        latest = state.wait_for(lambda f: f.status is not None and f.status.in_motion == 0, 5)
-        result = motocell(
-            "watch",
-            "--zenoh-connect",
-            cell.zenoh_endpoint,
-            "--cell",
-            cell.cell.name,
-            "--count",
-            "4",
-            "--interval",
-            "0.6",
-        )
+def test_watch_shows_status_groups_lateness_clients_and_services(
+    cell: RunningCell, motion: MotionClient, state: StateListener, motocell: Motocell
+) -> None:
+    assert motion.command(Command.START_TRAJ_MODE).result == Result.SUCCESS
+    latest = state.wait_still()
+    result = motocell(
+        "watch",
+        "--zenoh-connect",
+        cell.zenoh_endpoint,
+        "--cell",
+        cell.cell.name,
+        "--count",
+        "4",
+        "--interval",
+        "0.6",
+    )
     assert result.returncode == 0, result.stderr
     frame = result.stdout.split("motocell watch")[-1]
     assert f"cell {cell.cell.name}" in frame

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import socket
 import struct
-from collections.abc import Iterator
 
 import pytest
 
@@ -43,7 +42,7 @@ from shared.protocol.replies import (
     write_io_group,
     write_mregister,
 )
-from testkit.cell import RunningCell, running_cell
+from testkit.cell import RunningCell
 from testkit.client import MotionClient, smooth_move, stream
 from testkit.processes import wait_until
 
@@ -51,12 +50,6 @@ pytestmark = pytest.mark.cell
 
 OT_MOTION_CONNECTED = 11124
 OT_IO_CONNECTED = 11126
-
-
-@pytest.fixture(scope="module")
-def cell() -> Iterator[RunningCell]:
-    with running_cell() as running:
-        yield running
 
 
 def body(reply: object) -> object:
@@ -224,8 +217,7 @@ def test_a_new_motion_client_replaces_an_idle_one(cell: RunningCell) -> None:
 def test_a_new_motion_client_is_refused_while_the_robot_moves(cell: RunningCell) -> None:
     with cell.motion() as first, cell.state() as state:
         assert first.command(Command.START_TRAJ_MODE).result == Result.SUCCESS
-        still = state.wait_for(lambda f: f.status is not None and f.status.in_motion == 0, 5.0)
-        start = still.groups[0].positions[:6]
+        start = state.wait_still().groups[0].positions[:6]
         result = stream(first, smooth_move(start, tuple(p + 0.3 for p in start), 1.5, 8))
         assert result.points == 8
         with cell.motion() as second:

@@ -21,29 +21,15 @@ from shared.bus.session import open_session
 from shared.motion.kinematics import AxisMap
 from shared.ports import free_port
 from shared.protocol.constants import Command, NotReadySubcode, Result
-from testkit.cell import REPO, RunningCell, running_cell
+from testkit.cell import RunningCell, running_cell, zenoh_router
 from testkit.client import MotionClient, StateListener, smooth_move, stream, stream_ex
 from testkit.processes import alive, connectable, wait_until
 
 pytestmark = pytest.mark.cell
 
 
-@contextmanager
-def router(listen: str) -> Iterator[str]:
-    process = subprocess.Popen(
-        [sys.executable, "-m", "tools.cli", "router", "--listen", listen],
-        cwd=REPO,
-        env={**os.environ, "MOTOCELL_LOG": "WARNING"},
-    )
-    try:
-        yield listen
-    finally:
-        process.send_signal(signal.SIGTERM)
-        process.wait(timeout=10)
-
-
-def named_cell(tmp_path: Path, name: str, source: str = "single-arm.toml") -> str:
-    text = (REPO / "deploy/cells" / source).read_text()
+def named_cell(source: Path, tmp_path: Path, name: str) -> str:
+    text = source.read_text()
     lines = [line for line in text.splitlines() if not line.startswith("name =")]
     path = tmp_path / f"{name}.toml"
     path.write_text(f'name = "{name}"\n' + "\n".join(lines) + "\n")
@@ -54,8 +40,7 @@ def run_to(cell: RunningCell, offset: float, results: dict[str, bool]) -> None:
     axis_map = AxisMap(cell.cell.groups[0])
     with cell.motion() as motion, cell.state() as state:
         assert motion.command(Command.START_TRAJ_MODE).result == Result.SUCCESS
-        still = state.wait_for(lambda f: f.status is not None and f.status.in_motion == 0, 5.0)
-        start = still.groups[0].positions[:6]
+        start = state.wait_still().groups[0].positions[:6]
         goal = tuple(p + offset for p in start)
         ok = stream(motion, smooth_move(start, goal, 1.0, 8)).points == 8
         target = axis_map.ros_to_pulses(np.array(goal))
@@ -73,10 +58,11 @@ def run_to(cell: RunningCell, offset: float, results: dict[str, bool]) -> None:
 
 
 def test_two_cells_on_one_network_are_isolated_and_one_observer_sees_both(
-    tmp_path: Path,
+    repo: Path, tmp_path: Path
 ) -> None:
+    single_arm = repo / "deploy" / "cells" / "single-arm.toml"
     with ExitStack() as stack:
-        endpoint = stack.enter_context(router(f"tcp/127.0.0.1:{free_port()}"))
+        endpoint = stack.enter_context(zenoh_router(f"tcp/127.0.0.1:{free_port()}"))
         observer = open_session("client", [endpoint])
         stack.callback(observer.close)
         seen: set[str] = set()
@@ -88,7 +74,9 @@ def test_two_cells_on_one_network_are_isolated_and_one_observer_sees_both(
 
         stack.callback(observer.declare_subscriber("**", watch).undeclare)
         cells = [
-            stack.enter_context(running_cell(named_cell(tmp_path, name), router=endpoint))
+            stack.enter_context(
+                running_cell(named_cell(single_arm, tmp_path, name), router=endpoint)
+            )
             for name in ("left", "right")
         ]
         results: dict[str, bool] = {}
@@ -145,11 +133,11 @@ def other_host() -> Iterator[tuple[str, str, str]]:
 
 
 @pytest.mark.skipif(not _netns_available(), reason="needs root and `ip netns`")
-def test_a_groups_interpolator_on_another_host_through_a_router() -> None:
-    config = str(REPO / "deploy/cells/dual-arm-positioner.toml")
+def test_a_groups_interpolator_on_another_host_through_a_router(repo: Path) -> None:
+    config = str(repo / "deploy" / "cells" / "dual-arm-positioner.toml")
     with ExitStack() as stack:
         namespace, ours, _theirs = stack.enter_context(other_host())
-        endpoint = stack.enter_context(router(f"tcp/{ours}:{free_port()}"))
+        endpoint = stack.enter_context(zenoh_router(f"tcp/{ours}:{free_port()}"))
         cell = stack.enter_context(running_cell(config, router=endpoint, skip=["interpolator/1"]))
         remote_command = [
             "ip",
@@ -171,7 +159,7 @@ def test_a_groups_interpolator_on_another_host_through_a_router() -> None:
         env = {**os.environ, "MOTOCELL_LOG": "WARNING"}
 
         def start_remote() -> subprocess.Popen[bytes]:
-            process = subprocess.Popen(remote_command, cwd=REPO, env=env)
+            process = subprocess.Popen(remote_command, env=env)
             stack.callback(_stop, process)
             return process
 
@@ -214,7 +202,7 @@ def test_a_groups_interpolator_on_another_host_through_a_router() -> None:
 def move_all(
     motion: MotionClient, state: StateListener, maps: list[AxisMap], offset: float
 ) -> None:
-    still = state.wait_for(lambda f: f.status is not None and f.status.in_motion == 0, 5.0)
+    still = state.wait_still()
     start = {g: tuple(still.groups[g].positions[: maps[g].axes]) for g in range(3)}
     goals = {g: tuple(p + offset for p in start[g]) for g in range(3)}
     plans = {g: smooth_move(start[g], goals[g], 0.5, 5) for g in range(3)}

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import itertools
-from collections.abc import Iterator
 
 import numpy as np
 import pytest
@@ -12,7 +11,7 @@ from shared.motion.kinematics import AxisMap
 from shared.protocol.constants import Command, InvalidSubcode, MsgType, NotReadySubcode, Result
 from shared.protocol.messages import JointTrajPtFull, Message
 from shared.protocol.replies import traj_point
-from testkit.cell import RunningCell, running_cell
+from testkit.cell import RunningCell
 from testkit.client import (
     MotionClient,
     PlannedPoint,
@@ -28,29 +27,9 @@ pytestmark = pytest.mark.cell
 PERIOD_S = 0.004
 
 
-@pytest.fixture(scope="module")
-def cell() -> Iterator[RunningCell]:
-    with running_cell() as running:
-        yield running
-
-
-@pytest.fixture
-def motion(cell: RunningCell) -> Iterator[MotionClient]:
-    with cell.motion() as client:
-        yield client
-
-
-@pytest.fixture
-def state(cell: RunningCell) -> Iterator[StateListener]:
-    with cell.state() as listener:
-        listener.wait_for(lambda f: f.status is not None, 10.0)
-        yield listener
-
-
 def current_position(state: StateListener, axes: int) -> tuple[float, ...]:
     """Where the robot stands, once it stands still (as a client checks before planning)."""
-    still = state.wait_for(lambda f: f.status is not None and f.status.in_motion == 0, 5.0)
-    return tuple(still.groups[0].positions[:axes])
+    return tuple(state.wait_still().groups[0].positions[:axes])
 
 
 def enable(motion: MotionClient) -> None:

@@ -1,0 +1,182 @@
+"""Drawing a recording: the figure ``motocell plot`` saves (its help describes the panels).
+
+matplotlib is in the ``tools`` extra, and slow to import: only ``motocell plot`` (and tests)
+import this module.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+
+from shared.bus import catalog
+from tools.recording import read_recording
+
+WIDTH_IN = 12.0
+ROW_HEIGHT_IN = 2.5
+DPI = 100
+JOINT_STYLE: dict[str, Literal["--", "-"]] = {"commanded": "--", "feedback": "-"}
+
+
+@dataclass
+class CellSeries:
+    """The samples of one cell that the plot needs, in log-time order."""
+
+    first_ns: int
+    state_ns: list[int] = field(default_factory=list)
+    states: list[dict[str, Any]] = field(default_factory=list)
+    tick_ns: list[int] = field(default_factory=list)
+    ticks: list[dict[str, Any]] = field(default_factory=list)
+
+
+def collect(path: str | Path) -> dict[str, CellSeries]:
+    """``state`` and ``executor/tick`` of every cell in the recording."""
+    cells: dict[str, CellSeries] = {}
+    for key, log_ns, payload in read_recording(path):
+        name = catalog.cell_of(key)
+        series = cells.setdefault(name, CellSeries(first_ns=log_ns))
+        suffix = catalog.suffix_of(key)
+        if suffix == "state":
+            series.state_ns.append(log_ns)
+            series.states.append(payload)
+        elif suffix == "executor/tick":
+            series.tick_ns.append(log_ns)
+            series.ticks.append(payload)
+    return cells
+
+
+def choose_cell(cells: dict[str, CellSeries], cell: str | None, path: str | Path) -> str:
+    with_state = sorted(name for name, series in cells.items() if series.states)
+    if cell is not None:
+        if cell not in with_state:
+            raise ValueError(f"{path}: no state samples of cell {cell!r} (has: {with_state})")
+        return cell
+    if not with_state:
+        raise ValueError(f"{path}: no state samples in the recording")
+    if len(with_state) > 1:
+        raise ValueError(f"{path}: the recording holds cells {with_state}; choose one with --cell")
+    return with_state[0]
+
+
+def plot_recording(path: str | Path, out: str | Path, cell: str | None = None) -> Figure:
+    """Plot one cell of a recording into the PNG ``out``; return the figure that was saved.
+
+    Lines carry a ``gid`` (``group<g>/joint<j>/commanded``, ``.../feedback``,
+    ``.../velocity``, ``group<g>/depth``, ``lateness``) so callers can find each series.
+    """
+    cells = collect(path)
+    name = choose_cell(cells, cell, path)
+    series = cells[name]
+    groups = len(series.states[0]["groups"])
+    rows = 2 * groups + 2
+    # A bare Figure on the Agg canvas: no pyplot, so no global figure registry and no GUI.
+    figure = Figure(figsize=(WIDTH_IN, ROW_HEIGHT_IN * rows), dpi=DPI, layout="constrained")
+    FigureCanvasAgg(figure)
+    axes = figure.subplots(rows, 1, sharex=True, squeeze=False)[:, 0]
+    state_s = (np.array(series.state_ns, dtype=np.int64) - series.first_ns) / 1e9
+    tick_s = (np.array(series.tick_ns, dtype=np.int64) - series.first_ns) / 1e9
+    for g in range(groups):
+        _plot_group(axes[2 * g], axes[2 * g + 1], g, state_s, series.states)
+    _plot_depth(axes[-2], tick_s, series.ticks, groups)
+    _plot_lateness(axes[-1], tick_s, series.ticks)
+    for ax in axes:
+        # Shared x (the panels line up) but every panel keeps its own time labels, so any one
+        # of them can be read alone.
+        ax.tick_params(labelbottom=True)
+        ax.set_xlabel("time since first sample (s)")
+        ax.grid(True, alpha=0.3)
+    figure.suptitle(f"{Path(path).name}: cell {name}")
+    figure.savefig(out, dpi=DPI, format="png")
+    return figure
+
+
+def _plot_group(
+    positions_ax: Axes,
+    velocities_ax: Axes,
+    g: int,
+    t: np.ndarray[Any, np.dtype[np.float64]],
+    states: list[dict[str, Any]],
+) -> None:
+    group_no = states[0]["groups"][g]["group_no"]
+    feedback = np.array([s["groups"][g]["positions"] for s in states], dtype=np.float64)
+    commanded = np.array([s["groups"][g]["command_positions"] for s in states], dtype=np.float64)
+    velocity = np.array([s["groups"][g]["velocities"] for s in states], dtype=np.float64)
+    joints = feedback.shape[1]
+    for j in range(joints):
+        colour = f"C{j % 10}"
+        for kind, values in (("commanded", commanded), ("feedback", feedback)):
+            positions_ax.plot(
+                t,
+                values[:, j],
+                color=colour,
+                linestyle=JOINT_STYLE[kind],
+                linewidth=1.2,
+                label=f"joint {j + 1} {kind}",
+                gid=f"group{g}/joint{j}/{kind}",
+            )
+        velocities_ax.plot(
+            t,
+            velocity[:, j],
+            color=colour,
+            linewidth=1.2,
+            label=f"joint {j + 1}",
+            gid=f"group{g}/joint{j}/velocity",
+        )
+    positions_ax.set_title(
+        f"group {group_no}: joint positions, commanded (dashed) vs feedback (solid)"
+    )
+    positions_ax.set_ylabel("position (rad; m if linear)")
+    velocities_ax.set_title(f"group {group_no}: joint velocities (feedback)")
+    velocities_ax.set_ylabel("velocity (rad/s; m/s if linear)")
+    # One legend entry per joint colour plus the two line styles, instead of 2 x joints entries.
+    handles = [Line2D([], [], color=f"C{j % 10}", label=f"joint {j + 1}") for j in range(joints)]
+    handles += [
+        Line2D([], [], color="black", linestyle=style, label=kind)
+        for kind, style in JOINT_STYLE.items()
+    ]
+    # Outside the axes, so the plotting area shows only data.
+    positions_ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    velocities_ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0))
+
+
+def _plot_depth(
+    ax: Axes, t: np.ndarray[Any, np.dtype[np.float64]], ticks: list[dict[str, Any]], groups: int
+) -> None:
+    for g in range(groups):
+        depth = np.array([tick["groups"][g]["depth"] for tick in ticks], dtype=np.int64)
+        ax.plot(
+            t,
+            depth,
+            drawstyle="steps-post",
+            linewidth=1.2,
+            label=f"group {g}",
+            gid=f"group{g}/depth",
+        )
+    ax.set_title("executor queue depth per group (entries waiting in the ring)")
+    ax.set_ylabel("depth (entries)")
+    if ticks:
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    else:
+        _no_data(ax, "executor/tick")
+
+
+def _plot_lateness(
+    ax: Axes, t: np.ndarray[Any, np.dtype[np.float64]], ticks: list[dict[str, Any]]
+) -> None:
+    lateness_us = np.array([tick["lateness_ns"] for tick in ticks], dtype=np.float64) / 1e3
+    ax.plot(t, lateness_us, color="C3", linewidth=0.8, gid="lateness")
+    ax.set_title("executor tick lateness (start of the tick after its deadline)")
+    ax.set_ylabel("lateness (µs)")
+    if not ticks:
+        _no_data(ax, "executor/tick")
+
+
+def _no_data(ax: Axes, key: str) -> None:
+    ax.text(0.5, 0.5, f"no {key} samples", transform=ax.transAxes, ha="center", va="center")
