@@ -6,12 +6,11 @@ from __future__ import annotations
 import argparse
 import sys
 
+from services.launcher.core import WELL_KNOWN_ENDPOINT
 from shared.bus.keys import CellKeys
 from shared.bus.schemas import CommandRequest
 from shared.bus.session import call, open_session
 from shared.protocol.constants import Result
-
-DEFAULT_ROUTER = "tcp/127.0.0.1:7447"
 
 # kind -> accepted words -> (value, needs code)
 SWITCHES = {
@@ -38,7 +37,7 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     fault.add_argument("setting", help="on/off, play/teach, a code, or clear")
     fault.add_argument("subcode", nargs="?", type=int, default=0, help="alarm subcode")
     fault.add_argument("--cell", default="cell1")
-    fault.add_argument("--zenoh-connect", default=DEFAULT_ROUTER, metavar="ENDPOINT")
+    fault.add_argument("--zenoh-connect", default=WELL_KNOWN_ENDPOINT, metavar="ENDPOINT")
     fault.set_defaults(run=run)
 
 

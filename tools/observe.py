@@ -8,7 +8,6 @@ arguments they join the router that ``motocell up`` runs on this machine (tcp/12
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
 import threading
 import time
@@ -17,6 +16,7 @@ from dataclasses import dataclass, field
 import msgspec
 import zenoh
 
+from services.launcher.core import WELL_KNOWN_ENDPOINT
 from shared.bus import catalog
 from shared.bus.keys import ALIVE_ROOT, ROOT
 from shared.bus.schemas import (
@@ -30,19 +30,19 @@ from shared.bus.schemas import (
 )
 from shared.bus.session import open_session
 from shared.protocol.constants import NotReadySubcode
+from shared.service import stop_on_signals
 
-DEFAULT_ROUTER = "tcp/127.0.0.1:7447"
 QUERY_TIMEOUT_S = 2.0
 
 
 def add_parsers(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     ps = commands.add_parser("ps", help="list every live service of every cell")
-    ps.add_argument("--zenoh-connect", default=DEFAULT_ROUTER, metavar="ENDPOINT")
+    ps.add_argument("--zenoh-connect", default=WELL_KNOWN_ENDPOINT, metavar="ENDPOINT")
     ps.set_defaults(run=run_ps)
 
     watch = commands.add_parser("watch", help="a live view of running cells")
     watch.add_argument("--cell", action="append", help="only this cell (repeatable)")
-    watch.add_argument("--zenoh-connect", default=DEFAULT_ROUTER, metavar="ENDPOINT")
+    watch.add_argument("--zenoh-connect", default=WELL_KNOWN_ENDPOINT, metavar="ENDPOINT")
     watch.add_argument("--interval", type=float, default=0.5, help="seconds between refreshes")
     watch.add_argument("--count", type=int, help="stop after this many refreshes")
     watch.set_defaults(run=run_watch)
@@ -134,7 +134,9 @@ def run_ps(args: argparse.Namespace) -> int:
 
 
 @dataclass
-class CellView:
+class WatchedCell:
+    """The newest sample of each kind that ``watch`` shows for one cell."""
+
     status: ControllerStatus | None = None
     state: State | None = None
     executor: ExecutorMetrics | None = None
@@ -147,7 +149,7 @@ class Watcher:
     """Keeps the newest sample of every key of the watched cells; Zenoh's threads only store."""
 
     def __init__(self, session: zenoh.Session, cells: list[str] | None) -> None:
-        self.cells: dict[str, CellView] = {}
+        self.cells: dict[str, WatchedCell] = {}
         self.lock = threading.Lock()
         selectors = [f"{ROOT}/{c}/**" for c in cells] if cells else [f"{ROOT}/**"]
         alive = [f"{ALIVE_ROOT}/{c}/alive/**" for c in cells] if cells else [f"{ALIVE_ROOT}/**"]
@@ -156,8 +158,8 @@ class Watcher:
             session.liveliness().declare_subscriber(s, self._on_token, history=True) for s in alive
         ]
 
-    def _view(self, cell: str) -> CellView:
-        return self.cells.setdefault(cell, CellView())
+    def _view(self, cell: str) -> WatchedCell:
+        return self.cells.setdefault(cell, WatchedCell())
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
         key = str(sample.key_expr)
@@ -218,7 +220,7 @@ def _joints(values: list[float]) -> str:
     return " ".join(f"{v:+8.4f}" for v in values)
 
 
-def render_cell(name: str, view: CellView) -> list[str]:
+def render_cell(name: str, view: WatchedCell) -> list[str]:
     lines = ["", f"cell {name}"]
     status = view.status
     if status is None:
@@ -269,20 +271,18 @@ def run_watch(args: argparse.Namespace) -> int:
     session = connect(args.zenoh_connect, "watch")
     if session is None:
         return 1
-    stop = threading.Event()
-    signal.signal(signal.SIGINT, lambda *_: stop.set())
-    signal.signal(signal.SIGTERM, lambda *_: stop.set())
     watcher = Watcher(session, args.cell)
     clear = "\x1b[H\x1b[2J" if sys.stdout.isatty() else ""
     frames = 0
     try:
-        while not stop.is_set():
-            sys.stdout.write(clear + watcher.render() + "\n")
-            sys.stdout.flush()
-            frames += 1
-            if args.count is not None and frames >= args.count:
-                break
-            stop.wait(args.interval)
+        with stop_on_signals() as stop:
+            while not stop.is_set():
+                sys.stdout.write(clear + watcher.render() + "\n")
+                sys.stdout.flush()
+                frames += 1
+                if args.count is not None and frames >= args.count:
+                    break
+                stop.wait(args.interval)
     finally:
         session.close()
     return 0

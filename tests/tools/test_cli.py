@@ -1,0 +1,44 @@
+"""The ``motocell`` command line: every command parses, and the light ones stay light."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from tools.cli import build_parser
+
+HEAVY = ("matplotlib", "mcap")
+"""The tools extra's libraries: only ``record`` and ``plot`` may import them."""
+
+COMMANDS = ("up", "fault", "ps", "watch", "record", "plot", "bench", "router", "demo")
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+def test_every_command_has_help(command: str, capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_:
+        build_parser().parse_args([command, "--help"])
+    assert exit_.value.code == 0
+    assert capsys.readouterr().out.startswith(f"usage: motocell {command}")
+
+
+def test_help_imports_neither_mcap_nor_matplotlib(tmp_path: Path) -> None:
+    # In a fresh interpreter and away from the source tree, as an installed motocell runs.
+    probe = (
+        "import contextlib, sys\n"
+        "from tools import cli\n"
+        "with contextlib.suppress(SystemExit):\n"
+        "    cli.main(['--help'])\n"
+        f"print(sorted({{name.split('.')[0] for name in sys.modules}} & {set(HEAVY)!r}))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", probe],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=True,
+    )
+    assert done.stdout.splitlines()[-1] == "[]"
