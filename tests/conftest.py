@@ -1,0 +1,91 @@
+"""Every test leaves no thread and no process of its own behind.
+
+The check runs around each test and again around each module, so what a module-scoped fixture
+(a module's cell) starts counts as "before" for the tests that use it, and must be gone once
+the module's fixtures are torn down. A process that one of those started during a test (a
+launcher restarting a service the test killed) is theirs too: only processes below this one
+and not below anything that ran before count. Threads and processes get a short deadline to
+finish (a listener closing, a cell stopping). A leaked process is killed before the test
+fails, so later tests do not inherit it. Threads Python did not start (Zenoh's, which show up
+as "dummy" threads once they run a callback) are not the test's.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import threading
+from collections.abc import Iterator
+
+import pytest
+
+from testkit.processes import alive, children, descendants, wait_until
+
+DEADLINE_S = 5.0
+
+
+def _own_threads() -> set[threading.Thread]:
+    return {
+        thread
+        for thread in threading.enumerate()
+        if thread.is_alive() and not isinstance(thread, threading._DummyThread)
+    }
+
+
+def _own_processes() -> set[int]:
+    return {pid for pid in descendants(os.getpid()) if alive(pid)}
+
+
+def _started_since(before: set[int]) -> set[int]:
+    """Running processes below this one, except what runs below a process of ``before``."""
+    found: set[int] = set()
+    frontier = [os.getpid()]
+    while frontier:
+        for child in children(frontier.pop()) - before - found:
+            if alive(child):
+                found.add(child)
+                frontier.append(child)
+    return found
+
+
+def _leaks(threads: set[threading.Thread], processes: set[int]) -> list[str]:
+    """What is still running that was not running before, after the deadline."""
+
+    def new_threads() -> set[threading.Thread]:
+        return _own_threads() - threads
+
+    try:
+        wait_until(
+            lambda: not new_threads() and not _started_since(processes), DEADLINE_S, "leftovers"
+        )
+    except TimeoutError:
+        leaked = _started_since(processes)
+        for pid in leaked:
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, signal.SIGKILL)
+        return [
+            *(f"thread {thread.name!r} ({thread.ident})" for thread in new_threads()),
+            *(f"process {pid}" for pid in sorted(leaked)),
+        ]
+    return []
+
+
+def _check(what: str) -> Iterator[None]:
+    threads, processes = _own_threads(), _own_processes()
+    yield
+    leaks = _leaks(threads, processes)
+    if leaks:
+        pytest.fail(f"{what} left running after {DEADLINE_S} s: {', '.join(leaks)}")
+
+
+@pytest.fixture(autouse=True, scope="module")
+def no_leaks_per_module() -> Iterator[None]:
+    """Autouse fixtures come first in their scope, so this one is torn down after every other
+    module-scoped fixture: it sees what those left behind."""
+    yield from _check("the module's fixtures")
+
+
+@pytest.fixture(autouse=True)
+def no_leaks() -> Iterator[None]:
+    yield from _check("the test")
