@@ -7,15 +7,19 @@ import ctypes
 import faulthandler
 import importlib.metadata
 import logging
+import math
 import os
+import select
 import signal
 import socket
 import sys
 import threading
 import time
+import weakref
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
+from types import FrameType
 
 import zenoh
 
@@ -81,12 +85,76 @@ def setup_logging(service: str, level: str) -> None:
     )
 
 
+class StopFlag:
+    """A stop request that a signal handler may raise and any thread may wait for.
+
+    Raising it takes no lock. ``threading.Event.set`` takes its Condition's lock, and a second
+    signal arriving while the first handler is inside it runs the handler again on the same
+    thread, which then waits forever for the lock it already holds (a launcher was seen hung
+    that way). Here ``set`` only stores a bool and writes one byte to a non-blocking pipe;
+    waiters sleep in ``poll`` on the read end, which stays readable once set.
+    """
+
+    def __init__(self) -> None:
+        self._requested = False
+        self._wake_read, self._wake_write = os.pipe()
+        os.set_blocking(self._wake_read, False)
+        os.set_blocking(self._wake_write, False)
+        # Closed only once nothing can wait on it any more, so no waiter ever polls a closed
+        # (or reused) descriptor.
+        weakref.finalize(self, _close_pipe, self._wake_read, self._wake_write)
+
+    def set(self) -> None:
+        if not self._requested:
+            self._requested = True
+            os.write(self._wake_write, b"\0")
+
+    def is_set(self) -> bool:
+        return self._requested
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """True once set; False when ``timeout`` seconds passed first (None: no limit)."""
+        if not self._requested:
+            poller = select.poll()  # one per call: a poll object refuses concurrent waiters
+            poller.register(self._wake_read, select.POLLIN)
+            poller.poll(None if timeout is None else max(0, math.ceil(timeout * 1000)))
+        return self._requested
+
+
+def _close_pipe(*fds: int) -> None:
+    for fd in fds:
+        os.close(fd)
+
+
+@contextmanager
+def stop_on_signals(
+    signals: Sequence[signal.Signals] = (signal.SIGINT, signal.SIGTERM),
+) -> Iterator[StopFlag]:
+    """A flag that SIGINT and SIGTERM set, however many arrive and however fast; the previous
+    handlers come back on exit. Python sets signal handlers only in the main thread: elsewhere
+    the flag is only set by whoever calls ``set``."""
+    stop = StopFlag()
+    if threading.current_thread() is not threading.main_thread():
+        yield stop
+        return
+
+    def handler(_signum: int, _frame: FrameType | None) -> None:
+        stop.set()
+
+    previous = {sig: signal.signal(sig, handler) for sig in signals}
+    try:
+        yield stop
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old)
+
+
 @dataclass
 class ServiceContext:
     cell: Cell
     keys: CellKeys
     session: zenoh.Session
-    stop: threading.Event
+    stop: StopFlag
 
 
 def die_with_launcher() -> None:
@@ -100,17 +168,6 @@ def die_with_launcher() -> None:
         raise SystemExit("motocell: the launcher is gone")
 
 
-def stop_on_signals() -> threading.Event:
-    stop = threading.Event()
-
-    def handler(signum: int, _frame: object) -> None:
-        stop.set()
-
-    signal.signal(signal.SIGTERM, handler)
-    signal.signal(signal.SIGINT, handler)
-    return stop
-
-
 @contextmanager
 def running_service(
     service: str, instance: str, args: argparse.Namespace
@@ -121,10 +178,19 @@ def running_service(
         cell = load_cell(args.config)
     except ConfigError as exc:
         raise SystemExit(f"motocell-{service}: {exc}") from exc
-    stop = stop_on_signals()
-    # `kill -USR1 <pid>` prints every thread's stack: how to see where a service is stuck.
-    faulthandler.register(signal.SIGUSR1, all_threads=True)
-    die_with_launcher()
+    with stop_on_signals() as stop:
+        # `kill -USR1 <pid>` prints every thread's stack: how to see where a service is stuck.
+        faulthandler.register(signal.SIGUSR1, all_threads=True)
+        die_with_launcher()
+        with _service_session(service, instance, cell, args) as session:
+            yield ServiceContext(cell, CellKeys(cell.name), session, stop)
+
+
+@contextmanager
+def _service_session(
+    service: str, instance: str, cell: Cell, args: argparse.Namespace
+) -> Iterator[zenoh.Session]:
+    """The session, with the service's liveliness token and ``service_info`` queryable."""
     mode = args.zenoh_mode or cell.zenoh.mode
     connect: Sequence[str] = args.zenoh_connect or cell.zenoh.connect
     listen: Sequence[str] | None = args.zenoh_listen or (
@@ -152,7 +218,7 @@ def running_service(
         queryable = session.declare_queryable(keys.service_info(service, instance), describe)
         token = session.liveliness().declare_token(keys.alive(service, instance))
         logging.getLogger(service).info("up: cell %s (%s mode)", cell.name, mode)
-        yield ServiceContext(cell, keys, session, stop)
+        yield session
         token.undeclare()
         queryable.undeclare()
     finally:

@@ -7,8 +7,7 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from services.launcher import launcher
-from shared.service import add_zenoh_arguments
+from services.launcher import __main__ as launcher
 from tools import bench, demo, fault, observe, plot, record
 
 
@@ -17,23 +16,8 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(dest="command", required=True)
 
     up = commands.add_parser("up", help="run a whole cell in the foreground")
-    up.add_argument("--config", help="cell TOML file (default: one 6-axis arm on a YRC1000)")
-    up.add_argument("--host", help="address the TCP ports listen on (default 127.0.0.1)")
-    up.add_argument("--port-base", type=int, help="motion port (default 50240); state +1, I/O +2")
-    up.add_argument(
-        "--byte-order",
-        choices=("little", "big"),
-        help="override the controller's (FS100 big, others little)",
-    )
-    up.add_argument(
-        "--skip",
-        action="append",
-        metavar="SERVICE",
-        help="do not start this service here, e.g. interpolator/1 when group 1's interpolator "
-        "runs on another host (repeatable); the cell is NOT_READY until it joins",
-    )
-    add_zenoh_arguments(up)
-    up.set_defaults(run=launcher.up)
+    launcher.add_arguments(up)
+    up.set_defaults(run=launcher.run)
 
     fault.add_parser(commands)
     observe.add_parsers(commands)
@@ -44,14 +28,7 @@ def build_parser() -> argparse.ArgumentParser:
     router = commands.add_parser(
         "router", help="a Zenoh router (a stand-in for zenohd where its image is not available)"
     )
-    router.add_argument(
-        "--listen",
-        action="append",
-        default=[],
-        metavar="ENDPOINT",
-        help="default tcp/127.0.0.1:7447",
-    )
-    router.add_argument("--connect", action="append", default=[], metavar="ENDPOINT")
+    launcher.add_router_arguments(router)
     router.set_defaults(run=launcher.router)
 
     run_demo = commands.add_parser(

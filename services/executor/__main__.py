@@ -16,21 +16,19 @@ from collections.abc import Sequence
 from typing import Any
 
 import msgspec
-import numpy as np
 import zenoh
 
-from services.executor.core import BatchOutcome, ExecutorCore
+from services.executor.core import BatchOutcome, ExecutorCore, starting_pulses
 from shared.bus.schemas import (
     CommandReply,
     ControllerStatus,
     Decoder,
     ExecutorMetrics,
     IncrementBatch,
-    Tick,
     encode,
 )
 from shared.bus.session import answer, call, command_of, publisher
-from shared.config import Cell, Group
+from shared.config import Cell
 from shared.metrics import Window
 from shared.motion.kinematics import AxisMap
 from shared.protocol.constants import Result
@@ -39,8 +37,6 @@ from shared.service import ServiceContext, argument_parser, running_service
 log = logging.getLogger("executor")
 
 RT_PRIORITY = 50
-QUEUE_HEARTBEAT_TICKS = 25
-"""An unchanged queue state is still published every 100 ms (at 4 ms), for late joiners."""
 CHANNEL_DEPTH = 10_000
 """Zenoh-side queue per key. A full channel would stall Zenoh's network thread; four groups
 at 250 Hz never come near it, since every tick drains them all."""
@@ -69,34 +65,6 @@ def enter_realtime() -> bool:
     return True
 
 
-def max_increments(group: Group, period_s: float) -> list[int]:
-    """Pulses per period each Motoman axis can take: the speed limit MotoROS derives from
-    the controller's maximum increment, turned back into pulses; one more for the rounding of
-    absolute positions to whole pulses. Unused axes take none."""
-    axis_map = AxisMap(group)
-    speeds = axis_map.max_speed_ros[axis_map.ros_index_of_moto]
-    limits = np.ceil(speeds * axis_map.pulses_per_unit_moto * period_s).astype(np.int64) + 1
-    return axis_map.pad_moto(limits)
-
-
-def initial_pulses(ctx: ServiceContext) -> list[list[int]]:
-    """Where the robot is: the controller remembers the last commanded pulses across an
-    executor restart; without it, the cell file's initial positions."""
-    reply = call(ctx.session, ctx.keys.controller_cmd("positions"), timeout=1.0)
-    if (
-        reply is not None
-        and reply.result == Result.SUCCESS
-        and len(reply.pulses) == len(ctx.cell.groups)
-    ):
-        log.info("resuming from the controller's last commanded position")
-        return reply.pulses
-    pulses = []
-    for group in ctx.cell.groups:
-        axis_map = AxisMap(group)
-        pulses.append(axis_map.pad_moto(axis_map.ros_to_pulses(np.array(group.initial_position))))
-    return pulses
-
-
 class Executor:
     """The clock thread does everything: no Python runs on Zenoh's threads in this process.
 
@@ -111,10 +79,11 @@ class Executor:
         self.ctx = ctx
         cell: Cell = ctx.cell
         self.period_ns = cell.period_ns
+        remembered = call(ctx.session, ctx.keys.controller_cmd("positions"), timeout=1.0)
         self.core = ExecutorCore(
-            initial_pulses(ctx),
+            starting_pulses(cell, remembered),
             first_epoch=time.time_ns() // 1000,
-            max_increments=[max_increments(group, cell.period_s) for group in cell.groups],
+            max_increments=[AxisMap(group).max_increments(cell.period_s) for group in cell.groups],
         )
         session = ctx.session
         keys = ctx.keys
@@ -133,71 +102,47 @@ class Executor:
         )
         self.stop_queries = session.declare_queryable(keys.executor_cmd("stop"), _channel())
         self.count_queries = session.declare_queryable(keys.executor_cmd("queue_count"), _channel())
-        self.controller_present = False
-        self._queue_content: list[tuple[int, int, int, tuple[int, ...], bool] | None] = [
-            None
-        ] * len(cell.groups)
         self.missed = 0
-        self.status_ready = False
         self.ticks_per_second = max(1, round(1e9 / cell.period_ns))
         self.lateness = Window(self.ticks_per_second)
         self.metrics_pub = publisher(session, keys.metrics("executor"), latest=True)
 
     def _publish_queues(self, force: bool = False) -> None:
-        """Each group's queue state when it changed (every tick while moving), else at the
-        heartbeat: idle interpolators and gateways need not wake 250 times a second."""
-        heartbeat = force or self.core.tick % QUEUE_HEARTBEAT_TICKS == 0
-        for group, pub in enumerate(self.queue_pubs):
-            state = self.core.queue_state(group)
-            content = (
-                state.epoch,
-                state.received,
-                state.depth,
-                tuple(state.command_pulses),
-                state.ready,
-            )
-            if heartbeat or content != self._queue_content[group]:
-                self._queue_content[group] = content
-                pub.put(encode(state))
+        for group, state in self.core.queue_updates(force):
+            self.queue_pubs[group].put(encode(state))
 
     def drain(self) -> None:
         """Everything that arrived since the last tick, in an order that keeps the invariants:
         readiness first (a not-ready status clears the rings before any batch is queued),
         then batches, then commands."""
+        core = self.core
         while (event := self.controller_token.try_recv()) is not None:
-            self.controller_present = event.kind == zenoh.SampleKind.PUT
+            core.controller_present = event.kind == zenoh.SampleKind.PUT
         while (sample := self.statuses.try_recv()) is not None:
             # Every status is applied in order, so a not-ready blip between two ticks still
             # clears the rings.
             try:
-                self.status_ready = _status.decode(sample.payload.to_bytes()).motion_ready
+                core.status_ready = _status.decode(sample.payload.to_bytes()).motion_ready
             except msgspec.DecodeError:
                 log.warning("undecodable controller status ignored")
                 continue
-            self.core.set_ready(self._ready())
-        self.core.set_ready(self._ready())
+            core.update_ready()
+        core.update_ready()
         for group, channel in enumerate(self.batches):
             while (sample := channel.try_recv()) is not None:
                 try:
-                    outcome = self.core.accept(group, _batch.decode(sample.payload.to_bytes()))
+                    outcome = core.accept(group, _batch.decode(sample.payload.to_bytes()))
                 except msgspec.DecodeError:
                     outcome = BatchOutcome.MALFORMED
-                if outcome in (BatchOutcome.GAP, BatchOutcome.OVERFLOW, BatchOutcome.MALFORMED):
+                if outcome.breaks_increment_path:
                     self._increment_path_broken(group, f"increment batch {outcome.value}")
         while (query := self.stop_queries.try_recv()) is not None:
             # STOP_MOTION: cleared before this tick applies anything.
-            self.core.clear_all()
+            core.clear_all()
             self._publish_queues(force=True)
             answer(query, CommandReply(Result.SUCCESS))
         while (query := self.count_queries.try_recv()) is not None:
-            group = command_of(query).group
-            if 0 <= group < len(self.core.rings):
-                answer(query, CommandReply(Result.SUCCESS, self.core.queue_count(group)))
-            else:
-                answer(query, CommandReply(Result.FAILURE, -1))
-
-    def _ready(self) -> bool:
-        return self.status_ready and self.controller_present
+            answer(query, core.queue_count_reply(command_of(query).group))
 
     def _increment_path_broken(self, group: int, reason: str) -> None:
         """Stop everything and have the controller raise the IncMove error (NOT_READY 5012
@@ -244,14 +189,7 @@ class Executor:
             self.drain()
             for group in self.core.step():
                 self._increment_path_broken(group, "refused by the motion system")
-            tick = Tick(
-                tick=self.core.tick,
-                deadline_ns=deadline,
-                lateness_ns=lateness,
-                missed=self.missed,
-                motion_ready=self.core.ready,
-                groups=self.core.group_ticks(),
-            )
+            tick = self.core.tick_report(deadline, lateness, self.missed)
             self.tick_pub.put(encode(tick))
             self._publish_queues()
             self.lateness.add(lateness / 1000)

@@ -7,16 +7,23 @@ cleared trajectory are recognised and dropped instead of moving the robot.
 
 from __future__ import annotations
 
+import logging
 from collections import deque
 from dataclasses import dataclass, field
 from enum import Enum
 
 import numpy as np
 
-from shared.bus.schemas import GroupTick, IncrementBatch, QueueState
-from shared.protocol.constants import MAX_AXES
+from shared.bus.schemas import CommandReply, GroupTick, IncrementBatch, QueueState, Tick
+from shared.config import Cell
+from shared.motion.kinematics import AxisMap
+from shared.protocol.constants import MAX_AXES, Result
+
+log = logging.getLogger("executor")
 
 RING_CAPACITY = 200
+QUEUE_HEARTBEAT_TICKS = 25
+"""An unchanged queue state is still published every 100 ms (at 4 ms), for late joiners."""
 
 ZERO = (0,) * MAX_AXES
 
@@ -43,10 +50,33 @@ class BatchOutcome(Enum):
     MALFORMED = "malformed"
     """Sizes that do not add up: treated like a gap, never allowed to crash the clock."""
 
+    @property
+    def breaks_increment_path(self) -> bool:
+        """Entries were lost or cannot be taken: motion must stop (DESIGN invariant)."""
+        return self in (BatchOutcome.GAP, BatchOutcome.OVERFLOW, BatchOutcome.MALFORMED)
+
 
 BARRIER_TIMEOUT_TICKS = 250
 """How long a synchronized start waits for a partner group (1 s at 4 ms). Longer means the
 partner's increments are not coming: the increment path is broken."""
+
+
+def starting_pulses(cell: Cell, remembered: CommandReply | None) -> list[list[int]]:
+    """Where the robot is: the controller remembers the last commanded pulses across an
+    executor restart (``remembered``, its reply to ``positions``); without it, the cell file's
+    initial positions."""
+    if (
+        remembered is not None
+        and remembered.result == Result.SUCCESS
+        and len(remembered.pulses) == len(cell.groups)
+    ):
+        log.info("resuming from the controller's last commanded position")
+        return remembered.pulses
+    pulses = []
+    for group in cell.groups:
+        axis_map = AxisMap(group)
+        pulses.append(axis_map.pad_moto(axis_map.ros_to_pulses(np.array(group.initial_position))))
+    return pulses
 
 
 @dataclass
@@ -71,8 +101,13 @@ class ExecutorCore:
         self.rings = [GroupRing(first_epoch + g) for g in range(len(command_pulses))]
         self._next_epoch = first_epoch + len(command_pulses)
         self.ready = False
+        self.status_ready = False
+        """The controller's last status said motion-ready."""
+        self.controller_present = False
+        """The controller's liveliness token is present."""
         self.tick = 0
         self.last_increment: list[tuple[int, ...]] = [ZERO] * len(command_pulses)
+        self._published_queues: list[tuple[object, ...] | None] = [None] * len(command_pulses)
 
     def accept(self, group: int, batch: IncrementBatch) -> BatchOutcome:
         ring = self.rings[group]
@@ -130,6 +165,10 @@ class ExecutorCore:
         if self.ready and not ready:
             self.clear_all()
         self.ready = ready
+
+    def update_ready(self) -> None:
+        """Motion-ready needs both a ready status and a controller alive to have sent it."""
+        self.set_ready(self.status_ready and self.controller_present)
 
     def step(self) -> list[int]:
         """One interpolation period: at most one (merged) increment per group, all applied
@@ -227,3 +266,40 @@ class ExecutorCore:
 
     def queue_count(self, group: int) -> int:
         return len(self.rings[group].entries)
+
+    def queue_count_reply(self, group: int) -> CommandReply:
+        """The answer to a queue-count query; FAILURE -1 for a group the cell lacks."""
+        if 0 <= group < len(self.rings):
+            return CommandReply(Result.SUCCESS, self.queue_count(group))
+        return CommandReply(Result.FAILURE, -1)
+
+    def queue_updates(self, force: bool = False) -> list[tuple[int, QueueState]]:
+        """The queue states to publish now: each that changed (every tick while moving), and
+        all of them at the heartbeat or when ``force``d, so idle interpolators and gateways
+        need not wake 250 times a second."""
+        heartbeat = force or self.tick % QUEUE_HEARTBEAT_TICKS == 0
+        updates = []
+        for group in range(len(self.rings)):
+            state = self.queue_state(group)
+            content = (
+                state.epoch,
+                state.received,
+                state.depth,
+                tuple(state.command_pulses),
+                state.ready,
+            )
+            if heartbeat or content != self._published_queues[group]:
+                self._published_queues[group] = content
+                updates.append((group, state))
+        return updates
+
+    def tick_report(self, deadline_ns: int, lateness_ns: int, missed: int) -> Tick:
+        """What the motion system did this period, for the broadcaster and observers."""
+        return Tick(
+            tick=self.tick,
+            deadline_ns=deadline_ns,
+            lateness_ns=lateness_ns,
+            missed=missed,
+            motion_ready=self.ready,
+            groups=self.group_ticks(),
+        )

@@ -8,12 +8,11 @@ whole segment is in the ring, which is what makes the gateway answer BUSY meanwh
 
 from __future__ import annotations
 
-import logging
 import time
 from collections import deque
 from collections.abc import Sequence
 
-from services.interpolator.feeder import Feeder
+from services.interpolator.core import Feeder, queue_point
 from shared.bus.schemas import (
     ControllerStatus,
     Decoder,
@@ -25,11 +24,8 @@ from shared.bus.schemas import (
 from shared.bus.session import Inbox, payload_of, publisher
 from shared.service import ServiceContext, argument_parser, running_service
 
-log = logging.getLogger("interpolator")
-
 SLOT_REFRESH_S = 0.5
 """Also publish the slot periodically, so a gateway that (re)starts learns it."""
-MAX_PENDING_POINTS = 64
 METRICS_S = 1.0
 
 
@@ -72,12 +68,9 @@ def run(ctx: ServiceContext, group_index: int) -> None:
             if tag == "queue":
                 feeder.on_queue(payload)
             elif tag == "point":
-                if len(points) < MAX_PENDING_POINTS:
-                    points.append(payload)
-                else:
-                    log.error("more than %d points pending; dropping %s", len(points), payload)
+                queue_point(points, payload)
             elif tag == "status":
-                feeder.tool = payload.tools[group_index] if group_index < len(payload.tools) else 0
+                feeder.on_status(payload)
             item = inbox.get_nowait()
         now = time.monotonic()
         if feeder.segment is not None:

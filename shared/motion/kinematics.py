@@ -52,6 +52,14 @@ class AxisMap:
         result: FloatArray = moto[self.moto_index_of_ros]
         return result
 
+    def max_increments(self, period_s: float) -> list[int]:
+        """Pulses per period each Motoman axis can take: the speed limit MotoROS derives from
+        the controller's maximum increment, turned back into pulses; one more for the rounding
+        of absolute positions to whole pulses. Unused axes take none."""
+        speeds = self.max_speed_ros[self.ros_index_of_moto]
+        limits = np.ceil(speeds * self.pulses_per_unit_moto * period_s).astype(np.int64) + 1
+        return self.pad_moto(limits)
+
     def pad_moto(self, pulses: IntArray) -> list[int]:
         """Pulses as the 8-slot Motoman axis list (unused axes 0)."""
         return [*pulses.tolist(), *([0] * (MAX_AXES - self.axes))]

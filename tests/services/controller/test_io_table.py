@@ -1,14 +1,14 @@
-"""IoTable: MotoROS 1.9 I/O address rules (motoros1-behaviour.md §8), per controller model.
+"""IoTable: MotoROS 1.9 I/O address rules (motoros1 §8), per controller model.
 
-The range table below is transcribed from §8 independently of io_table.py."""
+The range table below is transcribed from motoros1 §8 independently of io_table.py."""
 
 from __future__ import annotations
 
 import pytest
 
-from services.controller.io_table import IoTable
-from services.controller.job import Job
-from services.controller.model import OT_ROS_DONE, Controller
+from services.controller.core.io_table import IoTable
+from services.controller.core.job import Job
+from services.controller.core.model import OT_ROS_DONE, Controller
 from shared.config import ControllerModel
 
 OK, READ_BAD, WRITE_ADDRESS_BAD, WRITE_VALUE_BAD = 0, 1001, 1002, 1003
@@ -18,7 +18,7 @@ ROWS = [
     "general in", "general out", "external in", "external out", "network in", "network out",
     "specific in", "specific out", "IF panel", "aux relay", "control status", "pseudo in",
 ]  # fmt: skip
-# §8 "Readable ranges", one column per model, rows in the order of ROWS.
+# motoros1 §8 "Readable ranges", one column per model, rows in the order of ROWS.
 SPEC: dict[ControllerModel, list[tuple[int, int]]] = {
     M.DX100: [
         (10, 2567), (10010, 12567), (20010, 22567), (30010, 32567), (25010, 27567),

@@ -1,7 +1,7 @@
 """The INIT_ROS job's transition table, over every (state, event) pair.
 
 The expected table is written out here independently, from the job's listing in
-motoros1-behaviour.md §7.4 and START_TRAJ_MODE in §7.3.
+motoros1 §7.4 and START_TRAJ_MODE in motoros1 §7.3.
 """
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ import itertools
 
 import pytest
 
-from services.controller.job import TRANSITIONS, Job, JobAction, JobEvent, step
-from services.controller.model import OT_ROS_DONE, OT_ROS_READY, Controller
+from services.controller.core.job import TRANSITIONS, Job, JobAction, JobEvent, step
+from services.controller.core.model import OT_ROS_DONE, OT_ROS_READY, Controller
 
 IDLE, S, T, W = Job.IDLE, Job.STARTING, Job.TIMER, Job.WAITING
 START, SERVO, TIMER, DONE, HALT = (

@@ -1,5 +1,5 @@
 """Controller: START_TRAJ_MODE, the INIT_ROS job and OT#889/890, perturbations, and the
-NOT_READY subcode order of motoros1-behaviour.md §7.2. Time is passed in; nothing sleeps."""
+NOT_READY subcode order of motoros1 §7.2. Time is passed in; nothing sleeps."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ from dataclasses import dataclass
 
 import pytest
 
-from services.controller.job import Job
-from services.controller.model import (
+from services.controller.core.job import Job
+from services.controller.core.model import (
     JOB_TIMER_S,
     OT_INIT_DONE,
     OT_ROS_DONE,
@@ -382,7 +382,7 @@ def test_missing_service_coming_back_restores_motion_ready() -> None:
 
 
 def test_eco_alone_does_not_enter_motion_ready() -> None:
-    # §7.1: eco acts only through OPERATING (the v1.9.11 eco check was reverted).
+    # motoros1 §7.1: eco acts only through OPERATING (the v1.9.11 eco check was reverted).
     c = ready_controller()
     c.eco = True
     assert c.motion_ready()
@@ -396,7 +396,7 @@ def test_pfl_during_a_ros_move_latches_until_start_traj_mode() -> None:
     assert c.not_ready_subcode() == 5011
 
 
-# -- NOT_READY subcode order (§7.2) ---------------------------------------------------------
+# -- NOT_READY subcode order (motoros1 §7.2) ------------------------------------------------
 
 
 @dataclass(frozen=True)
@@ -420,7 +420,7 @@ def _ot889_off(c: Controller) -> None:
 
 
 # Raw state changes (not the perturbation methods, which have side effects such as stopping
-# the job), in the §7.2 order. Rank ties share a subcode.
+# the job), in the motoros1 §7.2 order. Rank ties share a subcode.
 CONDITIONS = [
     Condition("alarm", 1, 5001, _alarm),
     Condition("error", 2, 5002, _set("error", 4300)),

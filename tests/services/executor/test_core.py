@@ -13,11 +13,15 @@ import pytest
 
 from services.executor.core import (
     BARRIER_TIMEOUT_TICKS,
+    QUEUE_HEARTBEAT_TICKS,
     RING_CAPACITY,
     BatchOutcome,
     ExecutorCore,
+    starting_pulses,
 )
-from shared.bus.schemas import GroupTick, IncrementBatch, QueueState
+from shared.bus.schemas import CommandReply, GroupTick, IncrementBatch, QueueState
+from shared.config import parse_cell
+from shared.protocol.constants import Result
 
 FIRST_EPOCH = 100
 START = [[10, 20, 30, 40, 50, 60, 0, 0], [-5, 5, 0, 0, 0, 0, 0, 0]]
@@ -374,3 +378,133 @@ def test_a_synchronized_start_that_waits_too_long_is_reported() -> None:
         assert core.step() == []
         assert core.last_increment[0][0] == 0
     assert core.step() == [0]
+
+
+# -- readiness ------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("status_ready", "controller_present", "ready"),
+    [(True, True, True), (True, False, False), (False, True, False), (False, False, False)],
+)
+def test_ready_needs_a_ready_status_from_a_live_controller(
+    status_ready: bool, controller_present: bool, ready: bool
+) -> None:
+    core = ExecutorCore(START, FIRST_EPOCH)
+    core.status_ready, core.controller_present = status_ready, controller_present
+    core.update_ready()
+    assert core.ready is ready
+
+
+def test_the_controller_going_away_clears_the_rings() -> None:
+    core = ExecutorCore(START, FIRST_EPOCH)
+    core.status_ready = core.controller_present = True
+    core.update_ready()
+    assert core.accept(0, batch(FIRST_EPOCH, 0, [unit(1)])) is BatchOutcome.ACCEPTED
+    core.controller_present = False
+    core.update_ready()
+    assert core.queue_count(0) == 0
+    assert core.rings[0].epoch != FIRST_EPOCH
+
+
+# -- what the adapter sends ---------------------------------------------------------------
+
+
+@pytest.mark.parametrize("outcome", list(BatchOutcome))
+def test_only_lost_or_unusable_entries_break_the_increment_path(outcome: BatchOutcome) -> None:
+    breaking = {BatchOutcome.GAP, BatchOutcome.OVERFLOW, BatchOutcome.MALFORMED}
+    assert outcome.breaks_increment_path is (outcome in breaking)
+
+
+def test_queue_count_reply() -> None:
+    core = ready_core()
+    core.accept(1, batch(core.rings[1].epoch, 0, [unit(1), unit(1), unit(1)]))
+    assert core.queue_count_reply(1) == CommandReply(Result.SUCCESS, 3)
+
+
+@pytest.mark.parametrize("group", [-1, 2])
+def test_queue_count_of_a_group_the_cell_lacks_fails(group: int) -> None:
+    assert ExecutorCore(START, FIRST_EPOCH).queue_count_reply(group) == CommandReply(
+        Result.FAILURE, -1
+    )
+
+
+def test_every_queue_is_published_first() -> None:
+    core = ExecutorCore(START, FIRST_EPOCH)
+    core.step()
+    assert [group for group, _ in core.queue_updates()] == [0, 1]
+
+
+def test_an_unchanged_queue_waits_for_the_heartbeat() -> None:
+    core = ExecutorCore(START, FIRST_EPOCH)
+    core.step()
+    core.queue_updates()
+    for _ in range(QUEUE_HEARTBEAT_TICKS - 2):
+        core.step()
+        assert core.queue_updates() == []
+    core.step()
+    assert core.tick == QUEUE_HEARTBEAT_TICKS
+    assert [group for group, _ in core.queue_updates()] == [0, 1]
+
+
+def test_a_changed_queue_is_published_at_once() -> None:
+    core = ready_core()
+    core.step()
+    core.queue_updates()
+    core.accept(1, batch(core.rings[1].epoch, 0, [unit(1)]))
+    updates = core.queue_updates()
+    assert [(group, state.depth) for group, state in updates] == [(1, 1)]
+
+
+def test_forced_queue_updates_include_unchanged_queues() -> None:
+    core = ExecutorCore(START, FIRST_EPOCH)
+    core.step()
+    core.queue_updates()
+    assert len(core.queue_updates(force=True)) == 2
+
+
+def test_tick_report() -> None:
+    core = ready_core()
+    core.accept(0, batch(core.rings[0].epoch, 0, [unit(7)]))
+    core.step()
+    tick = core.tick_report(deadline_ns=4_000_000, lateness_ns=120, missed=3)
+    assert (tick.tick, tick.deadline_ns, tick.lateness_ns, tick.missed) == (1, 4_000_000, 120, 3)
+    assert tick.motion_ready is True
+    assert tick.groups[0].increment[0] == 7
+    assert tick.groups[0].command_pulses[0] == START[0][0] + 7
+
+
+# -- where the robot starts ---------------------------------------------------------------
+
+CELL = parse_cell(
+    {
+        "groups": [
+            {"name": "R1", "model": "arm6", "initial_position": [1.0, 0, 0, 0, 0, -1.0]},
+            {"name": "R2", "model": "positioner2", "initial_position": [0.5, 0]},
+        ]
+    }
+)
+
+
+def test_a_restarted_executor_resumes_where_the_controller_remembers() -> None:
+    remembered = CommandReply(Result.SUCCESS, pulses=START)
+    assert starting_pulses(CELL, remembered) == START
+
+
+@pytest.mark.parametrize(
+    "remembered",
+    [
+        None,
+        CommandReply(Result.FAILURE, pulses=START),
+        CommandReply(Result.SUCCESS, pulses=START[:1]),
+        CommandReply(Result.SUCCESS),
+    ],
+)
+def test_without_a_usable_memory_the_cell_files_initial_positions_are_used(
+    remembered: CommandReply | None,
+) -> None:
+    # arm6: 58670 pulses/rad on S, 21990 on T; positioner2: 40000 pulses/rad.
+    assert starting_pulses(CELL, remembered) == [
+        [58670, 0, 0, 0, 0, -21990, 0, 0],
+        [20000, 0, 0, 0, 0, 0, 0, 0],
+    ]

@@ -114,3 +114,18 @@ def test_pad_moto_fills_eight_slots() -> None:
     assert TRACK.pad_moto(np.array([42], dtype=np.int64)) == [42, 0, 0, 0, 0, 0, 0, 0]
     padded = ARM6.pad_moto(np.array([1, 2, 3, 4, 5, 6], dtype=np.int64))
     assert all(type(v) is int for v in padded)
+
+
+def test_max_increments_are_the_speed_limit_in_pulses_per_period_plus_one() -> None:
+    # arm6 S axis: 6.54 rad/s x 58670 pulses/rad x 4 ms = 1534.8, up to 1535, plus 1.
+    assert ARM6.max_increments(0.004) == [1536, 1292, 1679, 1253, 1253, 1229, 0, 0]
+
+
+def test_max_increments_of_a_seven_axis_arm_are_in_motoman_order() -> None:
+    # The E axis (ROS index 2, 2.96 rad/s) is Motoman's seventh; T (6.28 rad/s) its sixth.
+    assert ARM7.max_increments(0.004) == [777, 777, 777, 510, 510, 619, 777, 0]
+
+
+def test_max_increments_scale_with_the_period() -> None:
+    assert ARM6.max_increments(0.001)[0] == 385  # 383.7 up to 384, plus 1
+    assert TRACK.max_increments(0.004) == [6001, 0, 0, 0, 0, 0, 0, 0]  # 1.5 m/s in µm

@@ -1,5 +1,5 @@
-"""The controller's I/O and M-registers with MotoROS 1.9's address rules (motoros1-behaviour.md
-§8): readable and writable ranges per controller model, result codes 0 and 1001-1005."""
+"""The controller's I/O and M-registers with MotoROS 1.9's address rules (motoros1 §8):
+readable and writable ranges per controller model, result codes 0 and 1001-1005."""
 
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ _COMMON_TAIL: list[Range] = [(60010, 60647), (70010, 79997)]
 """IF panel and auxiliary relays: the same on every model."""
 
 # Readable ranges (general in/out, external in/out, network in/out, specific in/out, IF panel,
-# aux relay, control status, pseudo in), from the §8 table.
+# aux relay, control status, pseudo in), from the motoros1 §8 table.
 READABLE: dict[ControllerModel, list[Range]] = {
     ControllerModel.DX100: [
         (10, 2567),
@@ -99,7 +99,7 @@ def _in(address: int, ranges: list[Range]) -> bool:
 
 
 def _bit_address_ok(address: int) -> bool:
-    # I/O numbers are octal-like: a last digit of 8 or 9 names no signal (§8).
+    # I/O numbers are octal-like: a last digit of 8 or 9 names no signal (motoros1 §8).
     return address % 10 not in (8, 9)
 
 
@@ -131,7 +131,7 @@ class IoTable:
         return self.bits.get(address, 0), int(IoResult.OK)
 
     def write_bit(self, address: int, value: int) -> int:
-        # With both address and value wrong, the address error is reported (§8).
+        # With both address and value wrong, the address error is reported (motoros1 §8).
         if not self.writable(address):
             return int(IoResult.WRITE_ADDRESS_INVALID)
         if value not in (0, 1):
@@ -159,7 +159,8 @@ class IoTable:
 
     @staticmethod
     def _register(number: int) -> int:
-        # Both "5" and "1000005" name M005: numbers below 1 000 000 get it added (§8).
+        # Both "5" and "1000005" name M005: numbers below 1 000 000 get it added
+        # (motoros1 §8).
         return number - M_REGISTER_BASE if number >= M_REGISTER_BASE else number
 
     def read_register(self, number: int) -> tuple[int, int]:

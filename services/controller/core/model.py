@@ -1,7 +1,7 @@
 """The simulated Yaskawa controller as MotoROS's status poller sees it. Pure: time is passed in.
 
-Motion-ready and its NOT_READY subcode follow motoros1-behaviour.md §7.1-7.2 exactly; the
-INIT_ROS job and its OT#889/OT#890 handshake follow §7.4. Servo-off, E-stop, HOLD, alarms,
+Motion-ready and its NOT_READY subcode follow motoros1 §7.1-7.2 exactly; the INIT_ROS job
+and its OT#889/OT#890 handshake follow motoros1 §7.4. Servo-off, E-stop, HOLD, alarms,
 errors and mode changes do not enter motion-ready directly: they stop the job, and
 "operating" dropping is what makes the cell not ready, as on the real controller.
 """
@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from services.controller.job import Job, JobAction, JobEvent, step
+from services.controller.core.job import Job, JobAction, JobEvent, step
 from shared.bus.schemas import Alarm, ControllerStatus
 from shared.protocol.constants import NotReadySubcode, Result
 
@@ -26,11 +26,11 @@ OT_IO_CONNECTED = 11126
 OT_FAILURE = 11127
 
 JOB_TIMER_S = 0.05
-"""INIT_ROS's TIMER T=0.05 before it sets OT#889 (§7.4)."""
+"""INIT_ROS's TIMER T=0.05 before it sets OT#889 (motoros1 §7.4)."""
 SERVO_ON_DELAY_S = 0.05
 """How long the simulated servo amplifiers take to power up."""
 START_TIMEOUT_S = 5.0
-"""START_TRAJ_MODE polls up to 5000 ms for motion-ready (§7.3 step 11)."""
+"""START_TRAJ_MODE polls up to 5000 ms for motion-ready (motoros1 §7.3 step 11)."""
 
 
 @dataclass
@@ -47,7 +47,7 @@ class Controller:
     eco: bool = False
     pfl: bool = False
     """The "PFL during ROS move" latch: set by a PFL stop while ready, cleared only by
-    START_TRAJ_MODE (MotoROS 1.9.3, §7.1)."""
+    START_TRAJ_MODE (MotoROS 1.9.3, motoros1 §7.1)."""
     pfl_signal: bool = False
     """The PFL stop/escape/avoiding inputs (YRC1000 family)."""
     incmove_error: bool = False
@@ -70,8 +70,8 @@ class Controller:
         return self.job in (Job.TIMER, Job.WAITING)
 
     def motion_ready(self) -> bool:
-        """§7.1: job-ready latch, operating, REMOTE, no PFL, no IncMove error; plus every
-        service of the cell alive (the increment path needs them all)."""
+        """motoros1 §7.1: job-ready latch, operating, REMOTE, no PFL, no IncMove error; plus
+        every service of the cell alive (the increment path needs them all)."""
         return (
             self.job_ready
             and self.operating
@@ -82,8 +82,8 @@ class Controller:
         )
 
     def not_ready_subcode(self) -> int:
-        """§7.2, first match wins. A missing service reports INC_MOVE_ERROR (5012): increments
-        cannot reach the robot, which is what that code means."""
+        """motoros1 §7.2, first match wins. A missing service reports INC_MOVE_ERROR (5012):
+        increments cannot reach the robot, which is what that code means."""
         if self.motion_ready():
             return 0
         checks = (
@@ -130,7 +130,8 @@ class Controller:
         before = self.outputs.get(address, 0)
         self.outputs[address] = value
         if address == OT_ROS_READY and before != value:
-            # Readiness is latched on OT#889's rising edge and lost on its falling edge (§7.1).
+            # Readiness is latched on OT#889's rising edge and lost on its falling edge
+            # (motoros1 §7.1).
             self.job_ready = bool(value)
 
     def fire(self, event: JobEvent, now: float = 0.0) -> None:
@@ -212,7 +213,8 @@ class Controller:
         return self.pfl or self.pfl_signal
 
     def set_pfl(self, on: bool) -> None:
-        """A PFL stop while the job is ready latches until START_TRAJ_MODE (§7.1, v1.9.3)."""
+        """A PFL stop while the job is ready latches until START_TRAJ_MODE (motoros1 §7.1,
+        v1.9.3)."""
         self.pfl_signal = on
         if on and self.job_ready:
             self.pfl = True
@@ -225,14 +227,14 @@ class Controller:
 
     # -- commands -------------------------------------------------------------------------
     def reset_alarm(self) -> int:
-        """RESET_ALARM: reset alarms, cancel the error (§2.3). Always 0: like MotoROS it does
-        not verify that the alarm is gone."""
+        """RESET_ALARM: reset alarms, cancel the error (motoros1 §2.3). Always 0: like MotoROS
+        it does not verify that the alarm is gone."""
         self.alarms.clear()
         self.error = 0
         return int(Result.SUCCESS)
 
     def begin_start_traj_mode(self, now: float) -> tuple[int, int] | None:
-        """START_TRAJ_MODE steps 1-10 (§7.3). Returns a final (result, subcode) when it is
+        """START_TRAJ_MODE steps 1-10 (motoros1 §7.3). Returns a final (result, subcode) when it is
         decided at once, or None when the caller should poll ``motion_ready`` until the
         deadline (step 11)."""
         self.pfl = False
@@ -260,7 +262,8 @@ class Controller:
         self.set_output(OT_ROS_DONE, 1)
 
     def set_connections(self, motion: int, state: int, io: int) -> None:
-        """OT#893-#895: a motion, state or I/O client is connected (spec §4.2)."""
+        """OT#893-#895: a motion, state or I/O client is connected (incremental-motion §4.2,
+        motoros1 §7.4)."""
         self.set_output(OT_MOTION_CONNECTED, int(motion > 0))
         self.set_output(OT_STATE_CONNECTED, int(state > 0))
         self.set_output(OT_IO_CONNECTED, int(io > 0))

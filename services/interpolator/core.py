@@ -9,7 +9,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from shared.bus.schemas import IncrementBatch, Point, QueueState, Slot
+from shared.bus.schemas import ControllerStatus, IncrementBatch, Point, QueueState, Slot
 from shared.config import Group
 from shared.motion.interpolation import Entries, Knot, Segment, Trajectory, time_to_ns
 from shared.motion.kinematics import AxisMap, IntArray
@@ -19,6 +19,16 @@ log = logging.getLogger("interpolator")
 
 MAX_BATCH = 50
 """Entries per message: 200 ms of motion at 4 ms, about 1.7 kB."""
+MAX_PENDING_POINTS = 64
+
+
+def queue_point(points: deque[Point], point: Point) -> bool:
+    """Keep ``point`` for the feeder; False (dropped) when MAX_PENDING_POINTS already wait."""
+    if len(points) >= MAX_PENDING_POINTS:
+        log.error("more than %d points pending; dropping %s", len(points), point)
+        return False
+    points.append(point)
+    return True
 
 
 class Feeder:
@@ -30,6 +40,7 @@ class Feeder:
         instance: int = 0,
     ) -> None:
         self.instance = instance
+        self.group_index = group.index
         self.axis_map = AxisMap(group)
         self.period_ns = period_ns
         self.send = send
@@ -52,6 +63,11 @@ class Feeder:
         self.waiting_for_room = False
         self.busy_episodes = 0
         """Times a segment had to wait for room in the ring (the slot stayed full)."""
+
+    def on_status(self, status: ControllerStatus) -> None:
+        """The group's selected tool, for the segments interpolated from now on."""
+        tools = status.tools
+        self.tool = tools[self.group_index] if self.group_index < len(tools) else 0
 
     def on_queue(self, state: QueueState) -> None:
         if self.queue is not None and state.epoch != self.queue.epoch:

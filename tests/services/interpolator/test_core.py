@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from services.executor.core import BatchOutcome, ExecutorCore
-from services.interpolator.feeder import MAX_BATCH, Feeder
-from shared.bus.schemas import IncrementBatch, Point, QueueState, Slot
-from shared.config import Group, load_cell
+from services.interpolator.core import MAX_BATCH, MAX_PENDING_POINTS, Feeder, queue_point
+from shared.bus.schemas import ControllerStatus, IncrementBatch, Point, QueueState, Slot
+from shared.config import Group, load_cell, parse_cell
 from shared.motion.kinematics import IntArray
 
 PERIOD = 4_000_000
@@ -262,6 +262,51 @@ def test_tool_is_not_changed_mid_segment() -> None:
     h.feeder.tool = 2  # SELECT_TOOL while the segment is half sent
     h.queue(state(received=50, depth=0))
     assert [b.tool for b in h.sent] == [1, 1]
+
+
+def status_with_tools(tools: list[int]) -> ControllerStatus:
+    return ControllerStatus(
+        seq=0,
+        servo_on=True,
+        estop=False,
+        hold=False,
+        alarms=[],
+        error=0,
+        play=True,
+        remote=True,
+        operating=True,
+        job_ready=True,
+        pfl_active=False,
+        incmove_error=False,
+        eco=False,
+        missing_services=[],
+        motion_ready=True,
+        not_ready_subcode=0,
+        tools=tools,
+    )
+
+
+def test_the_groups_tool_comes_from_the_controller_status() -> None:
+    second = parse_cell({"groups": [{"name": "R1"}, {"name": "R2"}]}).groups[1]
+    h = Harness(second)
+    h.feeder.on_status(status_with_tools([3, 9]))
+    assert h.feeder.tool == 9
+
+
+def test_a_status_without_the_groups_tool_means_tool_0() -> None:
+    h = Harness()
+    h.feeder.tool = 5
+    h.feeder.on_status(status_with_tools([]))
+    assert h.feeder.tool == 0
+
+
+def test_points_beyond_the_pending_limit_are_dropped() -> None:
+    points: deque[Point] = deque()
+    for n in range(MAX_PENDING_POINTS):
+        assert queue_point(points, point(n + 1, n, n * 0.1))
+    assert not queue_point(points, point(99, 99, 9.9))
+    assert len(points) == MAX_PENDING_POINTS
+    assert points[-1].point_id == MAX_PENDING_POINTS
 
 
 # -- streaming against a real ExecutorCore ----------------------------------------------------

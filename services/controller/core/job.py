@@ -1,4 +1,4 @@
-"""The INIT_ROS job as one explicit transition table (motoros1-behaviour.md §7.3-7.4).
+"""The INIT_ROS job as one explicit transition table (motoros1 §7.3-7.4).
 
     NOP
     DOUT OT#890 OFF ; DOUT OT#889 OFF      <- BEGIN
@@ -63,7 +63,8 @@ TRANSITIONS: Mapping[tuple[Job, JobEvent], tuple[Job, JobAction]] = {
     (_S, JobEvent.TIMER_DONE): (_S, _NONE),
     (_S, JobEvent.ROS_DONE): (_S, _NONE),
     (_S, JobEvent.HALT): (_I, _NONE),
-    # A running job is not restarted: START_TRAJ_MODE refuses while operating (§7.3 step 3).
+    # A running job is not restarted: START_TRAJ_MODE refuses while operating
+    # (motoros1 §7.3 step 3).
     (_T, JobEvent.START): (_T, _NONE),
     (_T, JobEvent.SERVO_ON): (_T, _NONE),
     (_T, JobEvent.TIMER_DONE): (_W, _READY),

@@ -1,0 +1,77 @@
+"""The cell's service processes: started, watched and restarted (``core.RestartPolicy``),
+stopped with SIGTERM and, after a grace period, SIGKILL."""
+
+from __future__ import annotations
+
+import logging
+import os
+import signal
+import subprocess
+import time
+
+from services.launcher.core import ChildSpec, Restart, RestartPolicy
+from shared.service import PARENT_PID_ENV, StopFlag
+
+log = logging.getLogger("motocell")
+
+STOP_GRACE_S = 4.0
+"""SIGTERM, then SIGKILL after this; the whole stop stays within 5 s."""
+WATCH_S = 0.2
+"""How often the children are checked for life."""
+
+
+class Child:
+    def __init__(self, spec: ChildSpec) -> None:
+        self.spec = spec
+        self.process: subprocess.Popen[bytes] | None = None
+
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+    def start(self) -> None:
+        # The child arranges to get SIGTERM if the launcher dies (shared.service), so no
+        # half cell outlives a killed launcher.
+        env = {**os.environ, PARENT_PID_ENV: str(os.getpid())}
+        self.process = subprocess.Popen(self.spec.argv, env=env)
+
+    def alive(self) -> bool:
+        return self.process is not None and self.process.poll() is None
+
+
+def supervise(children: list[Child], policy: RestartPolicy, stop: StopFlag) -> None:
+    """Start every child, then restart those that die, until ``stop``."""
+    for child in children:
+        child.start()
+    while not stop.wait(WATCH_S):
+        now = time.monotonic()
+        for child in children:
+            if child.alive():
+                continue
+            action = policy.dead(child.name, now)
+            if action is Restart.NOTICED:
+                log.error(
+                    "%s exited (code %s); restarting in %.0f s; the cell is NOT_READY "
+                    "until it is back",
+                    child.name,
+                    child.process.returncode if child.process else None,
+                    policy.delay_s,
+                )
+            elif action is Restart.NOW:
+                child.start()
+
+
+def stop_children(children: list[Child]) -> None:
+    running = [c for c in children if c.alive()]
+    for child in running:
+        assert child.process is not None
+        child.process.send_signal(signal.SIGTERM)
+    deadline = time.monotonic() + STOP_GRACE_S
+    for child in running:
+        assert child.process is not None
+        try:
+            child.process.wait(timeout=max(0.0, deadline - time.monotonic()))
+        except subprocess.TimeoutExpired:
+            log.warning("%s did not stop in time; killing it", child.name)
+            child.process.kill()
+            child.process.wait()

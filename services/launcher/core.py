@@ -1,0 +1,121 @@
+"""The launcher's decisions, no processes: which services a cell runs and with which command
+lines, where its router listens, and when a child that died comes back."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from enum import Enum
+
+from shared.config import Cell
+
+WELL_KNOWN_PORT = 7447
+"""The first cell on a machine takes it, so observers find that cell with no arguments."""
+WELL_KNOWN_ENDPOINT = f"tcp/127.0.0.1:{WELL_KNOWN_PORT}"
+RESTART_DELAY_S = 1.0
+
+
+@dataclass(frozen=True)
+class UpOptions:
+    """What ``up`` was told that shapes its children's command lines (None: not given)."""
+
+    config: str | None = None
+    zenoh_mode: str | None = None
+    host: str | None = None
+    port_base: int | None = None
+    byte_order: str | None = None
+    skip: tuple[str, ...] = ()
+    """Services another host runs, by name (``interpolator/1``)."""
+
+
+@dataclass(frozen=True)
+class ChildSpec:
+    name: str
+    """The service and, for interpolators, its group: ``controller``, ``interpolator/1``."""
+    argv: tuple[str, ...]
+
+
+class UnknownServiceError(ValueError):
+    """``--skip`` named a service the cell does not have."""
+
+
+def child_specs(
+    cell: Cell, options: UpOptions, endpoint: str, python: Sequence[str]
+) -> list[ChildSpec]:
+    """The services this host runs for ``cell``, each connecting to Zenoh at ``endpoint``:
+    controller, executor, broadcaster, one interpolator per group, gateway; less the skipped.
+    ``python`` runs a module (``[sys.executable, "-m"]``)."""
+    common = ["--zenoh-connect", endpoint]
+    if options.config:
+        common += ["--config", options.config]
+    if options.zenoh_mode:
+        common += ["--zenoh-mode", options.zenoh_mode]
+
+    def spec(name: str, module: str, *extra: str) -> ChildSpec:
+        return ChildSpec(name, (*python, f"services.{module}", *common, *extra))
+
+    specs = [spec(service, service) for service in ("controller", "executor", "broadcaster")]
+    specs += [
+        spec(f"interpolator/{g.index}", "interpolator", "--group", str(g.index))
+        for g in cell.groups
+    ]
+    specs.append(spec("gateway", "gateway", *_gateway_options(options)))
+    unknown = set(options.skip) - {s.name for s in specs}
+    if unknown:
+        raise UnknownServiceError(
+            f"--skip {', '.join(sorted(unknown))}: no such service in this cell "
+            f"(services: {', '.join(s.name for s in specs)})"
+        )
+    return [s for s in specs if s.name not in options.skip]
+
+
+def _gateway_options(options: UpOptions) -> list[str]:
+    extra = []
+    if options.host:
+        extra += ["--host", options.host]
+    if options.port_base:
+        extra += ["--port-base", str(options.port_base)]
+    if options.byte_order:
+        extra += ["--byte-order", options.byte_order]
+    return extra
+
+
+def router_endpoints(
+    listen: Sequence[str], well_known_free: bool, spare_port: Callable[[], int]
+) -> tuple[list[str], list[str]]:
+    """(listen, connect) endpoints of a cell's own router. Unless told where to listen, the
+    first cell on a machine takes the well-known port; a later one listens on a spare port
+    and links to the first, so one observer on the well-known port sees every cell."""
+    if listen:
+        return list(listen), []
+    if well_known_free:
+        return [WELL_KNOWN_ENDPOINT], []
+    return [f"tcp/127.0.0.1:{spare_port()}"], [WELL_KNOWN_ENDPOINT]
+
+
+class Restart(Enum):
+    NOTICED = "noticed"
+    """Just found dead: report it; it comes back after the delay."""
+    WAIT = "wait"
+    NOW = "now"
+
+
+class RestartPolicy:
+    """A dead child is restarted ``delay_s`` after it was found dead, for as long as the
+    launcher runs. Meanwhile the controller sees its liveliness token gone and the cell
+    answers NOT_READY; the delay keeps a child that dies at once from spinning."""
+
+    def __init__(self, delay_s: float = RESTART_DELAY_S) -> None:
+        self.delay_s = delay_s
+        self._restart_at: dict[str, float] = {}
+
+    def dead(self, name: str, now: float) -> Restart:
+        """What to do about child ``name``, found dead at ``now`` (seconds, any clock)."""
+        restart_at = self._restart_at.get(name)
+        if restart_at is None:
+            self._restart_at[name] = now + self.delay_s
+            return Restart.NOTICED
+        if now < restart_at:
+            return Restart.WAIT
+        del self._restart_at[name]
+        return Restart.NOW

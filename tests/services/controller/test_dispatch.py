@@ -1,0 +1,406 @@
+"""Dispatcher: decoded commands, faults and notices against the controller model; replies wait
+for their status. Queries are plain strings here; time is passed in, nothing sleeps."""
+
+from __future__ import annotations
+
+import msgspec
+import pytest
+
+from services.controller.core.dispatch import COMMANDS, FAULTS, REFRESH_S, Dispatcher
+from services.controller.core.io_table import IoTable
+from services.controller.core.model import (
+    OT_IO_CONNECTED,
+    OT_MOTION_CONNECTED,
+    OT_ROS_DONE,
+    OT_ROS_READY,
+    OT_STATE_CONNECTED,
+    SERVO_ON_DELAY_S,
+    START_TIMEOUT_S,
+    Controller,
+)
+from shared.bus.schemas import Alarm, CommandReply, CommandRequest
+from shared.config import ControllerModel
+from shared.protocol.constants import InvalidSubcode, IoResult, NotReadySubcode, Result
+
+REQUIRED = ["@motocell/c/alive/executor/0", "@motocell/c/alive/gateway/0"]
+FIRST_SEQ = 1000
+WRITABLE_BIT = 10010
+"""A general output every model lets a client write."""
+
+
+def dispatcher(groups: int = 1) -> Dispatcher[str]:
+    model = Controller(groups)
+    io = IoTable(ControllerModel.YRC1000, model.outputs, model.set_output)
+    return Dispatcher(model, io, REQUIRED, FIRST_SEQ)
+
+
+def replies(d: Dispatcher[str]) -> dict[str, CommandReply]:
+    return dict(d.take_replies())
+
+
+def answer(d: Dispatcher[str], verb: str, request: CommandRequest | None = None) -> CommandReply:
+    """One command at t = 0 that is answered at once."""
+    d.command(verb, request or CommandRequest(), "q", 0.0)
+    return replies(d)["q"]
+
+
+def result(reply: CommandReply) -> tuple[int, int]:
+    return reply.result, reply.subcode
+
+
+def ready(d: Dispatcher[str]) -> None:
+    """Motion-ready by START_TRAJ_MODE from servo off: 0.10 s of simulated time."""
+    d.command("start_traj_mode", CommandRequest(), "ready", 0.0)
+    for now in (0.05, 0.10):
+        d.advance(now)
+    assert result(replies(d)["ready"]) == (Result.SUCCESS, 0)
+
+
+def test_every_verb_and_fault_is_named_once() -> None:
+    assert len(set(COMMANDS)) == len(COMMANDS)
+    assert len(set(FAULTS)) == len(FAULTS)
+
+
+# -- servo power --------------------------------------------------------------------------
+
+
+def test_start_servos_answers_once_the_servo_is_on() -> None:
+    d = dispatcher()
+    d.command("start_servos", CommandRequest(), "q", 0.0)
+    assert replies(d) == {}
+    d.advance(SERVO_ON_DELAY_S)
+    assert result(replies(d)["q"]) == (Result.SUCCESS, 0)
+    assert d.model.servo_on
+
+
+def test_start_servos_under_estop_fails_at_once() -> None:
+    d = dispatcher()
+    d.model.set_estop(True)
+    assert result(answer(d, "start_servos")) == (Result.FAILURE, 0)
+
+
+def test_start_servos_that_never_completes_fails_at_the_deadline() -> None:
+    d = dispatcher()
+    d.command("start_servos", CommandRequest(), "q", 0.0)
+    d.model.set_servo(False, 0.01)  # a servo-off fault cancels the power-up
+    d.advance(START_TIMEOUT_S - 0.01)
+    assert replies(d) == {}
+    d.advance(START_TIMEOUT_S)
+    assert result(replies(d)["q"]) == (Result.FAILURE, 0)
+
+
+def test_start_servos_leaves_energy_saving() -> None:
+    d = dispatcher()
+    d.model.eco = True
+    d.command("start_servos", CommandRequest(), "q", 0.0)
+    assert not d.model.eco
+
+
+def test_stop_servos_turns_the_servo_off() -> None:
+    d = dispatcher()
+    ready(d)
+    assert result(answer(d, "stop_servos")) == (Result.SUCCESS, 0)
+    assert not d.model.servo_on
+    assert not d.model.motion_ready()
+
+
+def test_reset_alarm_clears_alarms_and_errors() -> None:
+    d = dispatcher()
+    d.model.raise_alarm(4107)
+    d.model.set_error(3)
+    assert result(answer(d, "reset_alarm")) == (Result.SUCCESS, 0)
+    assert (d.model.alarms, d.model.error) == ([], 0)
+
+
+# -- trajectory mode ----------------------------------------------------------------------
+
+
+def test_start_traj_mode_answers_when_motion_ready() -> None:
+    d = dispatcher()
+    d.command("start_traj_mode", CommandRequest(), "q", 0.0)
+    d.advance(0.05)
+    assert replies(d) == {}
+    d.advance(0.10)
+    assert result(replies(d)["q"]) == (Result.SUCCESS, 0)
+
+
+def test_start_traj_mode_decided_at_once_is_answered_at_once() -> None:
+    d = dispatcher()
+    d.model.set_estop(True)
+    assert result(answer(d, "start_traj_mode")) == (Result.NOT_READY, NotReadySubcode.ESTOP)
+
+
+def test_start_traj_mode_times_out_with_the_reason() -> None:
+    d = dispatcher()
+    d.command("start_traj_mode", CommandRequest(), "q", 0.0)
+    d.model.set_hold(True)
+    d.advance(START_TIMEOUT_S)
+    assert result(replies(d)["q"]) == (Result.NOT_READY, NotReadySubcode.HOLD)
+
+
+def test_stop_traj_mode_releases_the_job() -> None:
+    d = dispatcher()
+    ready(d)
+    assert result(answer(d, "stop_traj_mode")) == (Result.SUCCESS, 0)
+    assert d.model.outputs[OT_ROS_DONE] == 1
+    d.advance(0.2)
+    assert not d.model.operating
+
+
+def test_an_earlier_waiting_reply_is_answered_when_a_later_command_is_handled() -> None:
+    d = dispatcher()
+    d.command("start_servos", CommandRequest(), "first", 0.0)
+    d.model.advance(SERVO_ON_DELAY_S)
+    d.command("start_servos", CommandRequest(), "second", SERVO_ON_DELAY_S)
+    assert set(replies(d)) == {"first", "second"}
+
+
+# -- positions, tools, I/O ----------------------------------------------------------------
+
+
+def test_positions_are_the_newest_commanded_pulses() -> None:
+    d = dispatcher()
+    d.command_pulses = [[1, 2, 3, 4, 5, 6, 0, 0]]
+    reply = answer(d, "positions")
+    assert (reply.result, reply.pulses) == (Result.SUCCESS, [[1, 2, 3, 4, 5, 6, 0, 0]])
+
+
+def test_positions_before_any_tick_are_empty() -> None:
+    assert answer(dispatcher(), "positions").pulses == []
+
+
+def test_select_tool_sets_the_groups_tool() -> None:
+    d = dispatcher(groups=2)
+    assert result(answer(d, "select_tool", CommandRequest(group=1, value=7))) == (0, 0)
+    assert d.model.tools == [0, 7]
+
+
+@pytest.mark.parametrize("group", [-1, 2])
+def test_select_tool_for_a_group_the_cell_lacks_is_invalid(group: int) -> None:
+    reply = answer(dispatcher(groups=2), "select_tool", CommandRequest(group=group, value=1))
+    assert result(reply) == (Result.INVALID, InvalidSubcode.GROUPNO)
+
+
+@pytest.mark.parametrize("tool", [-1, 64])
+def test_select_tool_beyond_the_tool_files_is_invalid(tool: int) -> None:
+    reply = answer(dispatcher(), "select_tool", CommandRequest(value=tool))
+    assert result(reply) == (Result.INVALID, InvalidSubcode.DATA_TOOLNO)
+
+
+def test_write_then_read_a_bit() -> None:
+    d = dispatcher()
+    write = answer(d, "write_bit", CommandRequest(value=WRITABLE_BIT, args=[1]))
+    assert write.result == IoResult.OK
+    read = answer(d, "read_bit", CommandRequest(value=WRITABLE_BIT))
+    assert (read.result, read.value) == (IoResult.OK, 1)
+
+
+def test_a_write_without_a_value_is_refused_as_a_bad_value() -> None:
+    reply = answer(dispatcher(), "write_bit", CommandRequest(value=WRITABLE_BIT))
+    assert reply.result == IoResult.WRITE_VALUE_INVALID
+
+
+def test_a_read_of_an_unknown_address_reports_it() -> None:
+    reply = answer(dispatcher(), "read_bit", CommandRequest(value=9))
+    assert reply.result == IoResult.READ_ADDRESS_INVALID
+
+
+def test_write_then_read_a_register() -> None:
+    d = dispatcher()
+    assert answer(d, "write_register", CommandRequest(value=5, args=[1234])).result == 0
+    assert answer(d, "read_register", CommandRequest(value=1_000_005)).value == 1234
+
+
+def test_write_then_read_a_group() -> None:
+    d = dispatcher()
+    assert answer(d, "write_group", CommandRequest(value=1001, args=[0xA5])).result == 0
+    assert answer(d, "read_group", CommandRequest(value=1001)).value == 0xA5
+
+
+def test_an_unknown_verb_gets_no_reply() -> None:
+    d = dispatcher()
+    d.command("dance", CommandRequest(), "q", 0.0)
+    assert replies(d) == {}
+
+
+# -- faults -------------------------------------------------------------------------------
+
+
+def inject(d: Dispatcher[str], kind: str, value: int = 1, *args: int) -> None:
+    d.fault(kind, CommandRequest(value=value, args=list(args)), "f", 0.0)
+    assert result(replies(d)["f"]) == (Result.SUCCESS, 0)
+
+
+@pytest.mark.parametrize("kind", FAULTS)
+def test_every_fault_is_acknowledged(kind: str) -> None:
+    inject(dispatcher(), kind)
+
+
+def test_estop_fault_stops_motion_and_clears_again() -> None:
+    d = dispatcher()
+    ready(d)
+    inject(d, "estop")
+    assert (d.model.estop, d.model.servo_on, d.model.motion_ready()) == (True, False, False)
+    inject(d, "estop", 0)
+    assert not d.model.estop
+
+
+def test_hold_fault() -> None:
+    d = dispatcher()
+    inject(d, "hold")
+    assert d.model.hold
+
+
+def test_alarm_fault_with_code_and_subcode() -> None:
+    d = dispatcher()
+    inject(d, "alarm", 1, 4107, 3)
+    assert d.model.alarms == [Alarm(4107, 3)]
+
+
+def test_alarm_fault_without_a_code_raises_9999() -> None:
+    d = dispatcher()
+    inject(d, "alarm")
+    assert d.model.alarms == [Alarm(9999, 0)]
+
+
+def test_alarm_fault_off_clears_the_alarms() -> None:
+    d = dispatcher()
+    inject(d, "alarm", 1, 4107)
+    inject(d, "alarm", 0)
+    assert d.model.alarms == []
+
+
+@pytest.mark.parametrize(("value", "args", "error"), [(1, [42], 42), (1, [], 9999), (0, [42], 0)])
+def test_error_fault(value: int, args: list[int], error: int) -> None:
+    d = dispatcher()
+    inject(d, "error", value, *args)
+    assert d.model.error == error
+
+
+def test_servo_fault_powers_up_after_the_delay() -> None:
+    d = dispatcher()
+    inject(d, "servo")
+    d.advance(SERVO_ON_DELAY_S)
+    assert d.model.servo_on
+
+
+@pytest.mark.parametrize(("kind", "attribute"), [("play", "play"), ("remote", "remote")])
+def test_mode_faults_switch_the_mode(kind: str, attribute: str) -> None:
+    d = dispatcher()
+    inject(d, kind, 0)
+    assert getattr(d.model, attribute) is False
+    inject(d, kind, 1)
+    assert getattr(d.model, attribute) is True
+
+
+def test_pfl_fault_while_ready_latches() -> None:
+    d = dispatcher()
+    ready(d)
+    inject(d, "pfl")
+    inject(d, "pfl", 0)
+    assert d.model.pfl_active
+    assert d.model.not_ready_subcode() == NotReadySubcode.PFL_ACTIVE
+
+
+def test_ot889_fault_drops_readiness() -> None:
+    d = dispatcher()
+    ready(d)
+    inject(d, "ot889", 0)
+    assert d.model.outputs[OT_ROS_READY] == 0
+    assert not d.model.motion_ready()
+
+
+# -- notices ------------------------------------------------------------------------------
+
+
+def test_missing_services_make_the_cell_not_ready() -> None:
+    d = dispatcher()
+    ready(d)
+    d.services_present({REQUIRED[0]})
+    assert d.model.missing_services == ["gateway/0"]
+    assert d.model.not_ready_subcode() == NotReadySubcode.INC_MOVE_ERROR
+
+
+def test_all_services_back_make_it_ready_again() -> None:
+    d = dispatcher()
+    ready(d)
+    d.services_present(set())
+    d.services_present({*REQUIRED, "@motocell/c/alive/broadcaster/0"})
+    assert d.model.missing_services == []
+    assert d.model.motion_ready()
+
+
+def test_connection_counts_set_the_connected_outputs() -> None:
+    d = dispatcher()
+    d.connections(CommandRequest(args=[1, 0, 2]))
+    outputs = d.model.outputs
+    assert (outputs[OT_MOTION_CONNECTED], outputs[OT_STATE_CONNECTED]) == (1, 0)
+    assert outputs[OT_IO_CONNECTED] == 1
+
+
+def test_short_connection_counts_mean_no_clients() -> None:
+    d = dispatcher()
+    d.connections(CommandRequest(args=[1]))
+    assert (d.model.outputs[OT_STATE_CONNECTED], d.model.outputs[OT_IO_CONNECTED]) == (0, 0)
+
+
+def test_incmove_error_notice_stops_motion() -> None:
+    d = dispatcher()
+    ready(d)
+    d.incmove_error()
+    assert d.model.not_ready_subcode() == NotReadySubcode.INC_MOVE_ERROR
+
+
+def test_a_bad_query_payload_is_answered_invalid() -> None:
+    d = dispatcher()
+    d.bad_payload("cmd/select_tool", "q", msgspec.DecodeError("truncated"))
+    reply = replies(d)["q"]
+    assert result(reply) == (Result.INVALID, InvalidSubcode.DATA)
+    assert reply.detail == "truncated"
+
+
+def test_a_bad_notice_is_only_logged() -> None:
+    d = dispatcher()
+    d.bad_payload("connections", None, msgspec.DecodeError("truncated"))
+    assert replies(d) == {}
+
+
+# -- status and replies -------------------------------------------------------------------
+
+
+def test_the_first_status_is_always_due_and_numbered_after_first_seq() -> None:
+    status = dispatcher().status_due(0.0)
+    assert status is not None
+    assert status.seq == FIRST_SEQ + 1
+
+
+def test_an_unchanged_status_waits_for_the_refresh() -> None:
+    d = dispatcher()
+    d.status_due(0.0)
+    assert d.status_due(REFRESH_S / 2) is None
+    refreshed = d.status_due(REFRESH_S)
+    assert refreshed is not None
+    assert refreshed.seq == FIRST_SEQ + 2
+
+
+def test_a_changed_status_is_due_at_once() -> None:
+    d = dispatcher()
+    d.status_due(0.0)
+    inject(d, "estop")
+    status = d.status_due(0.001)
+    assert status is not None
+    assert status.estop
+
+
+def test_replies_name_the_status_published_before_them() -> None:
+    d = dispatcher()
+    d.status_due(0.0)
+    d.fault("estop", CommandRequest(value=1), "f", 0.0)
+    d.status_due(0.001)
+    assert replies(d)["f"].status_seq == FIRST_SEQ + 2
+
+
+def test_replies_are_taken_once() -> None:
+    d = dispatcher()
+    answer(d, "reset_alarm")
+    assert d.take_replies() == []

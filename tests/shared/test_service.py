@@ -1,0 +1,194 @@
+"""StopFlag and stop_on_signals: a stop that signal handlers raise without taking a lock.
+
+Signal bursts run in child processes, so the test runner's own handlers are never involved;
+the children must exit cleanly within a deadline (a deadlock would hang them)."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import threading
+from pathlib import Path
+
+import pytest
+
+from shared.service import StopFlag, stop_on_signals
+
+REPO = Path(__file__).resolve().parents[2]
+DEADLINE_S = 20.0
+BURST = 200
+
+
+def run_child(script: str) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [sys.executable, "-c", script],
+        cwd=REPO,
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+
+
+def finish(child: subprocess.Popen[str]) -> str:
+    try:
+        out, _ = child.communicate(timeout=DEADLINE_S)
+    except subprocess.TimeoutExpired:
+        child.kill()
+        child.communicate()
+        raise AssertionError("the child hung: a signal handler deadlocked") from None
+    assert child.returncode == 0, out
+    return out
+
+
+WAIT_THEN_HOLD = """
+import sys
+from shared.service import stop_on_signals
+
+with stop_on_signals() as stop:
+    print("ready", flush=True)
+    stop.wait()
+    print("stopping", flush=True)
+    sys.stdin.readline()  # stay inside until the parent's burst is over
+print("stopped", flush=True)
+"""
+
+
+def test_a_burst_of_signals_from_outside_stops_the_process_once() -> None:
+    child = run_child(WAIT_THEN_HOLD)
+    assert child.stdout is not None and child.stdin is not None
+    assert child.stdout.readline() == "ready\n"
+    for n in range(BURST):
+        child.send_signal(signal.SIGTERM if n % 2 else signal.SIGINT)
+    child.stdin.write("\n")
+    child.stdin.flush()
+    assert finish(child) == "stopping\nstopped\n"
+
+
+SELF_BURST = """
+import os, signal, threading
+from shared.service import stop_on_signals
+
+def burst():
+    for n in range(COUNT):
+        os.kill(os.getpid(), signal.SIGTERM if n % 2 else signal.SIGINT)
+
+with stop_on_signals() as stop:
+    sender = threading.Thread(target=burst)
+    sender.start()
+    stop.wait()
+    print("stopping", flush=True)
+    sender.join()  # every signal arrives while the handlers are still ours
+print("stopped", flush=True)
+""".replace("COUNT", str(BURST * 10))
+
+
+def test_signals_arriving_while_the_handler_runs_do_not_deadlock() -> None:
+    # The handler runs on the main thread; signals sent meanwhile run it again inside itself.
+    # With a handler that took a lock (threading.Event.set) this could hang for good.
+    assert finish(run_child(SELF_BURST)) == "stopping\nstopped\n"
+
+
+SIGNAL_INSIDE_SET = """
+import signal, sys
+from shared.service import stop_on_signals
+
+nested = []
+
+def inside_set(frame, event, arg):
+    # At StopFlag.set's first call into C, a second signal arrives: raise_signal runs its
+    # handler at once, nested inside the first. (threading.Event.set hangs here for good.)
+    if event == "c_call" and frame.f_code.co_name == "set" and not nested:
+        nested.append(True)
+        signal.raise_signal(signal.SIGINT)
+
+with stop_on_signals() as stop:
+    sys.setprofile(inside_set)
+    signal.raise_signal(signal.SIGTERM)
+    sys.setprofile(None)
+    print(nested == [True] and stop.is_set(), flush=True)
+"""
+
+
+def test_a_signal_whose_handler_runs_inside_set_does_not_deadlock() -> None:
+    assert finish(run_child(SIGNAL_INSIDE_SET)) == "True\n"
+
+
+def test_a_raised_signal_sets_the_flag_and_the_old_handlers_come_back() -> None:
+    before = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+    with stop_on_signals() as stop:
+        assert not stop.is_set()
+        signal.raise_signal(signal.SIGTERM)
+        signal.raise_signal(signal.SIGINT)
+        assert stop.wait(DEADLINE_S)
+    assert {sig: signal.getsignal(sig) for sig in before} == before
+
+
+def test_off_the_main_thread_no_handler_is_set() -> None:
+    before = signal.getsignal(signal.SIGTERM)
+    seen: list[bool] = []
+
+    def worker() -> None:
+        with stop_on_signals() as stop:
+            seen.append(signal.getsignal(signal.SIGTERM) is before)
+            stop.set()
+            seen.append(stop.wait(0))
+
+    thread = threading.Thread(target=worker)
+    thread.start()
+    thread.join(DEADLINE_S)
+    assert seen == [True, True]
+
+
+# -- StopFlag -------------------------------------------------------------------------------
+
+
+def test_a_new_flag_is_not_set_and_a_timed_wait_says_so() -> None:
+    stop = StopFlag()
+    assert not stop.is_set()
+    assert stop.wait(0) is False
+    assert stop.wait(0.01) is False
+
+
+def test_a_set_flag_stays_set() -> None:
+    stop = StopFlag()
+    stop.set()
+    stop.set()
+    assert stop.is_set()
+    assert stop.wait() is True
+    assert stop.wait(0) is True
+
+
+def test_setting_wakes_every_waiting_thread() -> None:
+    stop = StopFlag()
+    woken: list[bool] = []
+    waiting = threading.Barrier(5)
+
+    def waiter() -> None:
+        waiting.wait()
+        woken.append(stop.wait())
+
+    threads = [threading.Thread(target=waiter) for _ in range(4)]
+    for thread in threads:
+        thread.start()
+    waiting.wait()
+    stop.set()
+    for thread in threads:
+        thread.join(DEADLINE_S)
+    assert woken == [True] * 4
+
+
+@pytest.mark.parametrize("times", [1, 100_000])
+def test_setting_never_blocks_however_often(times: int) -> None:
+    stop = StopFlag()
+    for _ in range(times):
+        stop.set()
+    assert stop.wait(0)
+
+
+def test_a_forgotten_flag_releases_its_descriptors() -> None:
+    before = len(os.listdir("/proc/self/fd"))
+    for _ in range(50):
+        StopFlag().set()
+    assert len(os.listdir("/proc/self/fd")) <= before + 2
