@@ -1,13 +1,14 @@
-"""Spec §2.7 interpolation: trajectory points to per-period pulse increments. Pure: no clock.
+"""Trajectory points to per-period pulse increments (incremental-motion §2.7). Pure: no clock.
 
-Between two points (p0, v0, t0) and (p1, v1, t1) every joint follows the cubic Hermite of spec
-§2.7.2 (acceleration linear in time, position and velocity matched at both ends):
+Between two points (p0, v0, t0) and (p1, v1, t1) every joint follows the cubic Hermite of
+incremental-motion §2.7.2 (acceleration linear in time, position and velocity matched at both
+ends):
 
     a1 = 6(p1 - p0)/T^2 - 2(v1 + 2 v0)/T
     a2 = -12(p1 - p0)/T^3 + 6(v0 + v1)/T^2
     p(tau) = p0 + v0 tau + a1 tau^2/2 + a2 tau^3/6
 
-Differences from MotoROS 1.9 (motoros1-behaviour.md §4.2-4.3), all on purpose:
+Differences from MotoROS 1.9 (motoros1 §4.2-4.3), all on purpose:
 - float64 instead of float32, and times in integer nanoseconds instead of truncated
   milliseconds, so the grid never drifts and off-grid waypoints keep their exact time;
 - pulses are rounded to nearest, not truncated (see ``AxisMap.ros_to_pulses``);
@@ -16,7 +17,7 @@ Differences from MotoROS 1.9 (motoros1-behaviour.md §4.2-4.3), all on purpose:
 What stays the same: the sample grid is anchored at the sequence-0 point's time; each segment
 yields one entry per grid instant strictly inside it plus one entry at the waypoint itself,
 holding the waypoint's exact position. A waypoint off the grid gives a *partial* entry that the
-executor merges with the next one, so every tick moves exactly one period's worth (§5.3).
+executor merges with the next one, so every tick moves exactly one period's worth (motoros1 §5.3).
 Increments are differences of absolute pulse positions from the commanded start position, so
 the pulses applied add up exactly to the last waypoint's pulse position.
 """
@@ -68,7 +69,7 @@ _POWERS = np.arange(4)
 
 def _hermite(duration_ns: int) -> FloatArray:
     """The matrix taking (p0, v0, p1, v1) to the coefficients of 1, tau, tau^2, tau^3 of
-    spec §2.7.2's cubic: p0 + v0 tau + (a1/2) tau^2 + (a2/6) tau^3 with
+    incremental-motion §2.7.2's cubic: p0 + v0 tau + (a1/2) tau^2 + (a2/6) tau^3 with
     a1 = 6(p1 - p0)/T^2 - 2(v1 + 2 v0)/T and a2 = -12(p1 - p0)/T^3 + 6(v0 + v1)/T^2."""
     t = duration_ns / 1e9
     t2, t3 = t * t, t * t * t
