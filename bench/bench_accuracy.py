@@ -36,7 +36,7 @@ from bench.harness import (
     start_traj_mode,
     workdir,
 )
-from services.interpolator.feeder import MAX_BATCH
+from services.interpolator.core import MAX_BATCH
 from shared.config import Group, load_catalogue
 from shared.motion.interpolation import Knot, Trajectory, time_to_ns
 from shared.motion.kinematics import AxisMap

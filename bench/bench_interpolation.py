@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from bench.harness import RESULTS_DIR
-from services.interpolator.feeder import MAX_BATCH, Feeder
+from services.interpolator.core import MAX_BATCH, Feeder
 from shared.bus.schemas import IncrementBatch, Point, QueueState
 from shared.config import load_cell
 from shared.motion.interpolation import Knot, Trajectory
