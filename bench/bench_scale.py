@@ -23,6 +23,7 @@ import statistics
 import threading
 import time
 from contextlib import ExitStack
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -86,6 +87,39 @@ class Loaded:
         self.streamer.join(10.0)
 
 
+@dataclass(frozen=True)
+class Window:
+    """One measuring window over every loaded cell."""
+
+    missed: float
+    lateness_p99_us: float
+    total_cpu: float
+    by_kind: dict[str, tuple[float, float]]
+    """Mean CPU (% of a core) and RSS per process kind that ran."""
+
+
+def measure_window(cells: list[Loaded], window_s: float) -> Window:
+    marks = [c.observer.mark() for c in cells]
+    sampler = CpuSampler({p: k for c in cells for p, k in process_kinds(c.cell).items()})
+    time.sleep(window_s)
+    rows = sampler.finish()
+    missed = 0
+    lateness: list[float] = []
+    for c, mark in zip(cells, marks, strict=True):
+        ticks = c.observer.ticks_since(mark - 1)
+        missed += ticks[-1].missed - ticks[0].missed
+        lateness += [t.lateness_ns / 1000 for t in ticks[1:]]
+        if c.streamer.error is not None:
+            raise RuntimeError(f"streaming failed: {c.streamer.error}")
+    by_kind = {}
+    for kind in KINDS:
+        cpu = [r[2] for r in rows if r[0] == kind]
+        rss = [r[3] for r in rows if r[0] == kind]
+        if cpu:
+            by_kind[kind] = (statistics.mean(cpu), statistics.mean(rss))
+    return Window(float(missed), percentiles(lateness, (99,))[0], sum(r[2] for r in rows), by_kind)
+
+
 def run(quick: bool) -> list[dict[str, Any]]:
     cap = QUICK_MAX_CELLS if quick else MAX_CELLS
     window_s = QUICK_WINDOW_S if quick else WINDOW_S
@@ -105,29 +139,13 @@ def run(quick: bool) -> list[dict[str, Any]]:
             cpu_by_n[n] = {k: [] for k in KINDS}
             rss_by_n[n] = {k: [] for k in KINDS}
             for _ in range(WINDOWS):
-                marks = [c.observer.mark() for c in cells]
-                sampler = CpuSampler(
-                    {p: k for c in cells for p, k in process_kinds(c.cell).items()}
-                )
-                time.sleep(window_s)
-                rows = sampler.finish()
-                missed = 0
-                lateness: list[float] = []
-                for c, mark in zip(cells, marks, strict=True):
-                    ticks = c.observer.ticks_since(mark - 1)
-                    missed += ticks[-1].missed - ticks[0].missed
-                    lateness += [t.lateness_ns / 1000 for t in ticks[1:]]
-                    if c.streamer.error is not None:
-                        raise RuntimeError(f"streaming failed: {c.streamer.error}")
-                missed_by_n[n].append(float(missed))
-                p99_by_n[n].append(percentiles(lateness, (99,))[0])
-                total_cpu_by_n[n].append(sum(r[2] for r in rows))
-                for kind in KINDS:
-                    cpu = [r[2] for r in rows if r[0] == kind]
-                    rss = [r[3] for r in rows if r[0] == kind]
-                    if cpu:
-                        cpu_by_n[n][kind].append(statistics.mean(cpu))
-                        rss_by_n[n][kind].append(statistics.mean(rss))
+                window = measure_window(cells, window_s)
+                missed_by_n[n].append(window.missed)
+                p99_by_n[n].append(window.lateness_p99_us)
+                total_cpu_by_n[n].append(window.total_cpu)
+                for kind, (cpu, rss) in window.by_kind.items():
+                    cpu_by_n[n][kind].append(cpu)
+                    rss_by_n[n][kind].append(rss)
             if any(missed_by_n[n]):
                 break
     clean = [n for n, missed in missed_by_n.items() if not any(missed)]

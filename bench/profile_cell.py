@@ -91,7 +91,7 @@ def record(
     return subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
 
 
-def main(argv: list[str] | None = None) -> int:
+def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(description="py-spy profiles of a loaded cell")
     parser.add_argument("--scenario", choices=("points", "state"), default="points")
     parser.add_argument("--seconds", type=float, default=10.0)
@@ -113,7 +113,11 @@ def main(argv: list[str] | None = None) -> int:
         help="summarise only stacks through this function, e.g. RequestServer._serve",
     )
     parser.add_argument("--out", default=str(Path(tempfile.gettempdir()) / "motocell-profile"))
-    args = parser.parse_args(argv)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
     if py_spy() is None:
         print(
             "bench.profile_cell: py-spy is not installed (.venv/bin/pip install py-spy)",
