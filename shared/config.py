@@ -7,6 +7,7 @@ catalogue in ``models.toml``. Bad files are refused with a message naming the fi
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import tomllib
 from dataclasses import dataclass
@@ -18,6 +19,10 @@ from typing import Any, Literal
 import msgspec
 
 from shared.protocol.constants import MAX_AXES
+
+EXIT_CONFIG = 2
+"""The exit status of a process that cannot start as configured (a bad file or option, refused
+credentials, a taken name): restarting it would not help, so the launcher stops the cell."""
 
 
 class ConfigError(ValueError):
@@ -75,9 +80,10 @@ class GroupConfig(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
 
 
 class ZenohConfig(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
-    mode: Literal["peer", "client", "router"] = "peer"
     connect: list[str] = msgspec.field(default_factory=list)
-    listen: list[str] = msgspec.field(default_factory=lambda: ["tcp/127.0.0.1:0"])
+    """The router the services join (``--zenoh-connect`` overrides it). Services are always
+    clients of a router: a peer's own listener would let anyone deliver samples to it
+    directly, past the router's access control."""
 
 
 class CellFile(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
@@ -186,8 +192,22 @@ def _check_model(where: str, model: RobotModel) -> None:
         raise ConfigError(f"{where}.dh: at most {n} links of [theta, d, a, alpha]")
 
 
-def load_cell(path: str | Path | None = None) -> Cell:
-    """Read and resolve a cell file; ``None`` gives the default one-arm YRC1000 cell."""
+def load_cell(path: str | Path | None = None, name: str | None = None) -> Cell:
+    """Read and resolve a cell file; ``None`` gives the default one-arm YRC1000 cell.
+    ``name`` overrides the file's (``motocell up --name``)."""
+    cell = _load_cell(path)
+    if name is None:
+        return cell
+    _check_name(name, "--name")
+    return dataclasses.replace(cell, name=name)
+
+
+def _check_name(name: str, where: str) -> None:
+    if not name or not all(c.isalnum() or c in "-_" for c in name):
+        raise ConfigError(f"{where}: name: {name!r} must be letters, digits, - or _")
+
+
+def _load_cell(path: str | Path | None) -> Cell:
     if path is None:
         return resolve(CellFile())
     where = str(path)
@@ -215,8 +235,7 @@ def resolve(
 ) -> Cell:
     models = {**load_catalogue(), **(extra_models or {})}
     profile = PROFILES[cell_file.controller]
-    if not cell_file.name or not all(c.isalnum() or c in "-_" for c in cell_file.name):
-        raise ConfigError(f"{where}: name: {cell_file.name!r} must be letters, digits, - or _")
+    _check_name(cell_file.name, where)
     if not 1 <= len(cell_file.groups) <= profile.max_groups:
         raise ConfigError(
             f"{where}: groups: {len(cell_file.groups)} groups, a {cell_file.controller} "

@@ -56,6 +56,12 @@ def runtime_dir() -> Path:
     return Path.home() / ".local" / "state" / "motocell"
 
 
+def credentials_dir(name: str, runtime: Path | None = None) -> Path:
+    """Where ``motocell up`` keeps cell ``name``'s credentials: private to this user, new at
+    every start of the cell. ``runtime``: another registry directory than this process's."""
+    return (runtime or runtime_dir()) / "credentials" / name
+
+
 def _cells_dir() -> Path:
     directory = runtime_dir() / "cells"
     directory.mkdir(parents=True, exist_ok=True, mode=0o700)

@@ -17,16 +17,22 @@ import threading
 import time
 import weakref
 from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
+from pathlib import Path
 from types import FrameType
 
 import zenoh
 
+from shared.bus.access import Identity
+from shared.bus.catalog import Role
+from shared.bus.claim import NameTakenError, claim_name
+from shared.bus.credentials import CredentialsError
+from shared.bus.credentials import load as load_credentials
 from shared.bus.keys import CellKeys
 from shared.bus.schemas import ServiceInfo, encode
 from shared.bus.session import open_session
-from shared.config import Cell, ConfigError, load_cell
+from shared.config import EXIT_CONFIG, Cell, ConfigError, load_cell
 
 PARENT_PID_ENV = "MOTOCELL_PARENT_PID"
 """Set by ``motocell up`` for its children: they stop when that process goes away."""
@@ -51,30 +57,35 @@ def version() -> str:
 
 
 def argument_parser(service: str, description: str) -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog=f"motocell-{service}", description=description)
-    parser.add_argument("--config", help="cell TOML file (default: one 6-axis arm, YRC1000)")
-    add_zenoh_arguments(parser)
+    parser = argparse.ArgumentParser(
+        prog=f"python -m services.{service}", description=description, allow_abbrev=False
+    )
+    add_cell_arguments(parser)
+    add_bus_arguments(parser)
     parser.add_argument("--log-level", default=os.environ.get("MOTOCELL_LOG", "INFO"))
     return parser
 
 
-def add_zenoh_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "--zenoh-mode", choices=("peer", "client"), help="default: the cell file's, else peer"
-    )
+def add_cell_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--config", help="cell TOML file (default: one 6-axis arm, YRC1000)")
+    parser.add_argument("--name", help="the cell's name (default: the cell file's)")
+
+
+def add_bus_arguments(parser: argparse.ArgumentParser) -> None:
+    """How a service joins its cell's bus: always as a client of a router."""
     parser.add_argument(
         "--zenoh-connect",
         action="append",
         default=[],
         metavar="ENDPOINT",
-        help="endpoint to connect to, e.g. tcp/127.0.0.1:7447 (repeatable)",
+        help="the cell's Zenoh router, e.g. tcp/127.0.0.1:7447 (repeatable; default: the "
+        "cell file's [zenoh] connect)",
     )
     parser.add_argument(
-        "--zenoh-listen",
-        action="append",
-        default=[],
-        metavar="ENDPOINT",
-        help="endpoint to listen on (default for peers: tcp/127.0.0.1:0)",
+        "--credentials",
+        metavar="DIR",
+        help="the cell's credentials directory (motocell credentials, or the one motocell up "
+        "writes): join as this service's identity; without it the bus must be open",
     )
 
 
@@ -172,18 +183,23 @@ def die_with_launcher() -> None:
 def running_service(
     service: str, instance: str, args: argparse.Namespace
 ) -> Iterator[ServiceContext]:
-    """Load the cell, open the session, declare the liveliness token; undo all on exit."""
-    setup_logging(service if instance == "0" else f"{service}/{instance}", args.log_level)
-    try:
-        cell = load_cell(args.config)
-    except ConfigError as exc:
-        raise SystemExit(f"motocell-{service}: {exc}") from exc
-    with stop_on_signals() as stop:
+    """Load the cell, open the session, claim the name, declare the liveliness token; undo
+    all on exit. A start that cannot work as configured (bad cell file, credentials refused,
+    no router, the name taken) prints one line and exits with EXIT_CONFIG, which the launcher
+    takes as "do not restart"."""
+    name = service if instance == "0" else f"{service}/{instance}"
+    setup_logging(name, args.log_level)
+    with stop_on_signals() as stop, ExitStack() as joined:
         # `kill -USR1 <pid>` prints every thread's stack: how to see where a service is stuck.
         faulthandler.register(signal.SIGUSR1, all_threads=True)
         die_with_launcher()
-        with _service_session(service, instance, cell, args) as session:
-            yield ServiceContext(cell, CellKeys(cell.name), session, stop)
+        try:
+            cell = load_cell(args.config, args.name)
+            session = joined.enter_context(_service_session(service, instance, cell, args))
+        except (ConfigError, CredentialsError, ConnectionError, NameTakenError) as exc:
+            print(f"motocell {name}: {exc}", file=sys.stderr)
+            raise SystemExit(EXIT_CONFIG) from None
+        yield ServiceContext(cell, CellKeys(cell.name), session, stop)
 
 
 @contextmanager
@@ -191,12 +207,12 @@ def _service_session(
     service: str, instance: str, cell: Cell, args: argparse.Namespace
 ) -> Iterator[zenoh.Session]:
     """The session, with the service's liveliness token and ``service_info`` queryable."""
-    mode = args.zenoh_mode or cell.zenoh.mode
     connect: Sequence[str] = args.zenoh_connect or cell.zenoh.connect
-    listen: Sequence[str] | None = args.zenoh_listen or (
-        None if mode == "client" else cell.zenoh.listen
-    )
-    session = open_session(mode, connect, listen)
+    credentials = None
+    if args.credentials:
+        identity = Identity(Role(service), instance)
+        credentials = load_credentials(Path(args.credentials), cell.name, identity)
+    session = open_session("client", connect, credentials=credentials)
     keys = CellKeys(cell.name)
     info = ServiceInfo(
         cell=cell.name,
@@ -215,11 +231,13 @@ def _service_session(
         query.drop()
 
     try:
+        claim = claim_name(session, keys, service, instance)
         queryable = session.declare_queryable(keys.service_info(service, instance), describe)
         token = session.liveliness().declare_token(keys.alive(service, instance))
-        logging.getLogger(service).info("up: cell %s (%s mode)", cell.name, mode)
+        logging.getLogger(service).info("up: cell %s at %s", cell.name, ", ".join(connect))
         yield session
         token.undeclare()
         queryable.undeclare()
+        claim.undeclare()
     finally:
         session.close()

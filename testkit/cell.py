@@ -29,8 +29,13 @@ from pathlib import Path
 
 import zenoh
 
+from shared import registry
+from shared.bus.access import Identity
+from shared.bus.catalog import Role
+from shared.bus.credentials import load
 from shared.bus.keys import CellKeys
 from shared.bus.schemas import Decoder, Tick
+from shared.bus.session import open_session
 from shared.config import Cell, load_cell
 from shared.ports import free_port, free_port_block
 from shared.protocol.codec import ByteOrder
@@ -72,6 +77,8 @@ class RunningCell:
     """Where its launcher registers it (``shared.registry``): a directory of its own, so its
     name never clashes with a cell running elsewhere on this machine."""
     expected_children: int
+    joined_router: bool = False
+    """It joined a router started elsewhere (open), instead of running its own."""
     _seen: set[int] = field(default_factory=set, init=False, repr=False)
 
     @property
@@ -81,6 +88,22 @@ class RunningCell:
     @property
     def keys(self) -> CellKeys:
         return CellKeys(self.cell.name)
+
+    @property
+    def credentials(self) -> Path | None:
+        """The cell's credentials directory; None when it joined an open router."""
+        return (
+            None
+            if self.joined_router
+            else registry.credentials_dir(self.cell.name, self.runtime_dir)
+        )
+
+    def session(self, role: Role = Role.OBSERVER) -> zenoh.Session:
+        """A Zenoh client of the cell's bus as ``role`` (observer: read-only; operator: may
+        also inject faults). The caller closes it."""
+        directory = self.credentials
+        credentials = None if directory is None else load(directory, self.cell.name, Identity(role))
+        return open_session("client", [self.zenoh_endpoint], wait=False, credentials=credentials)
 
     def motion(self) -> MotionClient:
         return MotionClient(self.host, self.port_base, self.byte_order)
@@ -179,7 +202,8 @@ def start_cell(
             process = subprocess.Popen(command, env=env, stdout=out, stderr=subprocess.STDOUT)
     expected = len(REQUIRED_SERVICES) + len(cell.groups) - len(skip)
     return RunningCell(
-        cell, cell_file, HOST, port_base, endpoint, process, spawned_ns, runtime_dir, expected
+        *(cell, cell_file, HOST, port_base, endpoint, process, spawned_ns, runtime_dir, expected),
+        joined_router=router is not None,
     )
 
 

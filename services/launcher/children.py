@@ -10,6 +10,7 @@ import subprocess
 import time
 
 from services.launcher.core import ChildSpec, Restart, RestartPolicy
+from shared.config import EXIT_CONFIG
 from shared.service import PARENT_PID_ENV, StopFlag
 
 log = logging.getLogger("motocell")
@@ -39,8 +40,9 @@ class Child:
         return self.process is not None and self.process.poll() is None
 
 
-def supervise(children: list[Child], policy: RestartPolicy, stop: StopFlag) -> None:
-    """Start every child, then restart those that die, until ``stop``."""
+def supervise(children: list[Child], policy: RestartPolicy, stop: StopFlag) -> int:
+    """Start every child, then restart those that die, until ``stop`` (status 0) or until one
+    cannot start as configured (EXIT_CONFIG: it has said why on stderr)."""
     for child in children:
         child.start()
     while not stop.wait(WATCH_S):
@@ -48,17 +50,22 @@ def supervise(children: list[Child], policy: RestartPolicy, stop: StopFlag) -> N
         for child in children:
             if child.alive():
                 continue
-            action = policy.dead(child.name, now)
+            returncode = child.process.returncode if child.process else None
+            action = policy.dead(child.name, now, returncode)
+            if action is Restart.GIVE_UP:
+                log.error("%s cannot start as configured; stopping the cell", child.name)
+                return EXIT_CONFIG
             if action is Restart.NOTICED:
                 log.error(
                     "%s exited (code %s); restarting in %.0f s; the cell is NOT_READY "
                     "until it is back",
                     child.name,
-                    child.process.returncode if child.process else None,
+                    returncode,
                     policy.delay_s,
                 )
             elif action is Restart.NOW:
                 child.start()
+    return 0
 
 
 def stop_children(children: list[Child]) -> None:

@@ -7,7 +7,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from enum import Enum
 
-from shared.config import Cell
+from shared.config import EXIT_CONFIG, Cell
 
 WELL_KNOWN_PORT = 7447
 """The first cell on a machine takes it, so observers find that cell with no arguments."""
@@ -20,7 +20,10 @@ class UpOptions:
     """What ``up`` was told that shapes its children's command lines (None: not given)."""
 
     config: str | None = None
-    zenoh_mode: str | None = None
+    name: str | None = None
+    """Overrides the cell file's name."""
+    credentials: str | None = None
+    """The cell's credentials directory; None on an open bus."""
     host: str | None = None
     port_base: int | None = None
     byte_order: str | None = None
@@ -48,8 +51,10 @@ def child_specs(
     common = ["--zenoh-connect", endpoint]
     if options.config:
         common += ["--config", options.config]
-    if options.zenoh_mode:
-        common += ["--zenoh-mode", options.zenoh_mode]
+    if options.name:
+        common += ["--name", options.name]
+    if options.credentials:
+        common += ["--credentials", options.credentials]
 
     def spec(name: str, module: str, *extra: str) -> ChildSpec:
         return ChildSpec(name, (*python, f"services.{module}", *common, *extra))
@@ -81,19 +86,23 @@ def _gateway_options(options: UpOptions) -> list[str]:
 
 
 def router_endpoints(
-    listen: Sequence[str], well_known_free: bool, spare_port: Callable[[], int]
+    listen: Sequence[str], well_known_free: bool, spare_port: Callable[[], int], *, link: bool
 ) -> tuple[list[str], list[str]]:
     """(listen, connect) endpoints of a cell's own router. Unless told where to listen, the
-    first cell on a machine takes the well-known port; a later one listens on a spare port
-    and links to the first, so one observer on the well-known port sees every cell."""
+    first cell on a machine takes the well-known port and a later one a spare port. On an
+    open bus (``link``) a later cell's router also links to the first, so one observer on the
+    well-known port sees every cell; a secured cell's router links to nothing: its access
+    control knows only its own cell, and observers find each cell through the registry."""
     if listen:
         return list(listen), []
     if well_known_free:
         return [WELL_KNOWN_ENDPOINT], []
-    return [f"tcp/127.0.0.1:{spare_port()}"], [WELL_KNOWN_ENDPOINT]
+    return [f"tcp/127.0.0.1:{spare_port()}"], [WELL_KNOWN_ENDPOINT] if link else []
 
 
 class Restart(Enum):
+    GIVE_UP = "give up"
+    """It exited because it cannot start as configured (EXIT_CONFIG): stop the cell."""
     NOTICED = "noticed"
     """Just found dead: report it; it comes back after the delay."""
     WAIT = "wait"
@@ -109,8 +118,11 @@ class RestartPolicy:
         self.delay_s = delay_s
         self._restart_at: dict[str, float] = {}
 
-    def dead(self, name: str, now: float) -> Restart:
-        """What to do about child ``name``, found dead at ``now`` (seconds, any clock)."""
+    def dead(self, name: str, now: float, returncode: int | None = None) -> Restart:
+        """What to do about child ``name``, found dead at ``now`` (seconds, any clock) with
+        ``returncode``."""
+        if returncode == EXIT_CONFIG:
+            return Restart.GIVE_UP
         restart_at = self._restart_at.get(name)
         if restart_at is None:
             self._restart_at[name] = now + self.delay_s

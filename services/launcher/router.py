@@ -1,36 +1,64 @@
 """Zenoh routers: a cell's own on loopback, and a standalone one (``motocell router``).
 
-Every service of a local cell connects to its launcher's router; multicast scouting stays
-off (shared.bus.session), so cells meet only through these explicit endpoints.
+Every service of a local cell connects to its launcher's router as a client; multicast
+scouting, gossip and the admin space stay off (shared.bus.router), so cells meet only through
+these explicit endpoints.
 """
 
 from __future__ import annotations
 
 import logging
 from collections.abc import Sequence
+from pathlib import Path
 
 import zenoh
 
 from services.launcher.core import WELL_KNOWN_ENDPOINT, WELL_KNOWN_PORT, router_endpoints
-from shared.bus.session import open_session
+from shared.bus.access import cell_identities
+from shared.bus.router import router_settings, zenoh_config
+from shared.config import Cell
 from shared.ports import free_port, port_free
 from shared.service import StopFlag
 
 log = logging.getLogger("motocell")
 
 
-def open_cell_router(listen: Sequence[str]) -> tuple[zenoh.Session, str]:
-    """The cell's router, and the endpoint its services should connect to."""
-    listen, connect = router_endpoints(listen, port_free(WELL_KNOWN_PORT), free_port)
-    # Not waiting: a router retries an absent link in the background.
-    session = open_session("router", connect, listen, wait=False)
-    return session, listen[0]
+def cell_router_endpoints(listen: Sequence[str], *, secured: bool) -> tuple[list[str], list[str]]:
+    """(listen, connect) for a cell's own router, from what is free on this machine."""
+    return router_endpoints(listen, port_free(WELL_KNOWN_PORT), free_port, link=not secured)
+
+
+def open_cell_router(
+    cell: Cell, listen: Sequence[str], connect: Sequence[str], credentials: Path | None
+) -> zenoh.Session:
+    """The cell's router: secured with ``credentials`` (passwords, ACL), else open."""
+    settings = router_settings(
+        listen,
+        cell=cell.name if credentials else None,
+        identities=cell_identities(len(cell.groups)),
+        credentials=credentials,
+    )
+    settings["connect"] = {"endpoints": list(connect)}
+    try:
+        return zenoh.open(zenoh_config(settings))
+    except zenoh.ZError:
+        raise ConnectionError(
+            f"cannot run the cell's Zenoh router on {', '.join(listen)}: is the port taken? "
+            "(choose another with --zenoh-listen tcp/127.0.0.1:PORT)"
+        ) from None
 
 
 def serve_router(listen: Sequence[str], connect: Sequence[str], stop: StopFlag) -> None:
-    """A router in this process until ``stop``: a stand-in for zenohd."""
+    """An open router in this process until ``stop``: a stand-in for zenohd."""
     listen = list(listen) or [WELL_KNOWN_ENDPOINT]
-    session = open_session("router", connect, listen)
+    settings = router_settings(listen)
+    settings["connect"] = {"endpoints": list(connect)}
+    try:
+        session = zenoh.open(zenoh_config(settings))
+    except zenoh.ZError:
+        raise ConnectionError(
+            f"cannot run a Zenoh router on {', '.join(listen)}: is the port taken?"
+        ) from None
     log.info("Zenoh router listening on %s", ", ".join(listen))
     stop.wait()
     session.close()

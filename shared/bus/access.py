@@ -79,9 +79,9 @@ def own_keys(route: Route, cell: str, identity: Identity, sending: bool) -> list
     if levels[0] == "group" and identity.role is Role.INTERPOLATOR:
         levels[1] = identity.instance
     declares_itself = (route.op is Op.TOKEN and sending) or (route.op is Op.QUERY and not sending)
-    if levels[0] in ("alive", "service") and declares_itself:
-        # A service declares its own liveliness token and its own info queryable only.
-        levels[1:] = [identity.role.value, identity.instance]
+    if levels[0] in ("alive", "claim", "service") and declares_itself:
+        # A service declares its own liveliness token, name claim and info queryable only.
+        levels[1:3] = [identity.role.value, identity.instance]
     return [f"{root}/{cell}/{'/'.join(levels)}"]
 
 

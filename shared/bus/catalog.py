@@ -146,7 +146,7 @@ ROUTES: tuple[Route, ...] = (
     Route("executor/metrics", Op.PUT, ExecutorMetrics, _roles(EXECUTOR), WATCHERS),
     Route("gateway/metrics", Op.PUT, GatewayMetrics, _roles(GATEWAY), WATCHERS),
     Route("state", Op.PUT, State, _roles(BROADCASTER), _roles(GATEWAY) | WATCHERS),
-    Route("service/*/*", Op.QUERY, None, WATCHERS, SERVICES, ServiceInfo),
+    Route("service/*/*", Op.QUERY, None, WATCHERS | SERVICES, SERVICES, ServiceInfo),
     Route(
         "alive/*/*",
         Op.TOKEN,
@@ -154,6 +154,7 @@ ROUTES: tuple[Route, ...] = (
         SERVICES,
         _roles(CONTROLLER, EXECUTOR, BROADCASTER, GATEWAY) | WATCHERS,
     ),
+    Route("claim/*/*/*", Op.TOKEN, None, SERVICES, SERVICES | WATCHERS),
 )
 """Every key of a cell. ``motocell ps`` queries ``service/*/*`` with no request body."""
 

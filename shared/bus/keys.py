@@ -51,6 +51,13 @@ class CellKeys:
     def group_metrics(self, group: int) -> str:
         return f"{self.prefix}/group/{group}/metrics"
 
+    def claim(self, service: str, instance: str, session_id: str) -> str:
+        """A service instance's claim to its name, one per session (see shared.bus.claim)."""
+        return f"{ALIVE_ROOT}/{self.cell}/claim/{service}/{instance}/{session_id}"
+
+    def claims(self, service: str, instance: str) -> str:
+        return f"{ALIVE_ROOT}/{self.cell}/claim/{service}/{instance}/*"
+
     def alive(self, service: str, instance: str) -> str:
         return f"{ALIVE_ROOT}/{self.cell}/alive/{service}/{instance}"
 

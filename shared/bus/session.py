@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import logging
 import queue
+import socket
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -29,6 +30,9 @@ T = TypeVar("T")
 LEASE_MS = 1000
 """Transport lease: a hung (not crashed) process is noticed after about this long
 (zenoh-facts §1.4)."""
+CONNECT_WAIT_S = 30.0
+"""How long a service waits for its router to come up (compose starts them together)."""
+CONNECT_RETRY_S = 0.2
 BLOCK_WAIT_US = 500_000
 """A link whose queue stays full this long is closed: one stalled observer (a suspended
 `motocell watch`, a slow callback) must not hold back the cell's BLOCK streams for Zenoh's
@@ -36,11 +40,10 @@ default 5 s."""
 
 
 def bus_config(
-    mode: str = "peer",
+    mode: str = "client",
     connect: Sequence[str] = (),
-    listen: Sequence[str] = ("tcp/127.0.0.1:0",),
+    listen: Sequence[str] = (),
     *,
-    wait: bool = True,
     credentials: Credentials | None = None,
 ) -> zenoh.Config:
     config = zenoh.Config()
@@ -52,10 +55,10 @@ def bus_config(
     config.insert_json5(
         "transport/link/tx/queue/congestion_control/block/wait_before_close", str(BLOCK_WAIT_US)
     )
-    if wait and connect:
-        # Services wait for the router instead of failing at once, so start order does not
-        # matter; command-line tools (wait=False) fail at once instead.
-        config.insert_json5("connect/timeout_ms", "-1")
+    if mode == "client":
+        # Fail at once and let open_session decide whether to try again: with Zenoh's own
+        # endless retry a refused credential would look like a router that is not up yet.
+        config.insert_json5("connect/timeout_ms", "0")
     if credentials is not None:
         _insert_credentials(config, credentials)
     return config
@@ -79,21 +82,62 @@ def _insert_credentials(config: zenoh.Config, credentials: Credentials) -> None:
 
 
 def open_session(
-    mode: str = "peer",
+    mode: str = "client",
     connect: Sequence[str] = (),
-    listen: Sequence[str] | None = None,
+    listen: Sequence[str] = (),
     *,
     wait: bool = True,
     credentials: Credentials | None = None,
 ) -> zenoh.Session:
-    if listen is None:
-        listen = () if mode == "client" else ("tcp/127.0.0.1:0",)
+    """A session; ConnectionError with one line saying what to do when it cannot join.
+
+    ``wait``: keep trying for CONNECT_WAIT_S while nothing listens at ``connect`` (a router
+    starting alongside, as under compose). A router that is there but refuses us is answered
+    at once: Zenoh reports both the same way, so a plain TCP probe tells them apart.
+    """
+    config = bus_config(mode, connect, listen, credentials=credentials)
+    deadline = time.monotonic() + (CONNECT_WAIT_S if wait else 0.0)
+    while True:
+        try:
+            return zenoh.open(config)
+        except zenoh.ZError:
+            listening = [endpoint for endpoint in connect if _accepts(endpoint)]
+            if listening or time.monotonic() >= deadline:
+                raise ConnectionError(_why_not(connect, listening, credentials)) from None
+            time.sleep(CONNECT_RETRY_S)
+
+
+def _accepts(endpoint: str) -> bool:
+    """Something accepts TCP at a ``tcp/`` or ``tls/`` endpoint."""
+    protocol, _, address = endpoint.partition("/")
+    host, _, port = address.rpartition(":")
+    if protocol not in ("tcp", "tls") or not port.isdigit():
+        return False
     try:
-        return zenoh.open(bus_config(mode, connect, listen, wait=wait, credentials=credentials))
-    except zenoh.ZError as exc:
-        raise ConnectionError(
-            f"cannot open Zenoh session ({mode}, connect={connect}): {exc}"
-        ) from exc
+        with socket.create_connection((host.strip("[]"), int(port)), timeout=1.0):
+            return True
+    except OSError:
+        return False
+
+
+def _why_not(
+    connect: Sequence[str], listening: Sequence[str], credentials: Credentials | None
+) -> str:
+    if not listening:
+        return (
+            f"no Zenoh router answers at {', '.join(connect) or '(no endpoint)'}: is the cell "
+            "running there? (`motocell ps` lists the cells on this machine)"
+        )
+    if credentials is None:
+        return (
+            f"the Zenoh router at {listening[0]} refused this session: it requires "
+            "credentials (give the cell's credentials directory with --credentials DIR)"
+        )
+    return (
+        f"the Zenoh router at {listening[0]} refused {credentials.user}: wrong password or "
+        "certificate. Use the credentials of the cell that runs there (`motocell up` writes "
+        "new ones at every start; `motocell ps` shows each cell's)"
+    )
 
 
 def publisher(

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 import zenoh
 
-from shared.bus.session import open_session
+from shared.bus.catalog import Role
 from testkit.cell import RunningCell, TickLog, running_cell
 from testkit.client import MotionClient, StateListener
 
@@ -35,8 +35,9 @@ def cell(request: pytest.FixtureRequest, repo: Path) -> Iterator[RunningCell]:
 
 @pytest.fixture(scope="module")
 def bus(cell: RunningCell) -> Iterator[zenoh.Session]:
-    """A Zenoh client of the module's cell: what any observer or operator tool would be."""
-    session = open_session("client", [cell.zenoh_endpoint], wait=False)
+    """A Zenoh client of the module's cell with the operator identity: it sees everything and
+    may inject faults, as `motocell fault` does; nothing else."""
+    session = cell.session(Role.OPERATOR)
     yield session
     session.close()
 

@@ -16,7 +16,7 @@ from services.launcher.core import (
     child_specs,
     router_endpoints,
 )
-from shared.config import Cell, load_cell, parse_cell
+from shared.config import EXIT_CONFIG, Cell, load_cell, parse_cell
 
 ENDPOINT = "tcp/127.0.0.1:7500"
 PYTHON = ("py", "-m")
@@ -94,11 +94,13 @@ def test_without_options_children_get_only_the_endpoint() -> None:
     assert argv() == [*PYTHON, "services.controller", "--zenoh-connect", ENDPOINT]
 
 
-def test_config_and_zenoh_mode_go_to_every_child() -> None:
-    for spec in specs(options=UpOptions(config="cell.toml", zenoh_mode="client")).values():
+def test_config_name_and_credentials_go_to_every_child() -> None:
+    options = UpOptions(config="cell.toml", name="left", credentials="/run/creds")
+    for spec in specs(options=options).values():
         command = list(spec.argv)
         assert command[command.index("--config") + 1] == "cell.toml"
-        assert command[command.index("--zenoh-mode") + 1] == "client"
+        assert command[command.index("--name") + 1] == "left"
+        assert command[command.index("--credentials") + 1] == "/run/creds"
 
 
 def test_gateway_options_go_to_the_gateway_only() -> None:
@@ -119,17 +121,22 @@ def no_spare_port() -> int:
 
 
 def test_a_router_listens_where_it_is_told() -> None:
-    listen, connect = router_endpoints(["tcp/127.0.0.1:9000"], False, no_spare_port)
+    listen, connect = router_endpoints(["tcp/127.0.0.1:9000"], False, no_spare_port, link=True)
     assert (listen, connect) == (["tcp/127.0.0.1:9000"], [])
 
 
 def test_the_first_cell_takes_the_well_known_port() -> None:
-    assert router_endpoints([], True, no_spare_port) == ([WELL_KNOWN_ENDPOINT], [])
+    assert router_endpoints([], True, no_spare_port, link=True) == ([WELL_KNOWN_ENDPOINT], [])
 
 
 def test_a_later_cell_listens_on_a_spare_port_and_links_to_the_first() -> None:
-    listen, connect = router_endpoints([], False, lambda: 9123)
+    listen, connect = router_endpoints([], False, lambda: 9123, link=True)
     assert (listen, connect) == (["tcp/127.0.0.1:9123"], [WELL_KNOWN_ENDPOINT])
+
+
+def test_a_secured_cell_links_to_no_other_router() -> None:
+    listen, connect = router_endpoints([], False, lambda: 9123, link=False)
+    assert (listen, connect) == (["tcp/127.0.0.1:9123"], [])
 
 
 # -- restarts -----------------------------------------------------------------------------
@@ -141,6 +148,11 @@ def test_a_dead_child_is_noticed_once_then_waits_then_restarts() -> None:
     assert policy.dead("executor", 10.2) is Restart.WAIT
     assert policy.dead("executor", 10.999) is Restart.WAIT
     assert policy.dead("executor", 11.0) is Restart.NOW
+
+
+def test_a_child_that_cannot_start_as_configured_stops_the_cell() -> None:
+    assert RestartPolicy().dead("gateway", 0.0, EXIT_CONFIG) is Restart.GIVE_UP
+    assert RestartPolicy().dead("gateway", 0.0, 1) is Restart.NOTICED
 
 
 def test_a_child_that_dies_again_after_its_restart_is_noticed_again() -> None:

@@ -75,7 +75,8 @@ def test_watchers_put_nothing_and_query_only_faults_or_service_info() -> None:
 def test_a_service_declares_only_its_own_token_and_info() -> None:
     identity = Identity(Role.EXECUTOR)
     assert allowed(CONFIG, identity, "ingress", "liveliness_token") == {
-        "@motocell/c1/alive/executor/0"
+        "@motocell/c1/alive/executor/0",
+        "@motocell/c1/claim/executor/0/*",
     }
     assert "motocell/c1/service/executor/0" in allowed(
         CONFIG, identity, "ingress", "declare_queryable"

@@ -29,6 +29,7 @@ BUILT = [
     (KEYS.metrics("gateway"), Op.PUT),
     (KEYS.service_info("interpolator", "2"), Op.QUERY),
     (KEYS.alive("interpolator", "2"), Op.TOKEN),
+    (KEYS.claim("interpolator", "2", "a1b2"), Op.TOKEN),
 ]
 
 
