@@ -272,10 +272,12 @@ def _log_tail(path: Path, lines: int = 20) -> str:
 
 
 @contextmanager
-def zenoh_router(listen: str) -> Iterator[str]:
-    """A Zenoh router in a process of its own, listening on ``listen``; stopped on exit."""
+def zenoh_router(listen: str = "", config_file: Path | None = None) -> Iterator[str]:
+    """A Zenoh router in a process of its own: open on ``listen``, or as ``config_file``
+    says (as ``zenohd -c``); stopped on exit."""
     env = {**os.environ, "MOTOCELL_LOG": LOG_LEVEL}
-    process = subprocess.Popen([*ROUTER, "--listen", listen], env=env)
+    where = ["--config", str(config_file)] if config_file else ["--listen", listen]
+    process = subprocess.Popen([*ROUTER, *where], env=env)
     try:
         yield listen
     finally:

@@ -92,6 +92,12 @@ def add_router_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"default {WELL_KNOWN_ENDPOINT}",
     )
     parser.add_argument("--connect", action="append", default=[], metavar="ENDPOINT")
+    parser.add_argument(
+        "--config",
+        metavar="FILE",
+        help="run from a Zenoh router config file instead, as `zenohd -c FILE` does (e.g. "
+        "deploy/zenoh/router.json5); --listen/--connect are then ignored",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -185,7 +191,7 @@ def router(args: argparse.Namespace) -> int:
     """A Zenoh router in this process until SIGINT or SIGTERM."""
     try:
         with stop_on_signals() as stop:
-            serve_router(args.listen, args.connect, stop)
+            serve_router(args.listen, args.connect, stop, args.config)
     except ConnectionError as exc:
         print(f"motocell router: {exc}", file=sys.stderr)
         return EXIT_CONFIG

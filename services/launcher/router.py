@@ -48,17 +48,23 @@ def open_cell_router(
         ) from None
 
 
-def serve_router(listen: Sequence[str], connect: Sequence[str], stop: StopFlag) -> None:
-    """An open router in this process until ``stop``: a stand-in for zenohd."""
+def serve_router(
+    listen: Sequence[str], connect: Sequence[str], stop: StopFlag, config_file: str | None = None
+) -> None:
+    """A router in this process until ``stop``: a stand-in for zenohd. Open, on ``listen``;
+    or exactly as ``config_file`` says (``zenohd -c``)."""
     listen = list(listen) or [WELL_KNOWN_ENDPOINT]
     settings = router_settings(listen)
     settings["connect"] = {"endpoints": list(connect)}
+    where = config_file or ", ".join(listen)
     try:
-        session = zenoh.open(zenoh_config(settings))
+        config = zenoh.Config.from_file(config_file) if config_file else zenoh_config(settings)
+        session = zenoh.open(config)
     except zenoh.ZError:
         raise ConnectionError(
-            f"cannot run a Zenoh router on {', '.join(listen)}: is the port taken?"
+            f"cannot run a Zenoh router from {where}: is the file readable and valid, "
+            "and its listening port free?"
         ) from None
-    log.info("Zenoh router listening on %s", ", ".join(listen))
+    log.info("Zenoh router running (%s)", where)
     stop.wait()
     session.close()

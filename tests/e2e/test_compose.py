@@ -1,7 +1,8 @@
-"""The services exactly as compose.yaml runs them: same commands, same cell file, Zenoh client
-mode through a router. Only what must differ on a shared test machine is rewritten: the router
-endpoint (a free loopback port instead of the zenohd container), paths inside the image, and
-the gateway's listen address and port base."""
+"""The services exactly as compose.yaml runs them: same commands, same cell file, the same
+generated router configuration (TLS only, passwords, access control), credentials written as
+the compose instructions say. Only what must differ on a shared test machine is rewritten: the
+router endpoint (a free loopback port instead of the zenohd container), paths inside the
+images, and the gateway's listen address and port base."""
 
 from __future__ import annotations
 
@@ -16,6 +17,9 @@ import numpy as np
 import pytest
 import yaml
 
+from shared.bus.access import cell_identities
+from shared.bus.certificates import write_certificates
+from shared.bus.credentials import write_passwords
 from shared.config import load_cell
 from shared.motion.kinematics import AxisMap
 from shared.ports import free_port, free_port_block
@@ -24,11 +28,23 @@ from shared.protocol.constants import Command, Result
 from testkit.cell import wait_for_whole_cell, zenoh_router
 from testkit.client import MotionClient, StateListener, smooth_move, stream_ex
 from testkit.processes import alive, wait_until
+from tools.deploy import (
+    COMPOSE_CELL,
+    LISTEN,
+    ROUTER_CONFIG,
+    compose_router_settings,
+    router_config_text,
+)
 
 pytestmark = pytest.mark.cell
 
 
-def compose_commands(repo: Path, router: str, port_base: int) -> dict[str, list[str]]:
+MOUNT = "/etc/motocell/credentials"
+
+
+def compose_commands(
+    repo: Path, router: str, port_base: int, credentials: Path
+) -> dict[str, list[str]]:
     compose = yaml.safe_load((repo / "compose.yaml").read_text())
     commands = {}
     for name, service in compose["services"].items():
@@ -39,26 +55,40 @@ def compose_commands(repo: Path, router: str, port_base: int) -> dict[str, list[
         assert command[:2] == ["python", "-m"], f"{name}: runs a motocell module"
         rewritten = [sys.executable, "-m"]
         for original in command[2:]:
-            part = original.replace("tcp/zenohd:7447", router)
+            part = original.replace("tls/zenohd:7447", router)
             part = part.replace("/etc/motocell/cells/", f"{repo}/deploy/cells/")
+            part = part.replace(MOUNT, str(credentials))
             rewritten.append({"0.0.0.0": "127.0.0.1", "50240": str(port_base)}.get(part, part))
-        assert (
-            "--zenoh-mode" in rewritten
-            and rewritten[rewritten.index("--zenoh-mode") + 1] == "client"
-        )
+        assert rewritten[rewritten.index("--credentials") + 1] == str(credentials), name
         commands[name] = rewritten
     return commands
 
 
+def router_config(repo: Path, credentials: Path, listen: str, out: Path) -> Path:
+    """deploy/zenoh/router.json5 with this machine's paths and endpoint."""
+    text = (repo / ROUTER_CONFIG).read_text()
+    text = text.replace(MOUNT, str(credentials)).replace(LISTEN, listen)
+    out.write_text(text)
+    return out
+
+
 @pytest.fixture
-def compose_cell(repo: Path) -> Iterator[int]:
+def compose_cell(repo: Path, tmp_path: Path) -> Iterator[int]:
+    credentials = tmp_path / "credentials"
+    cell = load_cell(repo / COMPOSE_CELL)
+    identities = cell_identities(len(cell.groups))
+    # What `motocell credentials ... --tls --host` writes, for the router's test address.
+    write_passwords(credentials, cell.name, identities)
+    write_certificates(credentials, cell.name, identities, ["127.0.0.1"])
     port_base = free_port_block(3)
+    listen = f"tls/127.0.0.1:{free_port()}"
+    config = router_config(repo, credentials, listen, tmp_path / "router.json5")
     env = {**os.environ, "MOTOCELL_LOG": "WARNING"}
     processes: list[subprocess.Popen[bytes]] = []
     # As `docker compose down`: services first, the router they depend on last.
-    with zenoh_router(f"tcp/127.0.0.1:{free_port()}") as router:
+    with zenoh_router(config_file=config):
         try:
-            for command in compose_commands(repo, router, port_base).values():
+            for command in compose_commands(repo, listen, port_base, credentials).values():
                 processes.append(subprocess.Popen(command, env=env))
             yield port_base
         finally:
@@ -114,7 +144,7 @@ def test_compose_services_execute_a_trajectory(repo: Path, compose_cell: int) ->
 
 
 def test_compose_file_runs_every_service_and_an_interpolator_per_group(repo: Path) -> None:
-    commands = compose_commands(repo, "tcp/127.0.0.1:1", 1)
+    commands = compose_commands(repo, "tls/127.0.0.1:1", 1, Path("/creds"))
     modules = sorted(command[2] for command in commands.values())
     assert modules == [
         "services.broadcaster",
@@ -128,3 +158,18 @@ def test_compose_file_runs_every_service_and_an_interpolator_per_group(repo: Pat
     groups = sorted(c[c.index("--group") + 1] for c in commands.values() if "--group" in c)
     assert groups == ["0", "1", "2"]
     assert (repo / "deploy" / "Dockerfile").exists()
+
+
+def test_the_router_config_is_the_one_the_key_map_generates(repo: Path) -> None:
+    assert (repo / ROUTER_CONFIG).read_text() == router_config_text(repo), (
+        "deploy/zenoh/router.json5 is out of date: regenerate it with `python -m tools.deploy`"
+    )
+
+
+def test_the_compose_router_is_tls_only_with_access_control(repo: Path) -> None:
+    settings = compose_router_settings(repo)
+    assert settings["listen"]["endpoints"] == [LISTEN]
+    assert settings["transport"]["link"]["protocols"] == ["tls"]
+    assert settings["access_control"]["default_permission"] == "deny"
+    assert settings["scouting"]["gossip"]["enabled"] is False
+    assert settings["adminspace"]["enabled"] is False

@@ -151,8 +151,6 @@ def test_a_groups_interpolator_on_another_host_through_a_router(repo: Path) -> N
             "1",
             "--config",
             config,
-            "--zenoh-mode",
-            "client",
             "--zenoh-connect",
             endpoint,
         ]
