@@ -8,7 +8,7 @@ import sys
 from collections.abc import Sequence
 
 from services.launcher import __main__ as launcher
-from tools import bench, demo, fault, observe, plot, record
+from tools import bench, credentials, demo, fault, observe, plot, record
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -24,6 +24,7 @@ def build_parser() -> argparse.ArgumentParser:
     record.add_parser(commands)
     plot.add_parser(commands)
     bench.add_parser(commands)
+    credentials.add_parser(commands)
 
     router = commands.add_parser(
         "router", help="a Zenoh router (a stand-in for zenohd where its image is not available)"

@@ -1,16 +1,28 @@
 """``motocell fault``: inject and clear faults in a running cell, through the controller's
-``controller/fault/<kind>`` queryables (usable while the robot moves)."""
+``controller/fault/<kind>`` queryables (usable while the robot moves).
+
+It acts on exactly one cell, as that cell's operator identity: the one named by ``--cell``,
+or the only one running (``tools.cells`` finds it). With two candidates it refuses and lists
+them rather than guess: a fault injected into the wrong robot's cell is not harmless.
+"""
 
 from __future__ import annotations
 
 import argparse
 import sys
 
-from services.launcher.core import WELL_KNOWN_ENDPOINT
+import zenoh
+
+from shared.bus.access import Identity
+from shared.bus.catalog import Role
 from shared.bus.keys import CellKeys
 from shared.bus.schemas import CommandRequest
-from shared.bus.session import call, open_session
+from shared.bus.session import call
 from shared.protocol.constants import Result
+from tools import cells
+from tools.cells import CellsError, JoinError, Target, TargetError
+
+OPERATOR = Identity(Role.OPERATOR)
 
 # kind -> accepted words -> (value, needs code)
 SWITCHES = {
@@ -36,8 +48,7 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     fault.add_argument("kind", choices=(*SWITCHES, "alarm", "error"))
     fault.add_argument("setting", help="on/off, play/teach, a code, or clear")
     fault.add_argument("subcode", nargs="?", type=int, default=0, help="alarm subcode")
-    fault.add_argument("--cell", default="cell1")
-    fault.add_argument("--zenoh-connect", default=WELL_KNOWN_ENDPOINT, metavar="ENDPOINT")
+    cells.add_arguments(fault, several=False)
     fault.set_defaults(run=run)
 
 
@@ -63,16 +74,43 @@ def run(args: argparse.Namespace) -> int:
         print(f"motocell fault: {exc}", file=sys.stderr)
         return 2
     try:
-        session = open_session("client", [args.zenoh_connect], wait=False)
-    except ConnectionError as exc:
-        print(f"motocell fault: {exc}", file=sys.stderr)
-        return 1
+        cell, session = join_one(args)
+    except CellsError as exc:
+        return cells.failed("fault", exc)
     try:
-        reply = call(session, CellKeys(args.cell).controller_fault(args.kind), request, timeout=3.0)
+        reply = call(session, CellKeys(cell).controller_fault(args.kind), request, timeout=3.0)
     finally:
         session.close()
     if reply is None:
-        print(f"motocell fault: no controller of cell {args.cell!r} answered", file=sys.stderr)
+        print(f"motocell fault: no controller of cell {cell!r} answered", file=sys.stderr)
         return 1
     print(f"{args.kind} {args.setting}: {Result(reply.result).name}")
     return 0 if reply.result == Result.SUCCESS else 1
+
+
+def join_one(args: argparse.Namespace) -> tuple[str, zenoh.Session]:
+    """The one cell the command means, and a session on its bus as its operator."""
+    found = cells.some_targets(args)
+    if len(found) > 1:
+        names = ", ".join(cell for target in found for cell in target.cells)
+        raise TargetError(f"{len(found)} cells are running here ({names}): choose one with --cell")
+    target = found[0]
+    session = cells.join(target, OPERATOR)
+    if target.cells:
+        return target.cells[0], session
+    try:
+        return only_cell_on(session, target), session
+    except CellsError:
+        session.close()
+        raise
+
+
+def only_cell_on(session: zenoh.Session, target: Target) -> str:
+    """On an open router named without ``--cell``: the one cell it carries."""
+    live = cells.cells_on(session)
+    if not live:
+        raise JoinError(f"no service of any cell is live behind {target.endpoint}")
+    if len(live) > 1:
+        carried = ", ".join(live)
+        raise TargetError(f"{target.endpoint} carries cells: {carried}: choose one with --cell")
+    return live[0]

@@ -1,7 +1,8 @@
 """``motocell ps`` and ``motocell watch``: what runs, and what it does, for a person at a terminal.
 
-Both are plain Zenoh observers: they subscribe and query, they never command. With no
-arguments they join the router that ``motocell up`` runs on this machine (tcp/127.0.0.1:7447);
+Both are plain Zenoh observers: they subscribe and query, they never command, and they join a
+secured cell as its read-only observer identity. With no arguments they cover every cell
+running on this machine, each through its own router (``tools.cells`` finds them);
 ``--zenoh-connect`` reaches cells elsewhere.
 """
 
@@ -16,8 +17,9 @@ from dataclasses import dataclass, field
 import msgspec
 import zenoh
 
-from services.launcher.core import WELL_KNOWN_ENDPOINT
 from shared.bus import catalog
+from shared.bus.access import Identity
+from shared.bus.catalog import Role
 from shared.bus.keys import ALIVE_ROOT, ROOT
 from shared.bus.schemas import (
     ControllerStatus,
@@ -28,32 +30,26 @@ from shared.bus.schemas import (
     ServiceInfo,
     State,
 )
-from shared.bus.session import open_session
 from shared.protocol.constants import NotReadySubcode
 from shared.service import stop_on_signals
+from tools import cells
+from tools.cells import CellsError, Target
 
 QUERY_TIMEOUT_S = 2.0
+OBSERVER = Identity(Role.OBSERVER)
+_info_decoder = Decoder(ServiceInfo)
 
 
 def add_parsers(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    ps = commands.add_parser("ps", help="list every live service of every cell")
-    ps.add_argument("--zenoh-connect", default=WELL_KNOWN_ENDPOINT, metavar="ENDPOINT")
+    ps = commands.add_parser("ps", help="list every live service of the cells running here")
+    cells.add_arguments(ps, several=True)
     ps.set_defaults(run=run_ps)
 
-    watch = commands.add_parser("watch", help="a live view of running cells")
-    watch.add_argument("--cell", action="append", help="only this cell (repeatable)")
-    watch.add_argument("--zenoh-connect", default=WELL_KNOWN_ENDPOINT, metavar="ENDPOINT")
+    watch = commands.add_parser("watch", help="a live view of the cells running here")
+    cells.add_arguments(watch, several=True)
     watch.add_argument("--interval", type=float, default=0.5, help="seconds between refreshes")
     watch.add_argument("--count", type=int, help="stop after this many refreshes")
     watch.set_defaults(run=run_watch)
-
-
-def connect(endpoint: str, command: str) -> zenoh.Session | None:
-    try:
-        return open_session("client", [endpoint], wait=False)
-    except ConnectionError as exc:
-        print(f"motocell {command}: no Zenoh router at {endpoint} ({exc})", file=sys.stderr)
-        return None
 
 
 # -- ps ---------------------------------------------------------------------------------------
@@ -67,28 +63,35 @@ class Row:
     info: ServiceInfo | None
 
 
-def live_services(session: zenoh.Session) -> list[Row]:
-    """Every liveliness token, with the service's own description where it answers."""
-    tokens = set()
-    for reply in session.liveliness().get(f"{ALIVE_ROOT}/**", timeout=QUERY_TIMEOUT_S):
-        if reply.ok is not None:
-            tokens.add(str(reply.ok.key_expr))
-    decoder = Decoder(ServiceInfo)
-    infos: dict[tuple[str, str, str], ServiceInfo] = {}
-    for reply in session.get(f"{ROOT}/*/service/*/*", timeout=QUERY_TIMEOUT_S):
+def live_services(session: zenoh.Session, target: Target) -> list[Row]:
+    """Every liveliness token of ``target``'s cells, with the service's own description where
+    it answers."""
+    tokens: set[str] = set()
+    for name in target.names:
+        alive = session.liveliness().get(f"{ALIVE_ROOT}/{name}/alive/*/*", timeout=QUERY_TIMEOUT_S)
+        tokens |= {str(reply.ok.key_expr) for reply in alive if reply.ok is not None}
+    # @motocell/<cell>/alive/<service>/<instance>
+    found = [tuple(token.split("/")[1:]) for token in sorted(tokens) if token.count("/") == 4]
+    # One exact query per service, all in flight together: a secured router passes a query to
+    # a service only on that service's own key, never a wildcard one.
+    asked = [
+        session.get(f"{ROOT}/{cell}/service/{service}/{instance}", timeout=QUERY_TIMEOUT_S)
+        for cell, _, service, instance in found
+    ]
+    return [
+        Row(cell, service, instance, _info(replies))
+        for (cell, _, service, instance), replies in zip(found, asked, strict=True)
+    ]
+
+
+def _info(replies: zenoh.Handler[zenoh.Reply]) -> ServiceInfo | None:
+    for reply in replies:
         if reply.ok is not None:
             try:
-                info = decoder.decode(reply.ok.payload.to_bytes())
+                return _info_decoder.decode(reply.ok.payload.to_bytes())
             except msgspec.DecodeError:
                 continue
-            infos[info.cell, info.service, info.instance] = info
-    rows = []
-    for token in sorted(tokens):
-        parts = token.split("/")  # @motocell/<cell>/alive/<service>/<instance>
-        if len(parts) == 5:
-            cell, service, instance = parts[1], parts[3], parts[4]
-            rows.append(Row(cell, service, instance, infos.get((cell, service, instance))))
-    return rows
+    return None
 
 
 def format_uptime(seconds: float) -> str:
@@ -115,18 +118,37 @@ def render_ps(rows: list[Row], now_ns: int) -> str:
     )
 
 
+def render_buses(found: list[Target]) -> str:
+    """Where each named cell's bus is, and whether it is secured: what a tool of one's own
+    needs to join it."""
+    return "\n".join(
+        f"cell {target.cells[0]}: Zenoh {target.endpoint}, "
+        + (f"credentials {target.credentials}" if target.credentials else "open bus")
+        for target in found
+        if len(target.cells) == 1
+    )
+
+
 def run_ps(args: argparse.Namespace) -> int:
-    session = connect(args.zenoh_connect, "ps")
-    if session is None:
-        return 1
     try:
-        rows = live_services(session)
-    finally:
-        session.close()
-    if not rows:
-        print(f"no motocell service is running behind {args.zenoh_connect}")
+        found = cells.targets(args)
+        joined = cells.join_all(found, OBSERVER)
+    except CellsError as exc:
+        return cells.failed("ps", exc)
+    if not found:
+        print(cells.NOTHING_RUNNING)
         return 0
-    print(render_ps(rows, time.time_ns()))
+    try:
+        rows = [row for target, session in joined for row in live_services(session, target)]
+    finally:
+        cells.close_all(joined)
+    if rows:
+        print(render_ps(rows, time.time_ns()))
+    else:
+        print(f"no motocell service is live on {', '.join(t.describe() for t in found)}")
+    buses = render_buses(found)
+    if buses:
+        print(f"\n{buses}")
     return 0
 
 
@@ -145,33 +167,41 @@ class WatchedCell:
     alive: set[str] = field(default_factory=set)
 
 
-class Watcher:
-    """Keeps the newest sample of every key of the watched cells; Zenoh's threads only store."""
+SHOWN = ("controller/status", "state", "executor/metrics", "gateway/metrics", "group/*/metrics")
+"""The keys ``watch`` subscribes to: ticks, queues and increments are too fast to matter to a
+person."""
 
-    def __init__(self, session: zenoh.Session, cells: list[str] | None) -> None:
+
+class Watcher:
+    """Keeps the newest sample of every shown key of the watched cells; Zenoh's threads only
+    store."""
+
+    def __init__(self) -> None:
         self.cells: dict[str, WatchedCell] = {}
         self.lock = threading.Lock()
-        selectors = [f"{ROOT}/{c}/**" for c in cells] if cells else [f"{ROOT}/**"]
-        alive = [f"{ALIVE_ROOT}/{c}/alive/**" for c in cells] if cells else [f"{ALIVE_ROOT}/**"]
-        self.entities = [session.declare_subscriber(s, self._on_sample) for s in selectors]
-        self.entities += [
-            session.liveliness().declare_subscriber(s, self._on_token, history=True) for s in alive
-        ]
+        self.entities: list[zenoh.Subscriber[None]] = []
+
+    def follow(self, session: zenoh.Session, target: Target) -> None:
+        """Watch ``target``'s cells through ``session``; named cells show before any sample."""
+        with self.lock:
+            for cell in target.cells:
+                self._view(cell)
+        for name in target.names:
+            self.entities += [
+                session.declare_subscriber(f"{ROOT}/{name}/{suffix}", self._on_sample)
+                for suffix in SHOWN
+            ]
+            self.entities.append(
+                session.liveliness().declare_subscriber(
+                    f"{ALIVE_ROOT}/{name}/alive/*/*", self._on_token, history=True
+                )
+            )
 
     def _view(self, cell: str) -> WatchedCell:
         return self.cells.setdefault(cell, WatchedCell())
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
         key = str(sample.key_expr)
-        suffix = catalog.suffix_of(key)
-        if suffix not in (
-            "controller/status",
-            "state",
-            "executor/metrics",
-            "gateway/metrics",
-            "group/*/metrics",
-        ):
-            return  # ticks, queues and increments are too fast to matter to a person
         try:
             payload = catalog.decode(key, sample.payload.to_bytes())
         except msgspec.DecodeError:
@@ -268,21 +298,29 @@ def render_cell(name: str, view: WatchedCell) -> list[str]:
 
 
 def run_watch(args: argparse.Namespace) -> int:
-    session = connect(args.zenoh_connect, "watch")
-    if session is None:
-        return 1
-    watcher = Watcher(session, args.cell)
+    try:
+        joined = cells.join_all(cells.some_targets(args), OBSERVER)
+    except CellsError as exc:
+        return cells.failed("watch", exc)
+    try:
+        watcher = Watcher()
+        for target, session in joined:
+            watcher.follow(session, target)
+        show(watcher, args.interval, args.count)
+    finally:
+        cells.close_all(joined)
+    return 0
+
+
+def show(watcher: Watcher, interval: float, count: int | None) -> None:
+    """Render ``watcher`` every ``interval`` s until ``count`` frames, SIGINT or SIGTERM."""
     clear = "\x1b[H\x1b[2J" if sys.stdout.isatty() else ""
     frames = 0
-    try:
-        with stop_on_signals() as stop:
-            while not stop.is_set():
-                sys.stdout.write(clear + watcher.render() + "\n")
-                sys.stdout.flush()
-                frames += 1
-                if args.count is not None and frames >= args.count:
-                    break
-                stop.wait(args.interval)
-    finally:
-        session.close()
-    return 0
+    with stop_on_signals() as stop:
+        while not stop.is_set():
+            sys.stdout.write(clear + watcher.render() + "\n")
+            sys.stdout.flush()
+            frames += 1
+            if count is not None and frames >= count:
+                break
+            stop.wait(interval)

@@ -1,5 +1,10 @@
 """``motocell record``: every sample of one or more cells, with its receive time, into an MCAP file.
 
+By default every cell running here, each through its own router (``tools.cells`` finds them);
+``--zenoh-connect`` reaches a cell elsewhere. A secured cell is joined as its read-only
+observer and recorded key by key as the catalogue lists what an observer may receive (nothing
+else can travel on it); an open bus is recorded whole, keys the catalogue does not know too.
+
 The file opens as-is in Foxglove and the ``mcap`` CLI (info, cat, doctor): one channel per key,
 the payloads the catalogue knows as JSON with their JSON Schema, anything else as the raw msgpack
 (``tools.recording`` has the layout). Zenoh's threads only stamp and queue each sample; one
@@ -18,10 +23,12 @@ from typing import TYPE_CHECKING
 
 import zenoh
 
-from services.launcher.core import WELL_KNOWN_ENDPOINT
+from shared.bus.access import Identity
+from shared.bus.catalog import ROUTES, Op, Role
 from shared.bus.keys import ROOT
-from shared.bus.session import open_session
 from shared.service import StopFlag, stop_on_signals
+from tools import cells
+from tools.cells import CellsError, Target
 
 if TYPE_CHECKING:
     from tools.recording import McapSink
@@ -30,7 +37,12 @@ QUEUE_SIZE = 100_000
 """Samples waiting for the writer: about 100 s of one busy cell, a few tens of MB at most. A
 writer that falls further behind than that loses samples (counted) instead of memory."""
 
-_FORBIDDEN_IN_CELL = set("/*$#?")
+OBSERVER = Identity(Role.OBSERVER)
+OBSERVED = tuple(
+    route.suffix for route in ROUTES if route.op is Op.PUT and Role.OBSERVER in route.receivers
+)
+"""What an observer of a secured cell may receive: its router refuses a wider subscription
+(``motocell/<cell>/**``) outright."""
 
 # --------------------------------------------------------------------------- the recorder
 
@@ -88,21 +100,9 @@ class Recorder:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("out", metavar="OUT", help="the MCAP file to write (replaced if present)")
     parser.add_argument(
-        "--cell",
-        action="append",
-        default=[],
-        metavar="NAME",
-        help="record this cell (repeatable; default: every cell on the bus)",
-    )
-    parser.add_argument(
         "--duration", type=float, metavar="S", help="stop after S seconds (default: at Ctrl-C)"
     )
-    parser.add_argument(
-        "--zenoh-connect",
-        default=WELL_KNOWN_ENDPOINT,
-        metavar="ENDPOINT",
-        help=f"the cell's Zenoh router (default {WELL_KNOWN_ENDPOINT})",
-    )
+    cells.add_arguments(parser, several=True)
 
 
 def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -116,39 +116,27 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     record.set_defaults(run=run)
 
 
-def key_exprs(cells: list[str]) -> list[str]:
-    if not cells:
-        return [f"{ROOT}/**"]
-    for cell in cells:
-        if not cell or _FORBIDDEN_IN_CELL & set(cell):
-            raise ValueError(f"not a cell name: {cell!r}")
-    return [f"{ROOT}/{cell}/**" for cell in dict.fromkeys(cells)]
+def key_exprs(target: Target) -> list[str]:
+    if target.credentials is None:
+        return [f"{ROOT}/{name}/**" for name in target.names]
+    return [f"{ROOT}/{cell}/{suffix}" for cell in target.cells for suffix in OBSERVED]
 
 
 def run(args: argparse.Namespace) -> int:
-    try:
-        exprs = key_exprs(args.cell)
-    except ValueError as exc:
-        print(f"motocell record: {exc}", file=sys.stderr)
-        return 2
     if args.duration is not None and not args.duration > 0:
         print("motocell record: --duration must be positive", file=sys.stderr)
         return 2
     try:
-        session = open_session("client", [args.zenoh_connect], wait=False)
-    except ConnectionError as exc:
-        print(
-            f"motocell record: no Zenoh router at {args.zenoh_connect} (is the cell up?): {exc}",
-            file=sys.stderr,
-        )
-        return 1
+        joined = cells.join_all(cells.some_targets(args), OBSERVER)
+    except CellsError as exc:
+        return cells.failed("record", exc)
     try:
-        return _record(session, exprs, args)
+        return _record(joined, args)
     finally:
-        session.close()
+        cells.close_all(joined)
 
 
-def _record(session: zenoh.Session, exprs: list[str], args: argparse.Namespace) -> int:
+def _record(joined: list[tuple[Target, zenoh.Session]], args: argparse.Namespace) -> int:
     # mcap is in the tools extra: imported by this command only, not by every `motocell`.
     from tools.recording import McapSink  # noqa: PLC0415
 
@@ -165,11 +153,12 @@ def _record(session: zenoh.Session, exprs: list[str], args: argparse.Namespace) 
             print(f"+ {key} ({encoding}, {payload})", flush=True)
 
         sink = McapSink(stream, on_new_channel=announce)
+        exprs = [(session, expr) for target, session in joined for expr in key_exprs(target)]
         sink.metadata(
             "motocell.recording",
             {
-                "key_exprs": " ".join(exprs),
-                "zenoh_connect": args.zenoh_connect,
+                "key_exprs": " ".join(expr for _, expr in exprs),
+                "zenoh_connect": " ".join(target.endpoint for target, _ in joined),
                 "started_unix_ns": str(time.time_ns()),
             },
         )
@@ -177,8 +166,9 @@ def _record(session: zenoh.Session, exprs: list[str], args: argparse.Namespace) 
         with stop_on_signals() as stop:
             recorder = Recorder(sink, stop)
             try:
-                print(f"recording {' '.join(exprs)} into {args.out}; Ctrl-C to stop", flush=True)
-                subscribers = [session.declare_subscriber(e, recorder.on_sample) for e in exprs]
+                where = ", ".join(target.describe() for target, _ in joined)
+                print(f"recording {where} into {args.out}; Ctrl-C to stop", flush=True)
+                subscribers = [s.declare_subscriber(e, recorder.on_sample) for s, e in exprs]
                 stop.wait(args.duration)
                 for subscriber in subscribers:
                     subscriber.undeclare()

@@ -13,6 +13,7 @@ from shared.bus.schemas import CommandRequest
 from shared.bus.session import call
 from shared.protocol.constants import Command, NotReadySubcode, Result
 from shared.protocol.replies import motion_ctrl
+from shared.registry import ENV as RUNTIME_DIR_ENV
 from testkit.cell import RunningCell
 from testkit.client import MotionClient, StateListener, smooth_move, stream
 
@@ -129,10 +130,14 @@ def test_the_fault_command_injects_and_clears(
     cell: RunningCell,
     motion: MotionClient,
     motocell: Callable[..., subprocess.CompletedProcess[str]],
+    monkeypatch: pytest.MonkeyPatch,
 ) -> None:
+    # No endpoint, no credentials: the cell is found by name in the registry its launcher
+    # wrote, as a cell started on this machine is, and joined as its operator.
+    monkeypatch.setenv(RUNTIME_DIR_ENV, str(cell.runtime_dir))
+
     def fault_cli(*words: str) -> subprocess.CompletedProcess[str]:
-        where = ("--cell", cell.cell.name, "--zenoh-connect", cell.zenoh_endpoint)
-        return motocell("fault", *words, *where)
+        return motocell("fault", *words, "--cell", cell.cell.name)
 
     assert answer(motion, Command.START_TRAJ_MODE) == (Result.SUCCESS, 0)
     injected = fault_cli("estop", "on")

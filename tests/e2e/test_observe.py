@@ -1,4 +1,5 @@
-"""Observing a running cell through Zenoh: any subscriber, `motocell ps` and `motocell watch`."""
+"""Observing a running cell through Zenoh: a subscriber of one's own with the cell's observer
+credentials, `motocell ps` and `motocell watch` (which find the cell with no flags)."""
 
 from __future__ import annotations
 
@@ -10,8 +11,10 @@ import pytest
 import zenoh
 
 from shared.bus import catalog
+from shared.bus.catalog import ROUTES, Op, Role
 from shared.ports import free_port
 from shared.protocol.constants import Command, Result
+from shared.registry import ENV as RUNTIME_DIR_ENV
 from testkit.cell import RunningCell
 from testkit.client import MotionClient, StateListener, smooth_move, stream
 from testkit.processes import cmdline, wait_until
@@ -21,8 +24,15 @@ pytestmark = pytest.mark.cell
 Motocell = Callable[..., subprocess.CompletedProcess[str]]
 
 
+@pytest.fixture(autouse=True)
+def registry_of(cell: RunningCell, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The commands run here find the module's cell as they find a cell started on this
+    machine: in the registry its launcher wrote."""
+    monkeypatch.setenv(RUNTIME_DIR_ENV, str(cell.runtime_dir))
+
+
 def test_a_plain_subscriber_sees_and_decodes_every_key_of_the_cell(
-    bus: zenoh.Session, motion: MotionClient, state: StateListener
+    cell: RunningCell, motion: MotionClient, state: StateListener
 ) -> None:
     seen: dict[str, int] = {}
     undecodable: list[str] = []
@@ -41,7 +51,11 @@ def test_a_plain_subscriber_sees_and_decodes_every_key_of_the_cell(
             if payload is None:
                 undecodable.append(key)
 
-    subscriber = bus.declare_subscriber("**", on_sample)
+    # Key by key, as the catalogue lists what an observer receives: the router refuses a
+    # subscription to anything wider ("**").
+    observed = [r.suffix for r in ROUTES if r.op is Op.PUT and Role.OBSERVER in r.receivers]
+    bus = cell.session(Role.OBSERVER)
+    subscribers = [bus.declare_subscriber(f"{cell.keys.prefix}/{s}", on_sample) for s in observed]
     try:
         assert motion.command(Command.START_TRAJ_MODE).result == Result.SUCCESS
         start = state.wait_still().groups[0].positions[:6]
@@ -61,16 +75,19 @@ def test_a_plain_subscriber_sees_and_decodes_every_key_of_the_cell(
         }
         wait_until(lambda: expected <= set(seen), 5.0, f"every key (seen {sorted(seen)})")
     finally:
-        subscriber.undeclare()
+        for subscriber in subscribers:
+            subscriber.undeclare()
+        bus.close()
     assert undecodable == []
 
 
 def test_ps_lists_every_live_service_with_its_details(
     cell: RunningCell, motocell: Motocell
 ) -> None:
-    result = motocell("ps", "--zenoh-connect", cell.zenoh_endpoint)
+    result = motocell("ps")
     assert result.returncode == 0, result.stderr
-    lines = result.stdout.splitlines()
+    table, buses = result.stdout.split("\n\n")
+    lines = table.splitlines()
     assert lines[0].split() == ["CELL", "SERVICE", "GROUP", "HOST", "PID", "UPTIME", "VERSION"]
     rows = {(r.split()[1], r.split()[2]): r.split() for r in lines[1:]}
     assert set(rows) == {
@@ -85,6 +102,9 @@ def test_ps_lists_every_live_service_with_its_details(
         assert f"services.{service}" in cmdline(int(row[4]))
         assert int(row[4]) in cell.children()
         assert row[6] == "0.1.0"
+    assert buses == (
+        f"cell {cell.cell.name}: Zenoh {cell.zenoh_endpoint}, credentials {cell.credentials}\n"
+    )
 
 
 def test_ps_and_watch_fail_clearly_without_a_router(motocell: Motocell) -> None:
@@ -92,7 +112,8 @@ def test_ps_and_watch_fail_clearly_without_a_router(motocell: Motocell) -> None:
     for command in ("ps", "watch"):
         result = motocell(command, "--zenoh-connect", nowhere, timeout=10)
         assert result.returncode == 1
-        assert f"no Zenoh router at {nowhere}" in result.stderr
+        assert result.stderr.startswith(f"motocell {command}: no Zenoh router answers at {nowhere}")
+        assert result.stderr.count("\n") == 1, result.stderr
 
 
 def test_watch_shows_status_groups_lateness_clients_and_services(
@@ -100,17 +121,7 @@ def test_watch_shows_status_groups_lateness_clients_and_services(
 ) -> None:
     assert motion.command(Command.START_TRAJ_MODE).result == Result.SUCCESS
     latest = state.wait_still()
-    result = motocell(
-        "watch",
-        "--zenoh-connect",
-        cell.zenoh_endpoint,
-        "--cell",
-        cell.cell.name,
-        "--count",
-        "4",
-        "--interval",
-        "0.6",
-    )
+    result = motocell("watch", "--count", "4", "--interval", "0.6")
     assert result.returncode == 0, result.stderr
     frame = result.stdout.split("motocell watch")[-1]
     assert f"cell {cell.cell.name}" in frame

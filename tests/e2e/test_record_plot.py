@@ -1,8 +1,10 @@
-"""``motocell record`` against a real cell while it moves, then ``motocell plot`` of that file."""
+"""``motocell record`` against a real cell while it moves, then ``motocell plot`` of that file;
+and ``motocell record`` of an open bus, where keys outside the catalogue travel too."""
 
 from __future__ import annotations
 
 import json
+import os
 import signal
 import subprocess
 import sys
@@ -26,9 +28,10 @@ from shared.bus.session import open_session
 from shared.motion.kinematics import AxisMap
 from shared.ports import free_port
 from shared.protocol.constants import Command, Result
-from testkit.cell import RunningCell
+from shared.registry import ENV as RUNTIME_DIR_ENV
+from testkit.cell import RunningCell, zenoh_router
 from testkit.client import smooth_move, stream
-from testkit.processes import wait_until
+from testkit.processes import connectable, wait_until
 from tools.plotting import plot_recording
 from tools.recording import read_recording
 
@@ -40,10 +43,9 @@ UNKNOWN_PAYLOAD = b"\x93\x01\x02\x03"  # msgpack [1, 2, 3]
 TOLERANCE_RAD = 1e-4
 
 
-def record_command(out: Path, endpoint: str, *extra: str) -> list[str]:
+def record_command(out: Path, *extra: str) -> list[str]:
     # `motocell record`, with -W error so the recorder itself is warning-free too.
-    module = ["-m", "tools.cli", "record"]
-    return [sys.executable, "-W", "error", *module, str(out), "--zenoh-connect", endpoint, *extra]
+    return [sys.executable, "-W", "error", "-m", "tools.cli", "record", str(out), *extra]
 
 
 @dataclass
@@ -52,7 +54,6 @@ class Recording:
     keys: CellKeys
     start: np.ndarray[Any, np.dtype[np.float64]]
     goal: np.ndarray[Any, np.dtype[np.float64]]
-    unknown_key: str
     stdout: list[str]
     returncode: int
 
@@ -74,23 +75,49 @@ class Lines:
     def __contains__(self, line: str) -> bool:
         return line in list(self.lines)
 
+    def started_with(self, prefix: str) -> bool:
+        return any(line.startswith(prefix) for line in list(self.lines))
+
+
+class Recorder:
+    """``motocell record`` running as a process: its output lines, and a stop as by Ctrl-C.
+    On leaving, a recorder that has not stopped is killed."""
+
+    def __init__(self, command: list[str], env: dict[str, str] | None = None) -> None:
+        self.process = subprocess.Popen(command, stdout=subprocess.PIPE, text=True, env=env)
+        self.stdout = Lines(self.process)
+
+    def __enter__(self) -> Recorder:
+        return self
+
+    def stop(self) -> int:
+        self.process.send_signal(signal.SIGINT)
+        return self.process.wait(timeout=10)
+
+    def __exit__(self, *exc_info: object) -> None:
+        if self.process.poll() is None:
+            self.process.kill()
+            self.process.wait()
+        self.stdout.thread.join(timeout=5)
+        assert self.process.stdout is not None
+        self.process.stdout.close()
+
 
 @pytest.fixture(scope="module")
 def recording(cell: RunningCell, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Recording]:
     out = tmp_path_factory.mktemp("record") / "cell.mcap"
     keys = cell.keys
-    unknown_key = f"{keys.prefix}/observer/note"
     axis_map = AxisMap(cell.cell.groups[0])
-    command = record_command(out, cell.zenoh_endpoint, "--cell", cell.cell.name)
-    process = subprocess.Popen(command, stdout=subprocess.PIPE, text=True)
-    stdout = Lines(process)
-    try:
+    # No endpoint, no credentials: the recorder finds the cell by name in the registry its
+    # launcher wrote, as it would a cell started on this machine.
+    env = {**os.environ, RUNTIME_DIR_ENV: str(cell.runtime_dir)}
+    with Recorder(record_command(out, "--cell", cell.cell.name), env) as recorder:
+        stdout = recorder.stdout
         # A state sample has reached the recorder, so its subscription is live before the
         # robot moves: the recording starts at rest.
         wait_until(
             lambda: f"+ {keys.state} (json, State)" in stdout, 15.0, "the first recorded state"
         )
-        publish_unknown(cell.zenoh_endpoint, unknown_key, stdout)
         with cell.motion() as motion, cell.state() as state:
             reply = motion.command(Command.START_TRAJ_MODE)
             assert (reply.result, reply.subcode) == (Result.SUCCESS, 0)
@@ -115,16 +142,8 @@ def recording(cell: RunningCell, tmp_path_factory: pytest.TempPathFactory) -> It
             # them after the recorder's router hop), so the recording ends at rest too.
             arrived = len(state.cycles)
             wait_until(lambda: len(state.cycles) >= arrived + 10, 5.0, "states at the goal")
-        process.send_signal(signal.SIGINT)
-        returncode = process.wait(timeout=10)
-    finally:
-        if process.poll() is None:
-            process.kill()
-            process.wait()
-        stdout.thread.join(timeout=5)
-        assert process.stdout is not None
-        process.stdout.close()
-    yield Recording(out, keys, start, goal, unknown_key, stdout.lines, returncode)
+        returncode = recorder.stop()
+    yield Recording(out, keys, start, goal, stdout.lines, returncode)
 
 
 def publish_unknown(endpoint: str, key: str, stdout: Lines) -> None:
@@ -158,8 +177,8 @@ def test_recording_is_a_valid_mcap_of_the_motion(recording: Recording) -> None:
             schema = summary.schemas[channel.schema_id]
             assert schema.encoding == "jsonschema"
             assert json.loads(schema.data)["type"] == "object"
-        unknown = channels[recording.unknown_key]
-        assert (unknown.message_encoding, unknown.schema_id) == ("msgpack", 0)
+        # A secured cell carries only the catalogue's keys: nobody may put anything else.
+        assert {channel.message_encoding for channel in channels.values()} == {"json"}
 
         last_log_time: dict[int, int] = {}
         counts: dict[int, int] = {}
@@ -169,12 +188,9 @@ def test_recording_is_a_valid_mcap_of_the_motion(recording: Recording) -> None:
             assert message.publish_time == message.log_time
             last_log_time[channel.id] = message.log_time
             counts[channel.id] = counts.get(channel.id, 0) + 1
-            if channel.message_encoding == "json":
-                assert schema_ is not None
-                payload = json.loads(message.data)
-                assert set(payload) == set(json.loads(schema_.data)["properties"]), channel.topic
-            else:
-                assert message.data == UNKNOWN_PAYLOAD
+            assert schema_ is not None
+            payload = json.loads(message.data)
+            assert set(payload) == set(json.loads(schema_.data)["properties"]), channel.topic
         assert counts == dict(summary.statistics.channel_message_counts)
 
     states = [p for key, _, p in read_recording(recording.path) if key == keys.state]
@@ -247,9 +263,34 @@ def test_record_without_a_router_fails_fast_and_clearly(tmp_path: Path) -> None:
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     out = tmp_path / "none.mcap"
     # Without waiting for a router (it would wait forever): the deadline is only a safety net.
-    result = subprocess.run(
-        record_command(out, endpoint), check=False, capture_output=True, text=True, timeout=15
-    )
+    command = record_command(out, "--zenoh-connect", endpoint)
+    result = subprocess.run(command, check=False, capture_output=True, text=True, timeout=15)
     assert result.returncode == 1, result
-    assert f"no Zenoh router at {endpoint}" in result.stderr
+    assert result.stderr.startswith(f"motocell record: no Zenoh router answers at {endpoint}")
+    assert result.stderr.count("\n") == 1, result.stderr
     assert not out.exists(), "a failed start leaves no empty recording behind"
+
+
+def test_an_open_bus_is_recorded_whole_keys_outside_the_catalogue_too(tmp_path: Path) -> None:
+    port = free_port()
+    endpoint = f"tcp/127.0.0.1:{port}"
+    out = tmp_path / "open.mcap"
+    unknown_key = "motocell/lab/observer/note"
+    with zenoh_router(endpoint):
+        wait_until(lambda: connectable("127.0.0.1", port), 15.0, "the router to listen")
+        with Recorder(record_command(out, "--zenoh-connect", endpoint)) as recorder:
+            started = recorder.stdout.started_with
+            wait_until(lambda: started("recording "), 15.0, "the recorder to start")
+            publish_unknown(endpoint, unknown_key, recorder.stdout)
+            assert recorder.stop() == 0
+    with out.open("rb") as file:
+        reader = make_reader(file, validate_crcs=True)
+        messages = list(reader.iter_messages())
+    assert messages, "the unknown key was recorded"
+    for _, channel, message in messages:
+        assert (channel.topic, channel.message_encoding, channel.schema_id) == (
+            unknown_key,
+            "msgpack",
+            0,
+        )
+        assert message.data == UNKNOWN_PAYLOAD

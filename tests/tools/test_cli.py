@@ -13,7 +13,18 @@ from tools.cli import build_parser
 HEAVY = ("matplotlib", "mcap")
 """The tools extra's libraries: only ``record`` and ``plot`` may import them."""
 
-COMMANDS = ("up", "fault", "ps", "watch", "record", "plot", "bench", "router", "demo")
+COMMANDS = (
+    "up",
+    "fault",
+    "ps",
+    "watch",
+    "record",
+    "plot",
+    "bench",
+    "credentials",
+    "router",
+    "demo",
+)
 
 
 @pytest.mark.parametrize("command", COMMANDS)

@@ -1,0 +1,113 @@
+"""``motocell credentials``: everything a secured cell's bus needs, in a directory only you can
+read: a password per identity and the router's user dictionary; with ``--tls`` also a CA, the
+router's certificate and a certificate per identity (mutual TLS).
+
+For cells whose router and services do not start together under ``motocell up`` (which makes
+its own at every start): compose, or services spread over several hosts. Each party then gets
+only its own files.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from shared.bus.access import Identity, cell_identities
+from shared.bus.certificates import write_certificates
+from shared.bus.credentials import CA_FILE, USERS_FILE, write_passwords
+from shared.bus.router import ROUTER_CERTIFICATE, ROUTER_KEY
+from shared.config import ConfigError, load_cell
+
+DEFAULT_HOSTS = ("localhost", "127.0.0.1")
+"""The names a router's certificate is valid for unless ``--host`` says otherwise."""
+
+
+def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    parser = commands.add_parser(
+        "credentials",
+        help="write a cell's passwords (and TLS certificates) into a private directory",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("directory", metavar="DIR", help="created, readable only by you")
+    parser.add_argument(
+        "--config", metavar="FILE", help="the cell file: its name, and one identity per group"
+    )
+    parser.add_argument(
+        "--cell",
+        metavar="NAME",
+        help="the cell's name if it runs under another than its file's (motocell up --name); "
+        "its Zenoh usernames are NAME.<identity>",
+    )
+    parser.add_argument(
+        "--tls", action="store_true", help="also a CA and certificates, for mutual TLS"
+    )
+    parser.add_argument(
+        "--host",
+        action="append",
+        default=[],
+        metavar="NAME",
+        help="with --tls: a name or address the router is reached by (repeatable; default: "
+        f"{' and '.join(DEFAULT_HOSTS)})",
+    )
+    parser.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    directory = Path(args.directory)
+    try:
+        cell = load_cell(args.config, args.cell)
+        _check_directory(directory)
+        if args.host and not args.tls:
+            raise ValueError("--host names the router in its TLS certificate: add --tls")
+    except (ConfigError, ValueError) as exc:
+        print(f"motocell credentials: {exc}", file=sys.stderr)
+        return 2
+    identities = cell_identities(len(cell.groups))
+    write_passwords(directory, cell.name, identities)
+    hosts = args.host or list(DEFAULT_HOSTS)
+    if args.tls:
+        write_certificates(directory, cell.name, identities, hosts)
+    print(report(directory, cell.name, identities, hosts if args.tls else None))
+    return 0
+
+
+def _check_directory(directory: Path) -> None:
+    """New credentials go into a new or empty directory: refreshing a directory in place would
+    mix old and new files, and any party still holding the old ones would be refused."""
+    if directory.exists() and (not directory.is_dir() or any(directory.iterdir())):
+        raise ValueError(
+            f"{directory} exists and is not empty: give a new directory (or remove this one; "
+            "every party of the cell then needs the new files)"
+        )
+
+
+def report(directory: Path, cell: str, identities: list[Identity], hosts: list[str] | None) -> str:
+    """What was written, who needs which file, and how to use them."""
+    files = [
+        (USERS_FILE, "the router's user dictionary (transport.auth.usrpwd.dictionary_file)"),
+        ("IDENTITY.password", "one per identity: " + " ".join(i.name for i in identities)),
+    ]
+    router_files = USERS_FILE
+    if hosts is not None:
+        files += [
+            (CA_FILE, "the cell's certificate authority"),
+            (f"{ROUTER_CERTIFICATE}, {ROUTER_KEY}", f"the router's, for {', '.join(hosts)}"),
+            ("IDENTITY.pem, IDENTITY.key", "one certificate per identity (mutual TLS)"),
+        ]
+        router_files = f"{USERS_FILE}, {CA_FILE}, router.*"
+    endpoint = "tcp/ROUTER:7447" if hosts is None else f"tls/{hosts[0]}:7447"
+    where = f"--zenoh-connect {endpoint} --cell {cell} --credentials {directory}"
+    return "\n".join(
+        [
+            f"wrote the credentials of cell {cell} into {directory} (readable only by you):",
+            *(f"  {name:<28}{meaning}" for name, meaning in files),
+            f"Copy to each host only what runs there: the router {router_files}; a service or "
+            f"tool its own IDENTITY.* files{'' if hosts is None else ' and ' + CA_FILE}.",
+            f"Zenoh usernames are {cell}.IDENTITY. Services join with --credentials DIR; "
+            "observe and operate the cell with:",
+            f"  motocell ps {where}",
+            f"  motocell fault estop on {where}",
+        ]
+    )
