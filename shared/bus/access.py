@@ -92,11 +92,35 @@ def _rules_for(cell: str, identity: Identity) -> Iterator[tuple[str, tuple[str, 
                 for key in own_keys(route, cell, identity, sending=True):
                     yield flow, messages, key
         if identity.role in route.receivers:
-            for flow, messages in RECEIVING[route.op]:
-                for key in own_keys(route, cell, identity, sending=False):
-                    yield flow, messages, key
+            yield from _receiving(route, cell, identity)
+    yield from _whole_cell(cell, identity)
     for root in (ROOT, ALIVE_ROOT):
         yield EGRESS, DECLARATIONS, f"{root}/{cell}/**"
+
+
+def _receiving(
+    route: Route, cell: str, identity: Identity
+) -> Iterator[tuple[str, tuple[str, ...], str]]:
+    """A receiver declares (and replies) on its own keys, but a query reaches it on the key
+    the querier asked: a wildcard query (``service/*/*``) must be let out to every server."""
+    wildcard = f"{ALIVE_ROOT if route.op is Op.TOKEN else ROOT}/{cell}/{route.suffix}"
+    for flow, messages in RECEIVING[route.op]:
+        if route.op is Op.QUERY and flow == EGRESS:
+            yield flow, messages, wildcard
+        else:
+            for key in own_keys(route, cell, identity, sending=False):
+                yield flow, messages, key
+
+
+def _whole_cell(cell: str, identity: Identity) -> Iterator[tuple[str, tuple[str, ...], str]]:
+    """A role that receives every route of a kind may subscribe to the whole cell at once: a
+    ``motocell/<cell>/**`` subscriber (an observer's) is checked against the whole expression,
+    and would be refused if only the single keys were allowed."""
+    for op, root in ((Op.PUT, ROOT), (Op.TOKEN, ALIVE_ROOT)):
+        routes = [route for route in ROUTES if route.op is op]
+        if all(identity.role in route.receivers for route in routes):
+            for flow, messages in RECEIVING[op]:
+                yield flow, messages, f"{root}/{cell}/**"
 
 
 def access_control(cell: str, identities: Iterable[Identity]) -> dict[str, Any]:

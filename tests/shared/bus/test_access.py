@@ -141,3 +141,37 @@ def _put_arrives(gateway: zenoh.Session, received: list[bytes], lock: threading.
 def test_a_wrong_password_is_refused(router: tuple[str, Path]) -> None:
     with pytest.raises(zenoh.ZError):
         client(router, Role.GATEWAY, password="wrong")
+
+
+def test_an_observer_subscribes_to_the_whole_cell_and_asks_every_service(
+    router: tuple[str, Path],
+) -> None:
+    gateway = client(router, Role.GATEWAY)
+    observer = client(router, Role.OBSERVER)
+    received: list[str] = []
+    lock = threading.Lock()
+
+    def keep(sample: zenoh.Sample) -> None:
+        with lock:
+            received.append(str(sample.key_expr))
+
+    def arrived() -> bool:
+        gateway.put("motocell/c1/group/0/point", b"p")
+        with lock:
+            return "motocell/c1/group/0/point" in received
+
+    def describe(query: zenoh.Query) -> None:
+        query.reply("motocell/c1/service/gateway/0", b"info")
+        query.drop()
+
+    try:
+        subscriber = observer.declare_subscriber("motocell/c1/**", keep)
+        queryable = gateway.declare_queryable("motocell/c1/service/gateway/0", describe)
+        wait_until(arrived, 5.0, "the point at a whole-cell subscriber")
+        replies = list(observer.get("motocell/c1/service/*/*", timeout=2.0))
+        assert [reply.ok.payload.to_bytes() for reply in replies if reply.ok] == [b"info"]
+        queryable.undeclare()
+        subscriber.undeclare()
+    finally:
+        for session in (gateway, observer):
+            session.close()
