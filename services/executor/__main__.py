@@ -18,7 +18,8 @@ from typing import Any
 import msgspec
 import zenoh
 
-from services.executor.core import BatchOutcome, ExecutorCore, starting_pulses
+from services.executor.controller_token import ControllerToken
+from services.executor.core import BatchOutcome, ExecutorCore, heartbeat_ticks, starting_pulses
 from shared.bus.schemas import (
     CommandReply,
     ControllerStatus,
@@ -84,6 +85,7 @@ class Executor:
             starting_pulses(cell, remembered),
             first_epoch=time.time_ns() // 1000,
             max_increments=[AxisMap(group).max_increments(cell.period_s) for group in cell.groups],
+            heartbeat_ticks=heartbeat_ticks(cell.period_ns),
         )
         session = ctx.session
         keys = ctx.keys
@@ -97,13 +99,13 @@ class Executor:
             for g in cell.groups
         ]
         self.statuses = session.declare_subscriber(keys.controller_status, _channel())
-        self.controller_token = session.liveliness().declare_subscriber(
-            keys.alive("controller", "0"), _channel(), history=True
+        self.ticks_per_second = max(1, round(1e9 / cell.period_ns))
+        self.controller = ControllerToken(
+            session, keys.alive("controller", "0"), ask_every=self.ticks_per_second
         )
         self.stop_queries = session.declare_queryable(keys.executor_cmd("stop"), _channel())
         self.count_queries = session.declare_queryable(keys.executor_cmd("queue_count"), _channel())
         self.missed = 0
-        self.ticks_per_second = max(1, round(1e9 / cell.period_ns))
         self.lateness = Window(self.ticks_per_second)
         self.metrics_pub = publisher(session, keys.metrics("executor"), latest=True)
 
@@ -116,8 +118,7 @@ class Executor:
         readiness first (a not-ready status clears the rings before any batch is queued),
         then batches, then commands."""
         core = self.core
-        while (event := self.controller_token.try_recv()) is not None:
-            core.controller_present = event.kind == zenoh.SampleKind.PUT
+        core.controller_present = self.controller.present(core.tick)
         while (sample := self.statuses.try_recv()) is not None:
             # Every status is applied in order, so a not-ready blip between two ticks still
             # clears the rings.

@@ -14,6 +14,7 @@ from enum import Enum
 
 import numpy as np
 
+from shared.bus.liveness import HEARTBEAT_S
 from shared.bus.schemas import CommandReply, GroupTick, IncrementBatch, QueueState, Tick
 from shared.config import Cell
 from shared.motion.kinematics import AxisMap
@@ -23,7 +24,8 @@ log = logging.getLogger("executor")
 
 RING_CAPACITY = 200
 QUEUE_HEARTBEAT_TICKS = 25
-"""An unchanged queue state is still published every 100 ms (at 4 ms), for late joiners."""
+"""An unchanged queue state is still published every 100 ms at the default 4 ms period, for
+late joiners and for the gateway, which ages what it holds (``heartbeat_ticks``)."""
 
 ZERO = (0,) * MAX_AXES
 
@@ -61,6 +63,11 @@ BARRIER_TIMEOUT_TICKS = 250
 partner's increments are not coming: the increment path is broken."""
 
 
+def heartbeat_ticks(period_ns: int) -> int:
+    """The ticks between heartbeats that keep a queue state at least HEARTBEAT_S fresh."""
+    return max(1, int(HEARTBEAT_S * 1e9) // period_ns)
+
+
 def starting_pulses(cell: Cell, remembered: CommandReply | None) -> list[list[int]]:
     """Where the robot is: the controller remembers the last commanded pulses across an
     executor restart (``remembered``, its reply to ``positions``); without it, the cell file's
@@ -92,10 +99,13 @@ class ExecutorCore:
         command_pulses: list[list[int]],
         first_epoch: int,
         max_increments: list[list[int]] | None = None,
+        heartbeat_ticks: int = QUEUE_HEARTBEAT_TICKS,
     ) -> None:
         """``max_increments``: per group and Motoman axis, the most pulses the motion system
-        takes in one period (None: no limit)."""
+        takes in one period (None: no limit). ``heartbeat_ticks``: how often an unchanged queue
+        state is published all the same."""
         self.command = [list(p) for p in command_pulses]
+        self.heartbeat_ticks = heartbeat_ticks
         self.max_increments = max_increments
         self._held_ticks = [0] * len(command_pulses)
         self.rings = [GroupRing(first_epoch + g) for g in range(len(command_pulses))]
@@ -277,7 +287,7 @@ class ExecutorCore:
         """The queue states to publish now: each that changed (every tick while moving), and
         all of them at the heartbeat or when ``force``d, so idle interpolators and gateways
         need not wake 250 times a second."""
-        heartbeat = force or self.tick % QUEUE_HEARTBEAT_TICKS == 0
+        heartbeat = force or self.tick % self.heartbeat_ticks == 0
         updates = []
         for group in range(len(self.rings)):
             state = self.queue_state(group)

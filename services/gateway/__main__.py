@@ -66,7 +66,7 @@ def main(argv: Sequence[str] | None = None) -> None:
             ctx.session, ctx.keys, stats=stats, motion=motion_server, state=state_port, io=io_server
         )
         motion_server.on_change = io_server.on_change = reporter.report_connections
-        adapters = (motion_server, io_server, state_port, reporter)
+        adapters = (cell_port, motion_server, io_server, state_port, reporter)
         for adapter in adapters:
             adapter.start()
         log.info("listening on %s:%d-%d (%s-endian)", host, port_base, port_base + 2, byte_order)

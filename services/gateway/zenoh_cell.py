@@ -2,18 +2,22 @@
 few things the gateway asks of other services.
 
 Callbacks only decode a sample and hand it to ``CellState`` under one lock, whose condition
-wakes whoever waits on the cell (``wait_for``); the handlers decide from the state.
+wakes whoever waits on the cell (``wait_for``); the handlers decide from the state. A watchdog
+thread ages that state every heartbeat (``CellState.expire``) and subscribes again to a stream
+that stopped arriving, so the gateway recovers without waiting for some other event.
 """
 
 from __future__ import annotations
 
 import threading
+import time
 from collections.abc import Callable
 
 import zenoh
 
-from services.gateway.core.cell_state import CellState
+from services.gateway.core.cell_state import STATUS_STREAM, CellState
 from shared.bus.keys import CellKeys, group_of
+from shared.bus.liveness import HEARTBEAT_S
 from shared.bus.schemas import (
     CommandReply,
     CommandRequest,
@@ -46,11 +50,41 @@ class ZenohCell:
         self._point_pubs = [
             publisher(session, keys.group_point(g), realtime=True) for g in range(len(cell.groups))
         ]
-        self._entities = [
-            session.declare_subscriber(keys.controller_status, self._on_status),
-            session.declare_subscriber(keys.group_queue_all, self._on_queue),
-            session.declare_subscriber(keys.group_slot_all, self._on_slot),
-        ]
+        self._streams: dict[str, tuple[str, Callable[[zenoh.Sample], None]]] = {
+            "status": (keys.controller_status, self._on_status),
+            "queue": (keys.group_queue_all, self._on_queue),
+            "slot": (keys.group_slot_all, self._on_slot),
+        }
+        self._subscribers = {
+            name: session.declare_subscriber(key, callback)
+            for name, (key, callback) in self._streams.items()
+        }
+        self._stop = threading.Event()
+        self._watchdog = threading.Thread(target=self._watch, name="gateway-ages", daemon=True)
+
+    def start(self) -> None:
+        self._watchdog.start()
+
+    def close(self) -> None:
+        self._stop.set()
+        self._watchdog.join(timeout=1.0)
+
+    def _watch(self) -> None:
+        """Every heartbeat: forget what stopped arriving, and subscribe again to its stream."""
+        while not self._stop.wait(HEARTBEAT_S):
+            with self._changed:
+                stopped = self.state.expire(time.monotonic())
+                if stopped:
+                    self._changed.notify_all()
+            for name in sorted({"status" if s == STATUS_STREAM else "queue" for s in stopped}):
+                self._subscribe_again(name)
+
+    def _subscribe_again(self, name: str) -> None:
+        """The new subscriber first, so no sample falls between the two."""
+        key, callback = self._streams[name]
+        old = self._subscribers[name]
+        self._subscribers[name] = self.session.declare_subscriber(key, callback)
+        old.undeclare()
 
     def _on_status(self, sample: zenoh.Sample) -> None:
         status = _status_decoder.decode(sample.payload.to_bytes())

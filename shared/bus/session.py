@@ -21,15 +21,20 @@ import msgspec
 import zenoh
 
 from shared.bus.credentials import Credentials
+from shared.bus.liveness import Presence
 from shared.bus.schemas import CommandReply, CommandRequest, Decoder, encode
 
 log = logging.getLogger(__name__)
 
 T = TypeVar("T")
 
-LEASE_MS = 1000
-"""Transport lease: a hung (not crashed) process is noticed after about this long
-(zenoh-facts §1.4)."""
+LEASE_MS = 5000
+"""Transport lease: how long a process may go unheard before its router closes its session and
+deletes its liveliness tokens, which is when the cell counts it gone. A crash closes the socket
+and is noticed in milliseconds whatever the lease (zenoh-facts §1.4); the lease only bounds how
+long a hung (stopped, starved) process passes for alive. Five times the stalls a loaded host
+was seen to cause (issue 12: every service "gone" for about 1 s at load 10-30 with a 1 s lease);
+motion does not wait for it, the executor bounds its own lateness (docs/liveness.md)."""
 CONNECT_WAIT_S = 30.0
 """How long a service waits for its router to come up (compose starts them together)."""
 CONNECT_RETRY_S = 0.2
@@ -242,11 +247,14 @@ def answer(query: zenoh.Query, reply: CommandReply) -> None:
 
 
 class Liveness:
-    """Tracks which liveliness tokens under a key expression are present.
+    """The liveliness tokens present under a key expression (``Presence``), current within
+    milliseconds of a change.
 
-    Change events keep it current within milliseconds. A token declared while the subscriber
-    is itself being declared can be missed by both its history and its live events (seen with
-    clients of a router), so a background thread also reconciles with a liveliness query.
+    The subscriber takes no history: a query asked after it is declared gives the tokens that
+    were there before. With history a token's DELETE could arrive before its history PUT and
+    leave a departed service present for good (seen with clients of a router, 6 of 200 races).
+    A background thread asks again every RECONCILE_S, so a token that events missed is found
+    all the same; it never removes one (``Presence``).
     """
 
     RECONCILE_S = 1.0
@@ -257,51 +265,45 @@ class Liveness:
         key_expr: str,
         on_change: Callable[[], None] | None = None,
     ) -> None:
-        self._present: set[str] = set()
+        self._presence = Presence()
         self._lock = threading.Lock()
         self._on_change = on_change
         self._session = session
         self._key_expr = key_expr
-        self._subscriber = session.liveliness().declare_subscriber(
-            key_expr, self._on_sample, history=True
-        )
+        self._subscriber = session.liveliness().declare_subscriber(key_expr, self._on_sample)
+        self._ask()
         self._thread = threading.Thread(target=self._reconcile, name="liveness", daemon=True)
         self._thread.start()
 
+    def _ask(self) -> set[str]:
+        """One liveliness query; the tokens it found that events had not shown."""
+        with self._lock:
+            asked = self._presence.asking()
+        replies = self._session.liveliness().get(self._key_expr, timeout=self.RECONCILE_S)
+        tokens = {str(reply.ok.key_expr) for reply in replies if reply.ok is not None}
+        with self._lock:
+            return self._presence.on_answer(tokens, asked)
+
     def _reconcile(self) -> None:
-        """Add what a query finds and events missed; drop only what two queries in a row miss
-        (a reply can arrive late, a missed DELETE is rarer and less harmful than a false one)."""
-        absent_before: set[str] = set()
         while True:
             time.sleep(self.RECONCILE_S)
             try:
-                replies = self._session.liveliness().get(self._key_expr, timeout=self.RECONCILE_S)
-                tokens = {str(r.ok.key_expr) for r in replies if r.ok is not None}
+                found = self._ask()
             except zenoh.ZError:
                 return  # the session is closing
-            with self._lock:
-                missed = tokens - self._present
-                absent = self._present - tokens
-                gone = absent & absent_before
-                absent_before = absent
-                self._present = (self._present | missed) - gone
-            if missed or gone:
-                log.warning(
-                    "liveliness events missed: appeared %s, gone %s", sorted(missed), sorted(gone)
-                )
+            if found:
+                log.warning("liveliness events missed: appeared %s", sorted(found))
                 if self._on_change is not None:
                     self._on_change()
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
-        key = str(sample.key_expr)
         with self._lock:
-            if sample.kind == zenoh.SampleKind.PUT:
-                self._present.add(key)
-            else:
-                self._present.discard(key)
-        if self._on_change is not None:
+            changed = self._presence.on_event(
+                str(sample.key_expr), put=sample.kind == zenoh.SampleKind.PUT
+            )
+        if changed and self._on_change is not None:
             self._on_change()
 
     def present(self) -> frozenset[str]:
         with self._lock:
-            return frozenset(self._present)
+            return self._presence.present

@@ -17,6 +17,7 @@ import msgspec
 from services.controller.core.io_table import IoTable
 from services.controller.core.model import OT_ROS_READY, START_TIMEOUT_S, Controller
 from shared.bus.keys import service_of_alive
+from shared.bus.liveness import HEARTBEAT_S
 from shared.bus.schemas import CommandReply, CommandRequest, ControllerStatus
 from shared.protocol.constants import TOOL_NUMBERS, InvalidSubcode, Result
 
@@ -24,8 +25,6 @@ log = logging.getLogger("controller")
 
 Q = TypeVar("Q")
 
-REFRESH_S = 0.1
-"""Status is also republished this often, for subscribers that join late."""
 
 COMMANDS = (
     "start_servos",
@@ -94,7 +93,9 @@ class Dispatcher(Generic[Q]):
 
     # -- notices ---------------------------------------------------------------------------
     def services_present(self, present: Collection[str]) -> None:
-        """The liveliness tokens present now: a missing service makes the cell not ready."""
+        """The liveliness tokens present now: a missing service makes the cell not ready. A
+        token is missing only on evidence that its service is gone (``Presence``): it exited,
+        was killed, or went unheard for the lease."""
         missing = sorted(service_of_alive(key) for key in self.required_alive if key not in present)
         if missing != self.model.missing_services:
             if missing:
@@ -227,13 +228,14 @@ class Dispatcher(Generic[Q]):
         self.outbox.append((query, reply))
 
     def status_due(self, now: float) -> ControllerStatus | None:
-        """The status to publish now, numbered: on every change, and every ``REFRESH_S``."""
+        """The status to publish now, numbered: on every change, and every HEARTBEAT_S for
+        subscribers that join late and for those that age what they hold (the gateway)."""
         status = self.model.status()
         if status == self._published and now < self._next_refresh:
             return None
         self.sequence += 1
         self._published = status
-        self._next_refresh = now + REFRESH_S
+        self._next_refresh = now + HEARTBEAT_S
         return msgspec.structs.replace(status, seq=self.sequence)
 
     def take_replies(self) -> list[tuple[Q, CommandReply]]:

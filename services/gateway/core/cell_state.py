@@ -1,15 +1,22 @@
 """What the gateway knows of the rest of the cell. Pure: the cell adapter feeds it each sample
 as it arrives (controller status, the executor's ring per group, each interpolator's slot), and
-the handlers answer from it without a round trip (ARCHITECTURE "The reply path")."""
+the handlers answer from it without a round trip (ARCHITECTURE "The reply path"). Republished
+state that stops arriving is forgotten (``expire``)."""
 
 from __future__ import annotations
 
 from services.gateway.core.credits import GroupCredit
+from services.gateway.core.freshness import Freshness
 from shared.bus.schemas import ControllerStatus, QueueState, Slot
 from shared.protocol.constants import NotReadySubcode
 
 EXECUTOR = "executor/0"
 INTERPOLATOR = "interpolator"
+STATUS_STREAM = "controller/status"
+
+
+def queue_stream(group: int) -> str:
+    return f"group/{group}/queue"
 
 
 class CellState:
@@ -18,8 +25,10 @@ class CellState:
         self.not_ready_count = 0
         """Counts not-ready statuses seen; a trajectory started before a change is over."""
         self.groups = [GroupCredit() for _ in range(groups)]
+        self.freshness = Freshness()
 
     def on_status(self, status: ControllerStatus) -> None:
+        self.freshness.heard(STATUS_STREAM)
         if not status.motion_ready:
             self.not_ready_count += 1
         self.status = status
@@ -34,11 +43,28 @@ class CellState:
 
     def on_queue(self, group: int, queue: QueueState) -> None:
         if 0 <= group < len(self.groups):
+            self.freshness.heard(queue_stream(group))
             self.groups[group].queue = queue
 
     def on_slot(self, group: int, slot: Slot) -> None:
         if 0 <= group < len(self.groups):
             self.groups[group].on_slot(slot)
+
+    def expire(self, now: float) -> list[str]:
+        """Call every HEARTBEAT_S. Forget what a stream that stopped last said, as if it had
+        never been heard: the status (the controller's readiness may have dropped unseen, so a
+        trajectory begun before is over), a group's queue state. Returns the streams to
+        subscribe to again now: those that just stopped, and those still stopped a while after
+        the last try (see ``Freshness``)."""
+        stopped = self.freshness.went_stale(now)
+        for stream in stopped:
+            if stream == STATUS_STREAM:
+                self.status = None
+                self.not_ready_count += 1
+            for group, credit in enumerate(self.groups):
+                if stream == queue_stream(group):
+                    credit.queue = None
+        return stopped + self.freshness.retry_due()
 
     def rings_ready(self) -> bool:
         """Every interpolator heard from, and the executor itself taking increments."""

@@ -6,7 +6,7 @@ from __future__ import annotations
 import msgspec
 import pytest
 
-from services.controller.core.dispatch import COMMANDS, FAULTS, REFRESH_S, Dispatcher
+from services.controller.core.dispatch import COMMANDS, FAULTS, Dispatcher
 from services.controller.core.io_table import IoTable
 from services.controller.core.model import (
     OT_IO_CONNECTED,
@@ -18,6 +18,7 @@ from services.controller.core.model import (
     START_TIMEOUT_S,
     Controller,
 )
+from shared.bus.liveness import HEARTBEAT_S
 from shared.bus.schemas import Alarm, CommandReply, CommandRequest
 from shared.config import ControllerModel
 from shared.protocol.constants import InvalidSubcode, IoResult, NotReadySubcode, Result
@@ -377,8 +378,8 @@ def test_the_first_status_is_always_due_and_numbered_after_first_seq() -> None:
 def test_an_unchanged_status_waits_for_the_refresh() -> None:
     d = dispatcher()
     d.status_due(0.0)
-    assert d.status_due(REFRESH_S / 2) is None
-    refreshed = d.status_due(REFRESH_S)
+    assert d.status_due(HEARTBEAT_S / 2) is None
+    refreshed = d.status_due(HEARTBEAT_S)
     assert refreshed is not None
     assert refreshed.seq == FIRST_SEQ + 2
 

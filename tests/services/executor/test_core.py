@@ -17,6 +17,7 @@ from services.executor.core import (
     RING_CAPACITY,
     BatchOutcome,
     ExecutorCore,
+    heartbeat_ticks,
     starting_pulses,
 )
 from shared.bus.schemas import CommandReply, GroupTick, IncrementBatch, QueueState
@@ -445,6 +446,23 @@ def test_an_unchanged_queue_waits_for_the_heartbeat() -> None:
     core.step()
     assert core.tick == QUEUE_HEARTBEAT_TICKS
     assert [group for group, _ in core.queue_updates()] == [0, 1]
+
+
+@pytest.mark.parametrize(
+    ("period_ms", "ticks"), [(4, QUEUE_HEARTBEAT_TICKS), (0.5, 200), (30, 3), (100, 1)]
+)
+def test_the_heartbeat_keeps_queue_states_at_most_100_ms_old(period_ms: float, ticks: int) -> None:
+    """The gateway ages the queue states it holds by HEARTBEAT_S, whatever the period."""
+    assert heartbeat_ticks(round(period_ms * 1_000_000)) == ticks
+    core = ExecutorCore(START, FIRST_EPOCH, heartbeat_ticks=ticks)
+    published = []
+    for _ in range(3 * ticks):
+        core.step()
+        published.append(bool(core.queue_updates()))
+    assert [core_tick for core_tick, sent in enumerate(published, 1) if sent] == [
+        1,
+        *[k * ticks for k in (1, 2, 3) if k * ticks > 1],
+    ]
 
 
 def test_a_changed_queue_is_published_at_once() -> None:

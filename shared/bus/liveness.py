@@ -1,0 +1,63 @@
+"""What counts as alive on the bus, without Zenoh: the evidence that a service is there or gone
+(``Presence``), and how fresh republished state is kept (``HEARTBEAT_S``). Pure, so the
+services' cores can use it; ``shared.bus.session.Liveness`` feeds a ``Presence`` from Zenoh.
+See docs/liveness.md.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+HEARTBEAT_S = 0.1
+"""State that is republished while unchanged (the controller status, each group's queue state)
+goes out at least this often, so a subscriber can tell a stream that stopped reaching it from
+a value that stays the same."""
+
+
+class Presence:
+    """Which liveliness tokens are present, on evidence only. Pure.
+
+    A token is present from its PUT event, or from a liveliness query's answer when no event
+    for it has arrived since the query was asked: an event is the newer news, and a DELETE can
+    overtake an answer. A token is gone only on its DELETE, which Zenoh sends when the session
+    holding it undeclared it or closed: its process exited or was killed (the socket closed),
+    or it went unheard for the lease (``shared.bus.session.LEASE_MS``). An answer that lacks a
+    token, comes late or never comes proves nothing, so it removes nothing.
+    """
+
+    def __init__(self) -> None:
+        self._present: set[str] = set()
+        self._events = 0
+        self._last_event: dict[str, int] = {}
+        """Per token, the number of its newest event (events are numbered from 1)."""
+
+    def on_event(self, key: str, *, put: bool) -> bool:
+        """A PUT or DELETE; whether it changed what is present."""
+        self._events += 1
+        self._last_event[key] = self._events
+        if put == (key in self._present):
+            return False
+        if put:
+            self._present.add(key)
+        else:
+            self._present.discard(key)
+        return True
+
+    def asking(self) -> int:
+        """Call as a query is asked; give the result to ``on_answer`` with the query's tokens."""
+        return self._events
+
+    def on_answer(self, tokens: Iterable[str], asked: int) -> set[str]:
+        """The tokens a query found that events had not shown and have not spoken of since
+        the query was asked; they are present now."""
+        found = {
+            key
+            for key in tokens
+            if key not in self._present and self._last_event.get(key, 0) <= asked
+        }
+        self._present |= found
+        return found
+
+    @property
+    def present(self) -> frozenset[str]:
+        return frozenset(self._present)
