@@ -1,5 +1,6 @@
-"""What the gateway measures: requests and reply latency by message type, BUSY, INVALID and
-NOT_READY answers. Published once a second on ``gateway/metrics``."""
+"""What the gateway measures: requests and reply latency by message type (the known types, and
+one bucket for all others), BUSY, INVALID and NOT_READY answers. Published once a second on
+``gateway/metrics``."""
 
 from __future__ import annotations
 
@@ -7,11 +8,21 @@ import threading
 
 from shared.bus.schemas import GatewayMetrics, RequestStats
 from shared.metrics import Window
-from shared.protocol.constants import Result
+from shared.protocol.constants import MsgType, Result
 from shared.protocol.messages import Message, MotoMotionReply
 
 WINDOW = 4096
 """Replies kept per type between two publications (a point stream is a few hundred a second)."""
+OTHER_TYPES = 0
+"""The one bucket for every type ``MsgType`` does not name, and for frames too broken to have
+a type (``PeerProtocolError.msg_type`` 0): a client choosing types freely must not choose how
+many windows the gateway keeps, nor how long its metrics message grows."""
+_KNOWN_TYPES = frozenset(int(t) for t in MsgType)
+
+
+def bucket(msg_type: int) -> int:
+    """Where a request of ``msg_type`` is counted."""
+    return msg_type if msg_type in _KNOWN_TYPES else OTHER_TYPES
 
 
 class GatewayStats:
@@ -26,6 +37,7 @@ class GatewayStats:
 
     def observe(self, msg_type: int, reply: Message | None, elapsed_ns: int) -> None:
         """One request answered (``reply`` None when none is sent) in ``elapsed_ns``."""
+        msg_type = bucket(msg_type)
         with self._lock:
             self._counts[msg_type] = self._counts.get(msg_type, 0) + 1
             window = self._latency.get(msg_type)

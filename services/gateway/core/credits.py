@@ -30,7 +30,8 @@ class GroupCredit:
     trajectory_id: int = 0
     """The point id of the sequence-0 point behind the trajectory the interpolator runs."""
     outstanding: deque[tuple[int, int]] = field(default_factory=deque)
-    """(point id, ring entries of its segment) of every point published and not yet taken."""
+    """(point id, ring entries of its segment) of every point published and not yet taken;
+    bounded by what the interpolator has not taken yet."""
 
     def on_slot(self, slot: Slot) -> None:
         if slot.instance != self.instance:
@@ -41,6 +42,10 @@ class GroupCredit:
             self.outstanding.clear()
         self.taken = slot.taken_id
         self.trajectory_id = slot.trajectory_id
+        # Forget the taken points here, where taken advances: a client sending only type-14
+        # sequence-0 points never asks pending_fits, and the deque would grow with each.
+        while self.outstanding and self.outstanding[0][0] <= self.taken:
+            self.outstanding.popleft()
 
     def interpolator_gone(self) -> None:
         """Its points died with it; whichever process comes next is a new instance that
@@ -77,8 +82,6 @@ class GroupCredit:
         nothing can overflow. At most MAX_AHEAD points are ever outstanding."""
         queue = self.queue
         ahead = self.outstanding
-        while ahead and ahead[0][0] <= self.taken:
-            ahead.popleft()
         return (
             queue is not None
             and len(ahead) < MAX_AHEAD

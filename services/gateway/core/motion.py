@@ -60,6 +60,9 @@ class _Close:
 
 CLOSE = _Close()
 
+M_REGISTER_TYPES = frozenset({int(MsgType.MOTO_READ_MREGISTER), int(MsgType.MOTO_WRITE_MREGISTER)})
+"""Types the codec knows (for the I/O port) that have no size on the motion port (motoros1 §1.2)."""
+
 
 class MotionHandler:
     def __init__(self, cell: Cell, port: CellPort, io: IoHandler, sync_seed: int) -> None:
@@ -74,7 +77,12 @@ class MotionHandler:
 
     @staticmethod
     def error_reply(error: PeerProtocolError) -> Message:
-        """A frame the motion port cannot read: INVALID 3001/3002, and the connection is kept."""
+        """A frame the motion port cannot read: INVALID 3001/3002, and the connection is kept.
+        An M-register type is unknown here whatever its length: 3003, as when well-formed."""
+        if error.msg_type in M_REGISTER_TYPES:
+            return invalid_reply(
+                PeerProtocolError(str(error), InvalidSubcode.MSGTYPE, error.msg_type)
+            )
         return invalid_reply(error)
 
     def handle(self, request: Message | UnknownMessage) -> Answer:

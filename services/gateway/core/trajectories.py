@@ -123,6 +123,10 @@ class Trajectories:
         the last listed group). MotoROS's pre-check pass (group, BUSY, fields) comes first;
         then every data check runs for every group before any group takes the point, so groups
         can never be de-synchronised by a late failure, as they can in MotoROS."""
+        if not body.groups:
+            # The codec refuses a group count below 1 (3001); a body built without groups
+            # gets the same answer, never a reply for a group it does not name.
+            return motion_reply(request, Result.INVALID, InvalidSubcode.MSGSIZE)
         last_group = body.groups[-1].group_no
         ready, subcode = readiness(self.port)
         if not ready:
@@ -131,7 +135,7 @@ class Trajectories:
             PointData(g.group_no, g.valid_fields, g.time, g.positions, g.velocities)
             for g in body.groups
         ]
-        if all(self._duplicate(data, body.sequence) for data in blocks):
+        if self._resent(blocks, body.sequence):
             return motion_reply(request, Result.SUCCESS, 0, last_group)
         refusal = self._pre_check(blocks)
         if refusal is None:
@@ -153,8 +157,23 @@ class Trajectories:
             self._accept(data, body.sequence, sync)
         return motion_reply(request, Result.SUCCESS, 0, last_group)
 
+    def _resent(self, blocks: list[PointData], sequence: int) -> bool:
+        """Every listed group already took this very point. Asked before the pre-check, so a
+        resend is recognised while a slot is busy; only of a message whose group numbers the
+        pre-check would accept, as they index the tracks (a number out of range is the
+        pre-check's INVALID 3004, never a lookup)."""
+        return self._groups_listed_once(blocks) and all(
+            self._duplicate(data, sequence) for data in blocks
+        )
+
+    def _groups_listed_once(self, blocks: list[PointData]) -> bool:
+        """Each listed group is one the cell has, and none is listed twice."""
+        numbers = [data.group_no for data in blocks]
+        return len(set(numbers)) == len(numbers) and all(0 <= n < self.groups for n in numbers)
+
     def _pre_check(self, blocks: list[PointData]) -> tuple[Verdict, int] | None:
-        """MotoROS's first pass over a 2016's groups: group number, slot, fields."""
+        """MotoROS's first pass over a 2016's groups: group number, slot, fields. A group's
+        number is checked before anything is looked up by it."""
         seen: set[int] = set()
         for data in blocks:
             group = data.group_no

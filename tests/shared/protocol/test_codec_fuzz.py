@@ -1,11 +1,14 @@
 """Hypothesis: any bytes in any chunking decode or raise PeerProtocolError, within a bounded
-buffer; and every valid message round-trips in both byte orders and directions."""
+buffer; every valid message round-trips in both byte orders and directions; and every group,
+sequence and count field of 2016 and 2017 decodes as written or is refused (3001 on receipt,
+LocalProtocolError on sending), whatever it says."""
 
 from __future__ import annotations
 
 import itertools
 import struct
 
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -20,8 +23,15 @@ from shared.protocol.codec import (
     decode_frames,
     encode,
 )
-from shared.protocol.errors import PeerProtocolError
-from shared.protocol.layouts import LAYOUTS, Direction, max_body_size
+from shared.protocol.constants import MAX_GROUPS, InvalidSubcode, MsgType
+from shared.protocol.errors import LocalProtocolError, PeerProtocolError
+from shared.protocol.layouts import (
+    JOINT_BLOCK,
+    JOINT_BLOCK_SIZE,
+    LAYOUTS,
+    Direction,
+    max_body_size,
+)
 from shared.protocol.messages import (
     Body,
     DhLink,
@@ -221,3 +231,109 @@ def test_valid_streams_decode_the_same_in_any_chunking(
         [stream[i : i + 1] for i in range(len(stream))],
     ):
         assert run(SimpleMessageCodec(RECEIVER[direction], order), chunks) == expected
+
+
+# ---------------------------------------------------------------------- 2016 and 2017 fields
+
+group_numbers = st.integers(-2, MAX_GROUPS + 1) | st.sampled_from([-(2**31), 2**31 - 1]) | i32
+group_counts = st.integers(-2, MAX_GROUPS + 2) | st.sampled_from([-(2**31), 2**31 - 1]) | i32
+FULL_EX = 8 + MAX_GROUPS * JOINT_BLOCK_SIZE
+"""2016's body padded to 4 groups."""
+
+
+def joint_block(order: ByteOrder, group: int, valid: int, time: float) -> bytes:
+    return struct.pack(order.struct_prefix + JOINT_BLOCK, group, valid, time, *[0.0] * 30)
+
+
+@FUZZ
+@given(
+    group_counts,
+    i32,
+    st.lists(st.tuples(group_numbers, i32, f32), max_size=MAX_GROUPS),
+    st.booleans(),
+    orders,
+)
+def test_2016_decodes_its_count_sequence_and_groups_or_is_3001(
+    count: int, sequence: int, blocks: list[tuple[int, int, float]], padded: bool, order: ByteOrder
+) -> None:
+    body = struct.pack(order.struct_prefix + "2i", count, sequence)
+    body += b"".join(joint_block(order, *b) for b in blocks)
+    if padded:
+        body = body.ljust(FULL_EX, b"\0")
+    data = frame_bytes(MsgType.MOTO_JOINT_TRAJ_PT_FULL_EX, body, order)
+    if not 1 <= count <= MAX_GROUPS or len(body) not in (8 + count * JOINT_BLOCK_SIZE, FULL_EX):
+        with pytest.raises(PeerProtocolError) as refused:
+            decode_frames(data, Role.CONTROLLER, order)
+        assert refused.value.subcode == InvalidSubcode.MSGSIZE
+        assert refused.value.msg_type == MsgType.MOTO_JOINT_TRAJ_PT_FULL_EX
+        return
+    [message] = decode_frames(data, Role.CONTROLLER, order)
+    assert isinstance(message, Message)
+    decoded = message.body
+    assert isinstance(decoded, JointTrajPtFullEx)
+    assert decoded.sequence == sequence
+    padding = [(0, 0, 0.0)] * MAX_GROUPS
+    expected = [*blocks, *padding][:count]
+    assert [(g.group_no, g.valid_fields) for g in decoded.groups] == [b[:2] for b in expected]
+
+
+@FUZZ
+@given(group_counts, st.lists(st.tuples(group_numbers, i32, f32), max_size=6), orders, roles)
+def test_2017_decodes_its_count_and_4_slots_whatever_they_say(
+    count: int, slots: list[tuple[int, int, float]], order: ByteOrder, role: Role
+) -> None:
+    body = struct.pack(order.struct_prefix + "i", count)
+    body += b"".join(joint_block(order, *s) for s in slots)
+    data = frame_bytes(MsgType.MOTO_JOINT_FEEDBACK_EX, body, order)
+    if len(slots) != MAX_GROUPS:
+        with pytest.raises(PeerProtocolError) as refused:
+            decode_frames(data, role, order)
+        assert refused.value.subcode == InvalidSubcode.MSGSIZE
+        return
+    [message] = decode_frames(data, role, order)
+    assert isinstance(message, Message)
+    decoded = message.body
+    assert isinstance(decoded, JointFeedbackEx)
+    assert decoded.number_of_valid_groups == count
+    assert [(s.group_no, s.valid_fields) for s in decoded.groups] == [s[:2] for s in slots]
+
+
+@FUZZ
+@given(
+    st.integers(-(2**40), 2**40),
+    st.lists(
+        st.builds(
+            JointTrajPtExGroup, st.integers(-(2**40), 2**40), i32, f32, joints, joints, joints
+        ),
+        max_size=6,
+    ),
+    orders,
+)
+def test_2016_encodes_1_to_4_groups_of_int32_fields_or_refuses(
+    sequence: int, groups: list[JointTrajPtExGroup], order: ByteOrder
+) -> None:
+    message = Message(
+        MsgType.MOTO_JOINT_TRAJ_PT_FULL_EX, 2, 0, JointTrajPtFullEx(sequence, tuple(groups))
+    )
+    fits = all(-(2**31) <= n < 2**31 for n in (sequence, *(g.group_no for g in groups)))
+    if not 1 <= len(groups) <= MAX_GROUPS or not fits:
+        with pytest.raises(LocalProtocolError):
+            encode(message, order, Role.CLIENT)
+        return
+    assert decode_frames(encode(message, order, Role.CLIENT), Role.CONTROLLER, order) == [message]
+
+
+@FUZZ
+@given(st.integers(-(2**40), 2**40), st.lists(feedback, max_size=6), orders)
+def test_2017_encodes_up_to_4_slots_and_an_int32_count_or_refuses(
+    count: int, slots: list[JointFeedback], order: ByteOrder
+) -> None:
+    message = Message(MsgType.MOTO_JOINT_FEEDBACK_EX, 1, 0, JointFeedbackEx(count, tuple(slots)))
+    if len(slots) > MAX_GROUPS or not -(2**31) <= count < 2**31:
+        with pytest.raises(LocalProtocolError):
+            encode(message, order, Role.CONTROLLER)
+        return
+    [decoded] = decode_frames(encode(message, order, Role.CONTROLLER), Role.CLIENT, order)
+    assert isinstance(decoded, Message) and isinstance(decoded.body, JointFeedbackEx)
+    assert decoded.body.number_of_valid_groups == count
+    assert decoded.body.groups[: len(slots)] == tuple(slots)

@@ -79,6 +79,15 @@ def test_pending_fits_forgets_points_the_interpolator_has_taken() -> None:
     assert list(group.outstanding) == [(2, 30)]
 
 
+def test_taken_points_are_forgotten_even_when_nobody_asks_whether_they_fit() -> None:
+    # Type-14 sequence-0 points skip the BUSY check, so pending_fits is never asked.
+    group = credit()
+    for taken in range(1, 1001):
+        group.number(POINT, 0)
+        group.on_slot(slot(taken=taken))
+    assert list(group.outstanding) == []
+
+
 def test_at_most_max_ahead_points_are_outstanding_even_when_they_fit() -> None:
     group = credit()
     for _ in range(MAX_AHEAD - 1):

@@ -351,6 +351,15 @@ def test_m_registers_are_not_served_on_the_motion_port() -> None:
     assert cell.calls == []
 
 
+@pytest.mark.parametrize("m_register", [MsgType.MOTO_READ_MREGISTER, MsgType.MOTO_WRITE_MREGISTER])
+def test_m_registers_of_any_length_are_unknown_on_the_motion_port(m_register: MsgType) -> None:
+    handler, _ = gateway()
+    error = PeerProtocolError("short", InvalidSubcode.MSGSIZE, msg_type=m_register)
+    reply = reply_of(handler.error_reply(error))
+    assert (reply.group_no, reply.sequence, reply.command) == (-1, -1, m_register)
+    assert (reply.result, reply.subcode) == (Result.INVALID, InvalidSubcode.MSGTYPE)
+
+
 def test_io_bits_are_served_on_the_motion_port_too() -> None:
     handler, cell = gateway()
     cell.replies["controller/read_bit"] = CommandReply(0, value=1)

@@ -5,6 +5,7 @@ nothing (motoros1 §2.5)."""
 from __future__ import annotations
 
 import msgspec
+import pytest
 
 from services.gateway.core.credits import MAX_AHEAD
 from shared.config import parse_cell
@@ -323,6 +324,38 @@ def test_2016_refuses_a_group_listed_twice_or_missing() -> None:
     assert verdict_of(unknown.reply) == invalid(InvalidSubcode.GROUPNO)
     assert reply_of(unknown.reply).group_no == 2
     assert cell.sent == []
+
+
+@pytest.mark.parametrize("bad", [2, 3, 4, 2**31 - 1, -1, -2, -(2**31)])
+@pytest.mark.parametrize("position", [0, 1])
+def test_2016_a_group_number_the_cell_lacks_is_invalid_3004_and_the_port_goes_on(
+    bad: int, position: int
+) -> None:
+    handler, cell = gateway(two_groups())
+    exchange(handler, ex(0, *both(0.0)))
+    exchange(handler, ex(1, *both(0.1)))
+    cell.take_all(0)
+    cell.take_all(1)
+    # The groups listed with it are resends of the point just taken: nothing before the group
+    # check may look the bad number up (it raised IndexError and closed the port).
+    listed = [ex_group(0, 0.1, ZEROS, ZEROS)]
+    listed.insert(position, ex_group(bad, 0.1, ZEROS, ZEROS))
+    answer = exchange(handler, ex(1, *listed))
+    assert not answer.close
+    assert verdict_of(answer.reply) == invalid(InvalidSubcode.GROUPNO)
+    assert reply_of(answer.reply).group_no == bad
+    assert len(cell.sent) == 4
+    assert verdict_of(exchange(handler, ex(2, *both(0.2))).reply) == OK
+
+
+def test_2016_group_minus_1_is_not_taken_for_the_last_group() -> None:
+    handler, cell = gateway(two_groups())
+    exchange(handler, ex(0, *both(0.0)))
+    exchange(handler, ex(1, *both(0.1)))
+    # -1 indexes the last group's track in Python: a resend of its point must still be refused.
+    reply = exchange(handler, ex(1, ex_group(-1, 0.1, ZEROS, ZEROS))).reply
+    assert verdict_of(reply) == invalid(InvalidSubcode.GROUPNO)
+    assert len(cell.sent) == 4
 
 
 def test_2016_not_ready_answers_for_the_last_group() -> None:
