@@ -26,7 +26,7 @@ import zenoh
 
 from shared.bus.access import Identity
 from shared.bus.catalog import Role
-from shared.bus.claim import NameTakenError, claim_name
+from shared.bus.claim import NameTakenError, claim_name, watch_claims
 from shared.bus.credentials import CredentialsError
 from shared.bus.credentials import load as load_credentials
 from shared.bus.keys import CellKeys
@@ -199,7 +199,18 @@ def running_service(
         except (ConfigError, CredentialsError, ConnectionError, NameTakenError) as exc:
             print(f"motocell {name}: {exc}", file=sys.stderr)
             raise SystemExit(EXIT_CONFIG) from None
-        yield ServiceContext(cell, CellKeys(cell.name), session, stop)
+        clashes: list[str] = []
+
+        def give_way(why: str) -> None:
+            clashes.append(why)
+            stop.set()
+
+        keys = CellKeys(cell.name)
+        joined.callback(watch_claims(session, keys, service, instance, give_way).undeclare)
+        yield ServiceContext(cell, keys, session, stop)
+    if clashes:
+        print(f"motocell {name}: {clashes[0]}; this one stops", file=sys.stderr)
+        raise SystemExit(EXIT_CONFIG)
 
 
 @contextmanager

@@ -11,6 +11,7 @@ starts ended with two winners; with 10-50 ms, none did.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 
 import zenoh
 
@@ -41,6 +42,26 @@ def claim_name(
         token.undeclare()
         raise NameTakenError(_taken(session, keys, service, instance))
     return token
+
+
+def watch_claims(
+    session: zenoh.Session,
+    keys: CellKeys,
+    service: str,
+    instance: str,
+    on_clash: Callable[[str], None],
+) -> zenoh.Subscriber[None]:
+    """Calls ``on_clash`` (on a Zenoh thread) when another session claims this name after we
+    won it, e.g. when two halves of a network that each ran one are joined again. Both see
+    the clash; the one whose id is not the lowest is told, so exactly one gives way."""
+    own_id = str(session.info.zid())
+
+    def seen(sample: zenoh.Sample) -> None:
+        other = str(sample.key_expr).rsplit("/", 1)[-1]
+        if sample.kind == zenoh.SampleKind.PUT and other != own_id and other < own_id:
+            on_clash(f"another {service} of cell {keys.cell} (session {other}) joined the bus")
+
+    return session.liveliness().declare_subscriber(keys.claims(service, instance), seen)
 
 
 def _claimants(session: zenoh.Session, keys: CellKeys, service: str, instance: str) -> list[str]:
