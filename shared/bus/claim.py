@@ -61,7 +61,11 @@ def watch_claims(
         if sample.kind == zenoh.SampleKind.PUT and other != own_id and other < own_id:
             on_clash(f"another {service} of cell {keys.cell} (session {other}) joined the bus")
 
-    return session.liveliness().declare_subscriber(keys.claims(service, instance), seen)
+    # With history: a claim declared while this subscription is still on its way to the router
+    # is reported too (only arrivals matter here, so the history/DELETE race cannot hurt).
+    return session.liveliness().declare_subscriber(
+        keys.claims(service, instance), seen, history=True
+    )
 
 
 def _claimants(session: zenoh.Session, keys: CellKeys, service: str, instance: str) -> list[str]:
