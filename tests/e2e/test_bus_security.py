@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 import zenoh
 
+from services.controller.core.dispatch import COMMANDS, FAULTS
 from shared.bus.access import Identity
 from shared.bus.catalog import Role
 from shared.bus.credentials import Credentials, load
@@ -36,18 +37,6 @@ from testkit.client import MotionClient, StateListener, smooth_move, stream
 
 pytestmark = pytest.mark.cell
 
-COMMAND_VERBS = (
-    "start_servos",
-    "stop_servos",
-    "reset_alarm",
-    "start_traj_mode",
-    "stop_traj_mode",
-    "select_tool",
-    "write_bit",
-    "write_group",
-    "write_register",
-)
-FAULTS = ("estop", "hold", "alarm", "error", "servo", "play", "remote", "pfl", "ot889")
 WATCH_S = 1.0
 """How long the cell is watched for an effect after an attack: 250 ticks, far more than any
 put or query needs to arrive (well under 10 ms on loopback)."""
@@ -78,7 +67,7 @@ def attack(session: zenoh.Session, cell: RunningCell) -> None:
         session.put(key, payload)
     keys = cell.keys
     on = encode(CommandRequest(value=1, args=[4100, 0]))
-    for verb in COMMAND_VERBS:
+    for verb in COMMANDS:
         list(session.get(keys.controller_cmd(verb), payload=encode(CommandRequest()), timeout=0.5))
     for kind in FAULTS:
         list(session.get(keys.controller_fault(kind), payload=on, timeout=0.5))
@@ -164,7 +153,7 @@ def test_outside_identities_cannot_move_the_robot_or_raise_a_fault(
 def attack_without_faults(session: zenoh.Session, cell: RunningCell) -> None:
     for key, payload in attacks(cell):
         session.put(key, payload)
-    for verb in COMMAND_VERBS:
+    for verb in COMMANDS:
         list(session.get(cell.keys.controller_cmd(verb), timeout=0.5))
     for verb in ("stop", "queue_count"):
         list(session.get(cell.keys.executor_cmd(verb), timeout=0.5))
