@@ -1,4 +1,5 @@
-"""The ``motocell`` command."""
+"""motocell: run and watch simulated Yaskawa Motoman cells that ROS-Industrial's
+motoman_driver drives as it would a controller running MotoROS."""
 
 from __future__ import annotations
 
@@ -8,11 +9,13 @@ import sys
 from collections.abc import Sequence
 
 from services.launcher import __main__ as launcher
+from shared.service import version
 from tools import bench, credentials, demo, fault, observe, plot, record
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="motocell", description=__doc__)
+    parser = argparse.ArgumentParser(prog="motocell", description=__doc__, allow_abbrev=False)
+    parser.add_argument("--version", action="version", version=f"motocell {version()}")
     commands = parser.add_subparsers(dest="command", required=True)
 
     up = commands.add_parser("up", help="run a whole cell in the foreground")
@@ -41,6 +44,9 @@ def build_parser() -> argparse.ArgumentParser:
     run_demo.add_argument("--points", type=int, default=20)
     run_demo.add_argument("--duration", type=float, default=2.0, help="trajectory seconds")
     run_demo.set_defaults(run=demo.run)
+    for subcommand in commands.choices.values():
+        # No abbreviated options anywhere: `--port-bas` must not silently mean `--port-base`.
+        subcommand.allow_abbrev = False
     return parser
 
 

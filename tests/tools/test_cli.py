@@ -53,3 +53,17 @@ def test_help_imports_neither_mcap_nor_matplotlib(tmp_path: Path) -> None:
         check=True,
     )
     assert done.stdout.splitlines()[-1] == "[]"
+
+
+def test_abbreviated_options_are_refused(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_status:
+        build_parser().parse_args(["up", "--port-bas", "51240"])
+    assert exit_status.value.code == 2
+    assert "unrecognized arguments: --port-bas" in capsys.readouterr().err
+
+
+def test_version_is_printed(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_status:
+        build_parser().parse_args(["--version"])
+    assert exit_status.value.code == 0
+    assert capsys.readouterr().out.startswith("motocell ")
