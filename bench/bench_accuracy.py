@@ -214,7 +214,7 @@ def run(quick: bool) -> list[dict[str, Any]]:
     for seed in range(RUNS):
         worst, wrong, finals = 0.0, 0, 0
         for index, (name, model) in enumerate(sorted(catalogue.items())):
-            group = Group(index, name, name, model, tuple(model.initial_position))
+            group = Group(index, name, name, model, tuple(model.initial_position), model.ranges)
             d, m, n, f = pure_once(group, segments, seed * 100 + index)
             worst, wrong, finals = max(worst, d), wrong + m, max(finals, f)
             entries += n

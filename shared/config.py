@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import tomllib
+from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 from importlib import resources
@@ -63,6 +64,8 @@ class RobotModel(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
     max_speed: list[float]
     max_accel: list[float]
     initial_position: list[float]
+    joint_limits: list[list[float]]
+    """[lower, upper] per axis: the controller's motion range (soft limits)."""
     dh: list[list[float]]
     seven_axis: bool = False
     description: str = ""
@@ -71,12 +74,19 @@ class RobotModel(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
     def axes(self) -> int:
         return len(self.axis_types)
 
+    @property
+    def ranges(self) -> tuple[tuple[float, float], ...]:
+        """``joint_limits`` as the (lower, upper) pairs a ``Group`` holds."""
+        return tuple((lower, upper) for lower, upper in self.joint_limits)
+
 
 class GroupConfig(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
     name: str = "R1"
     model: str = "arm6"
     initial_position: list[float] | None = None
     """Overrides the model's initial position (ROS order)."""
+    joint_limits: list[list[float]] | None = None
+    """Narrows the model's joint ranges ([lower, upper] per axis, ROS order); never widens."""
 
 
 class ZenohConfig(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
@@ -109,6 +119,8 @@ class Group:
     model_name: str
     model: RobotModel
     initial_position: tuple[float, ...]
+    joint_limits: tuple[tuple[float, float], ...]
+    """[lower, upper] per axis in ROS order: the model's, or the cell file's narrower ones."""
 
     @property
     def axes(self) -> int:
@@ -190,6 +202,43 @@ def _check_model(where: str, model: RobotModel) -> None:
             raise ConfigError(f"{where}.{field}: values must be > 0")
     if len(model.dh) > n or any(len(link) != 4 for link in model.dh):
         raise ConfigError(f"{where}.dh: at most {n} links of [theta, d, a, alpha]")
+    _check_limits(f"{where}.joint_limits", model.joint_limits, n)
+    _check_within(f"{where}.initial_position", model.initial_position, model.joint_limits)
+
+
+def _check_limits(where: str, limits: list[list[float]], axes: int) -> None:
+    """``axes`` pairs of finite numbers, each lower <= upper."""
+    if len(limits) != axes or any(len(pair) != 2 for pair in limits):
+        raise ConfigError(f"{where}: needs {axes} [lower, upper] pairs, got {limits}")
+    for axis, (lower, upper) in enumerate(limits):
+        if not (math.isfinite(lower) and math.isfinite(upper) and lower <= upper):
+            raise ConfigError(f"{where}[{axis}]: [{lower}, {upper}] is not a finite range")
+
+
+def _check_within(where: str, position: Sequence[float], limits: Sequence[Sequence[float]]) -> None:
+    for axis, (value, (lower, upper)) in enumerate(zip(position, limits, strict=True)):
+        if not lower <= value <= upper:
+            raise ConfigError(f"{where}[{axis}]: {value} is outside the range [{lower}, {upper}]")
+
+
+def _group_limits(
+    field: str, group: GroupConfig, model: RobotModel
+) -> tuple[tuple[float, float], ...]:
+    """The group's joint ranges: the model's, narrowed by the cell file; widening is refused,
+    since the model's range is the mechanism's (a real controller's parameters are the same)."""
+    if group.joint_limits is None:
+        return model.ranges
+    where = f"{field}.joint_limits"
+    _check_limits(where, group.joint_limits, model.axes)
+    for axis, (pair, allowed) in enumerate(
+        zip(group.joint_limits, model.joint_limits, strict=True)
+    ):
+        if pair[0] < allowed[0] or pair[1] > allowed[1]:
+            raise ConfigError(
+                f"{where}[{axis}]: {pair} widens the model's range {allowed}; "
+                "a cell file can only narrow it"
+            )
+    return tuple((lower, upper) for lower, upper in group.joint_limits)
 
 
 def load_cell(path: str | Path | None = None, name: str | None = None) -> Cell:
@@ -273,7 +322,9 @@ def resolve(
             raise ConfigError(
                 f"{field}.initial_position: needs {model.axes} finite values, got {initial}"
             )
-        groups.append(Group(index, group.name, group.model, model, tuple(initial)))
+        limits = _group_limits(field, group, model)
+        _check_within(f"{field}.initial_position", initial, limits)
+        groups.append(Group(index, group.name, group.model, model, tuple(initial), limits))
     return Cell(
         name=cell_file.name,
         controller=cell_file.controller,

@@ -69,6 +69,7 @@ def custom_model(
         f"max_speed = {[1.0] * axes}",
         f"max_accel = {[2.0] * axes}",
         f"initial_position = {[0.0] * axes}",
+        f"joint_limits = {[[-1.0, 1.0]] * axes}",
         f"dh = {[[0.0, 0.0, 0.0, 0.0]] * min(axes, MAX_AXES)}",
     ]
     if seven_axis:
@@ -231,6 +232,81 @@ def test_catalogue_lists_are_consistent(model_name: str) -> None:
     assert len(model.dh) == n
     assert all(len(link) == 4 for link in model.dh)
     assert model.description
+
+
+GP7_DEGREES = [(-170, 170), (-65, 145), (-70, 190), (-190, 190), (-135, 135), (-360, 360)]
+SIA10_DEGREES = [(-180, 180), (-110, 110), (-170, 170), (-135, 135), (-180, 180), (-110, 110)]
+
+
+@pytest.mark.parametrize(
+    ("model_name", "degrees"),
+    [("arm6", GP7_DEGREES), ("arm7", [*SIA10_DEGREES, (-180, 180)])],
+)
+def test_arm_ranges_are_those_of_the_real_model(
+    model_name: str, degrees: list[tuple[int, int]]
+) -> None:
+    limits = load_catalogue()[model_name].joint_limits
+    found = [math.degrees(value) for pair in limits for value in pair]
+    assert found == pytest.approx([value for pair in degrees for value in pair], abs=0.01)
+
+
+@pytest.mark.parametrize("model_name", CATALOGUE_NAMES)
+def test_every_model_has_a_range_holding_its_initial_position(model_name: str) -> None:
+    model = load_catalogue()[model_name]
+    assert len(model.joint_limits) == model.axes
+    for value, (lower, upper) in zip(model.initial_position, model.joint_limits, strict=True):
+        assert lower < upper
+        assert lower <= value <= upper
+
+
+def test_a_group_takes_the_model_ranges_by_default() -> None:
+    cell = load_cell()
+    assert cell.groups[0].joint_limits == load_catalogue()["arm6"].ranges
+
+
+def test_a_cell_file_narrows_the_ranges(tmp_path: Path) -> None:
+    narrow = [[-1.0, 1.0], [-0.5, 0.5], [0.0, 0.1], [-2.0, 2.0], [-1.0, 1.0], [-3.0, 3.0]]
+    cell = load_cell(write_cell(tmp_path, f'[[groups]]\nmodel = "arm6"\njoint_limits = {narrow}\n'))
+    assert cell.groups[0].joint_limits == tuple(tuple(pair) for pair in narrow)
+
+
+def test_widening_a_range_is_refused(tmp_path: Path) -> None:
+    wide = [[-1.0, 1.0]] * 5 + [[-7.0, 1.0]]
+    message = refused(tmp_path, f'[[groups]]\nmodel = "arm6"\njoint_limits = {wide}\n')
+    assert "groups[0].joint_limits[5]" in message
+    assert "widens" in message
+
+
+@pytest.mark.parametrize(
+    ("limits", "problem"),
+    [
+        ([[-1.0, 1.0]] * 5, "needs 6 [lower, upper] pairs"),
+        ([[-1.0, 1.0, 2.0]] * 6, "needs 6 [lower, upper] pairs"),
+        ([[1.0, -1.0]] * 6, "is not a finite range"),
+    ],
+)
+def test_malformed_group_ranges_are_refused(
+    tmp_path: Path, limits: list[list[float]], problem: str
+) -> None:
+    message = refused(tmp_path, f'[[groups]]\nmodel = "arm6"\njoint_limits = {limits}\n')
+    assert "groups[0].joint_limits" in message
+    assert problem in message
+
+
+def test_an_initial_position_outside_the_range_is_refused(tmp_path: Path) -> None:
+    text = '[[groups]]\nmodel = "arm6"\ninitial_position = [3.0, 0.0, 0.0, 0.0, 0.0, 0.0]\n'
+    message = refused(tmp_path, text)
+    assert "groups[0].initial_position[0]: 3.0 is outside the range" in message
+
+
+def test_an_initial_position_outside_a_narrowed_range_is_refused(tmp_path: Path) -> None:
+    text = '[[groups]]\nmodel = "track1"\njoint_limits = [[0.5, 1.0]]\n'
+    assert "groups[0].initial_position[0]" in refused(tmp_path, text)
+
+
+def test_a_model_whose_initial_position_is_outside_its_range_is_refused(tmp_path: Path) -> None:
+    text = custom_model().replace("initial_position = [0.0, 0.0]", "initial_position = [0.0, 2.0]")
+    assert "models.x.initial_position[1]" in refused(tmp_path, text + groups_toml("arm6"))
 
 
 # --- bad files ----------------------------------------------------------------------------
