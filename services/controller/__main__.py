@@ -13,12 +13,13 @@ import zenoh
 from services.controller.core.dispatch import COMMANDS, FAULTS, Dispatcher
 from services.controller.core.io_table import IoTable
 from services.controller.core.model import Controller
-from shared.bus.schemas import CommandRequest, Decoder, Tick, encode
+from shared.bus.schemas import CommandReply, CommandRequest, Decoder, Tick, encode
 from shared.bus.session import Inbox, Liveness, answer, command_of, publisher
 from shared.service import ServiceContext, argument_parser, required_alive_keys, running_service
 
 _request_decoder = Decoder(CommandRequest)
 _tick_decoder = Decoder(Tick)
+_notice_decoder = Decoder(CommandReply)
 
 POLL_S = 0.01
 """MotoROS polls the controller status every 10 ms (motoros1 §0)."""
@@ -95,7 +96,8 @@ class ControllerService:
                 assert isinstance(item, zenoh.Sample)
                 dispatcher.connections(_request_decoder.decode(item.payload.to_bytes()))
             elif tag == "incmove_error":
-                dispatcher.incmove_error()
+                assert isinstance(item, zenoh.Sample)
+                dispatcher.incmove_error(_notice_decoder.decode(item.payload.to_bytes()))
             elif tag.startswith("cmd/"):
                 assert isinstance(item, zenoh.Query)
                 dispatcher.command(tag.removeprefix("cmd/"), command_of(item), item, now)

@@ -19,7 +19,14 @@ import msgspec
 import zenoh
 
 from services.executor.controller_token import ControllerToken
-from services.executor.core import BatchOutcome, ExecutorCore, heartbeat_ticks, starting_pulses
+from services.executor.core import (
+    SOFT_LIMIT_ALARM,
+    BatchOutcome,
+    ExecutorCore,
+    heartbeat_ticks,
+    pulse_ranges,
+    starting_pulses,
+)
 from shared.bus.schemas import (
     CommandReply,
     ControllerStatus,
@@ -86,6 +93,7 @@ class Executor:
             first_epoch=time.time_ns() // 1000,
             max_increments=[AxisMap(group).max_increments(cell.period_s) for group in cell.groups],
             heartbeat_ticks=heartbeat_ticks(cell.period_ns),
+            ranges=pulse_ranges(cell),
         )
         session = ctx.session
         keys = ctx.keys
@@ -145,14 +153,15 @@ class Executor:
         while (query := self.count_queries.try_recv()) is not None:
             answer(query, core.queue_count_reply(command_of(query).group))
 
-    def _increment_path_broken(self, group: int, reason: str) -> None:
+    def _increment_path_broken(self, group: int, reason: str, alarm: int = 0) -> None:
         """Stop everything and have the controller raise the IncMove error (NOT_READY 5012
-        until START_TRAJ_MODE), as MotoROS 1.9.5 does when an increment is rejected."""
+        until START_TRAJ_MODE), as MotoROS 1.9.5 does when an increment is rejected, or
+        ``alarm`` when it is not 0."""
         log.error("group %d: %s; stopping motion", group, reason)
         self.core.clear_all()
         self.ctx.session.put(
             self.ctx.keys.controller_cmd("incmove_error"),
-            encode(CommandReply(Result.FAILURE, group, detail=reason)),
+            encode(CommandReply(Result.FAILURE, group, value=alarm, detail=reason)),
         )
 
     def _publish_metrics(self, realtime: bool, depths: list[int]) -> None:
@@ -189,7 +198,11 @@ class Executor:
                 self.missed += 1
             self.drain()
             for group in self.core.step():
-                self._increment_path_broken(group, "refused by the motion system")
+                if group in self.core.beyond_range:
+                    reason = self.core.beyond_range[group]
+                    self._increment_path_broken(group, reason, SOFT_LIMIT_ALARM)
+                else:
+                    self._increment_path_broken(group, "refused by the motion system")
             tick = self.core.tick_report(deadline, lateness, self.missed)
             self.tick_pub.put(encode(tick))
             self._publish_queues()

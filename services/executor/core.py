@@ -29,6 +29,12 @@ late joiners and for the gateway, which ages what it holds (``heartbeat_ticks``)
 
 ZERO = (0,) * MAX_AXES
 
+SOFT_LIMIT_ALARM = 4416
+"""The alarm the controller raises when an increment would take an axis past its motion range
+(soft limit): Yaskawa's PULSE LIMIT alarm, whose limits are pulse counts in the controller's
+parameters (docs/behaviour.md, "Joint limits"). Sent as ``CommandReply.value`` of the
+increment-path notice, with the group as its subcode."""
+
 
 @dataclass(frozen=True)
 class Entry:
@@ -68,6 +74,22 @@ def heartbeat_ticks(period_ns: int) -> int:
     return max(1, int(HEARTBEAT_S * 1e9) // period_ns)
 
 
+def pulse_ranges(cell: Cell) -> list[tuple[list[int], list[int]]]:
+    """Each group's motion range as (lower, upper) pulses in Motoman order (unused axes 0),
+    converted as positions are, so a point exactly at a limit lands exactly on it."""
+    ranges = []
+    for group in cell.groups:
+        axis_map = AxisMap(group)
+        lower, upper = np.array(group.joint_limits, dtype=np.float64).T
+        ranges.append(
+            (
+                axis_map.pad_moto(axis_map.ros_to_pulses(lower)),
+                axis_map.pad_moto(axis_map.ros_to_pulses(upper)),
+            )
+        )
+    return ranges
+
+
 def starting_pulses(cell: Cell, remembered: CommandReply | None) -> list[list[int]]:
     """Where the robot is: the controller remembers the last commanded pulses across an
     executor restart (``remembered``, its reply to ``positions``); without it, the cell file's
@@ -100,6 +122,7 @@ class ExecutorCore:
         first_epoch: int,
         max_increments: list[list[int]] | None = None,
         heartbeat_ticks: int = QUEUE_HEARTBEAT_TICKS,
+        ranges: list[tuple[list[int], list[int]]] | None = None,
     ) -> None:
         """``max_increments``: per group and Motoman axis, the most pulses the motion system
         takes in one period (None: no limit). ``heartbeat_ticks``: how often an unchanged queue
@@ -107,6 +130,10 @@ class ExecutorCore:
         self.command = [list(p) for p in command_pulses]
         self.heartbeat_ticks = heartbeat_ticks
         self.max_increments = max_increments
+        self.ranges = ranges
+        """Per group, the (lower, upper) pulses of each Motoman axis (None: no limits)."""
+        self.beyond_range: dict[int, str] = {}
+        """The groups the last tick refused because an axis would pass its range, and why."""
         self._held_ticks = [0] * len(command_pulses)
         self.rings = [GroupRing(first_epoch + g) for g in range(len(command_pulses))]
         self._next_epoch = first_epoch + len(command_pulses)
@@ -185,9 +212,10 @@ class ExecutorCore:
         together in one call, like MotoROS's single IncMove call per tick (motoros1 §5.3).
 
         Returns the groups whose increments the motion system refused (beyond an axis's
-        maximum per period) or whose synchronized start waited too long. Then nothing is
-        applied this tick, as a rejected IncMove call moves no group; the caller stops motion
-        (MotoROS 1.9.5: NOT_READY 5012 until START_TRAJ_MODE)."""
+        maximum per period, or past its range: ``beyond_range``) or whose synchronized start
+        waited too long. Then nothing is applied this tick, as a rejected IncMove call moves
+        no group; the caller stops motion (MotoROS 1.9.5: NOT_READY 5012 until
+        START_TRAJ_MODE; at a range limit, alarm ``SOFT_LIMIT_ALARM``)."""
         self.tick += 1
         held = self._waiting_for_partners()
         broken = [g for g in held if self._held_ticks[g] > BARRIER_TIMEOUT_TICKS]
@@ -196,6 +224,8 @@ class ExecutorCore:
             for group, ring in enumerate(self.rings)
         ]
         broken += [g for g, inc in enumerate(increments) if not self._within_limits(g, inc)]
+        self.beyond_range = self._beyond_range(increments)
+        broken += [g for g in self.beyond_range if g not in broken]
         if broken:
             increments = [ZERO] * len(self.rings)
         for group, increment in enumerate(increments):
@@ -211,6 +241,26 @@ class ExecutorCore:
             return True
         limits = self.max_increments[group]
         return all(abs(inc) <= limit for inc, limit in zip(increment, limits, strict=True))
+
+    def _beyond_range(self, increments: list[tuple[int, ...]]) -> dict[int, str]:
+        """The groups whose increment would take an axis past its range, as a controller's
+        motion-range check refuses them: an axis may end exactly on a limit, and one already
+        outside (a range narrowed since) may still move back towards it."""
+        found = {}
+        for group, increment in enumerate(increments):
+            if self.ranges is None or increment is ZERO:
+                continue
+            lower, upper = self.ranges[group]
+            for axis, (now, step, low, high) in enumerate(
+                zip(self.command[group], increment, lower, upper, strict=True)
+            ):
+                target = now + step
+                if (target > high and step > 0) or (target < low and step < 0):
+                    found[group] = (
+                        f"axis {axis} would reach {target} pulses, past its range [{low}, {high}]"
+                    )
+                    break
+        return found
 
     def _waiting_for_partners(self) -> set[int]:
         """Groups whose next entry starts a synchronized (2016) trajectory while a partner

@@ -108,9 +108,16 @@ class Dispatcher(Generic[Q]):
         """The gateway's motion, state and I/O client counts, in ``args``."""
         self.model.set_connections(*[*counts.args, 0, 0, 0][:3])
 
-    def incmove_error(self) -> None:
-        log.error("increment path broken; motion stopped (NOT_READY 5012)")
-        self.model.set_incmove_error()
+    def incmove_error(self, notice: CommandReply) -> None:
+        """The executor stopped motion: the increment path broke (the IncMove error, NOT_READY
+        5012), or the motion system raised the alarm ``notice.value`` (a soft limit, 4416),
+        subcode ``notice.subcode``. Either way the rings are already cleared."""
+        if notice.value:
+            log.error("alarm %d: %s; motion stopped", notice.value, notice.detail)
+            self.model.raise_alarm(notice.value, notice.subcode)
+        else:
+            log.error("increment path broken; motion stopped (NOT_READY 5012)")
+            self.model.set_incmove_error()
 
     def bad_payload(self, what: str, query: Q | None, error: Exception) -> None:
         """A payload that does not decode gets INVALID (queries) or is only logged (notices);

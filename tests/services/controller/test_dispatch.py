@@ -348,8 +348,45 @@ def test_short_connection_counts_mean_no_clients() -> None:
 def test_incmove_error_notice_stops_motion() -> None:
     d = dispatcher()
     ready(d)
-    d.incmove_error()
+    d.incmove_error(CommandReply(Result.FAILURE, 0, detail="increment batch gap"))
     assert d.model.not_ready_subcode() == NotReadySubcode.INC_MOVE_ERROR
+    assert d.model.alarms == []
+
+
+SOFT_LIMIT = CommandReply(Result.FAILURE, 1, value=4416, detail="axis 0 past its range")
+
+
+def soft_limit_hit() -> Dispatcher[str]:
+    """A ready controller whose executor refused an increment at a range limit (group 1)."""
+    d = dispatcher(groups=2)
+    ready(d)
+    d.incmove_error(SOFT_LIMIT)
+    return d
+
+
+def test_a_soft_limit_notice_raises_its_alarm_and_stops_motion() -> None:
+    d = soft_limit_hit()
+    status = d.model.status()
+    assert status.alarms == [Alarm(4416, 1)]
+    assert not status.motion_ready
+    assert status.not_ready_subcode == NotReadySubcode.ALARM
+    assert not status.incmove_error
+
+
+def test_reset_alarm_then_start_traj_mode_recovers_from_a_soft_limit() -> None:
+    d = soft_limit_hit()
+    assert result(answer(d, "reset_alarm")) == (Result.SUCCESS, 0)
+    assert d.model.alarms == []
+    assert not d.model.motion_ready()
+    ready(d)
+    assert d.model.motion_ready()
+
+
+def test_start_traj_mode_alone_recovers_from_a_soft_limit() -> None:
+    d = soft_limit_hit()
+    ready(d)
+    assert d.model.alarms == []
+    assert d.model.motion_ready()
 
 
 def test_a_bad_query_payload_is_answered_invalid() -> None:

@@ -18,6 +18,7 @@ from services.executor.core import (
     BatchOutcome,
     ExecutorCore,
     heartbeat_ticks,
+    pulse_ranges,
     starting_pulses,
 )
 from shared.bus.schemas import CommandReply, GroupTick, IncrementBatch, QueueState
@@ -367,6 +368,73 @@ def test_an_increment_beyond_the_axis_maximum_is_refused_and_nothing_moves() -> 
     assert core.step() == list(range(len(START)))
     assert all(increment[0] == 0 for increment in core.last_increment)
     assert core.command[0][0] == START[0][0] + 10
+
+
+# Group 0's S axis may go from 0 to 100 pulses (it starts at 10); group 1 has no narrow limit.
+RANGES = [([0] + [-1000] * 7, [100] + [1000] * 7), ([-1000] * 8, [1000] * 8)]
+
+
+def ranged_core(*rows: list[int]) -> ExecutorCore:
+    """A ready core with ``RANGES`` whose group 0 holds ``rows`` and group 1 one S-axis pulse
+    per row."""
+    core = ExecutorCore(START, FIRST_EPOCH, ranges=RANGES)
+    core.set_ready(True)
+    assert core.accept(0, batch(core.rings[0].epoch, 0, rows)) is BatchOutcome.ACCEPTED
+    assert core.accept(1, batch(core.rings[1].epoch, 0, [unit(1)] * len(rows)))
+    return core
+
+
+def test_an_increment_that_lands_exactly_on_a_limit_is_accepted() -> None:
+    core = ranged_core(unit(40), unit(50))
+    assert core.step() == []
+    assert core.step() == []
+    assert core.command[0][0] == 100
+    assert core.beyond_range == {}
+
+
+@pytest.mark.parametrize("past", [unit(91), unit(-11)])
+def test_an_increment_past_a_limit_is_refused_and_nothing_moves(past: list[int]) -> None:
+    core = ranged_core(past)
+    assert core.step() == [0]
+    assert "axis 0" in core.beyond_range[0]
+    assert "past its range [0, 100]" in core.beyond_range[0]
+    assert core.command == START
+    assert core.last_increment == [(0,) * 8, (0,) * 8]
+
+
+def test_a_range_is_checked_on_every_motoman_axis() -> None:
+    core = ExecutorCore(START, FIRST_EPOCH, ranges=[([0] * 8, [60] * 8)] * 2)
+    core.set_ready(True)
+    assert core.accept(0, batch(core.rings[0].epoch, 0, [unit(1, axis=5)]))
+    assert core.step() == [0]
+    assert "axis 5 would reach 61 pulses" in core.beyond_range[0]
+
+
+def test_an_axis_outside_a_narrowed_range_may_move_back_towards_it() -> None:
+    core = ExecutorCore([[150, *[0] * 7], [0] * 8], FIRST_EPOCH, ranges=RANGES)
+    core.set_ready(True)
+    assert core.accept(0, batch(core.rings[0].epoch, 0, [unit(-10), unit(1)]))
+    assert core.step() == []
+    assert core.command[0][0] == 140
+    assert core.step() == [0]
+
+
+def test_pulse_ranges_follow_the_cell_in_motoman_order() -> None:
+    cell = parse_cell(
+        {
+            "groups": [
+                {"name": "R1", "model": "arm7", "joint_limits": [[-1.0, 1.0]] * 6 + [[-0.5, 0.25]]},
+                {"name": "B1", "model": "track1"},
+            ]
+        }
+    )
+    (lower, upper), (track_lower, track_upper) = pulse_ranges(cell)
+    # ROS T (the 7th) is Motoman T (the 6th); ROS E (the 3rd) is Motoman E (the 7th).
+    assert upper[:7] == [65536, 65536, 65536, 36408, 36408, 6144, 65536]
+    assert lower[5] == -12288
+    assert lower[7] == upper[7] == 0
+    assert (track_lower[0], track_upper[0]) == (-3_000_000, 3_000_000)
+    assert track_lower[1:] == track_upper[1:] == [0] * 7
 
 
 def test_a_synchronized_start_that_waits_too_long_is_reported() -> None:
