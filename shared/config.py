@@ -104,6 +104,9 @@ class CellFile(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
     byte_order: Literal["little", "big"] | None = None
     interpolation_period_ms: float = 4.0
     state_period_ms: float = 10.0
+    max_lateness_periods: int = 3
+    """How late (in interpolation periods) the executor may apply an increment; a longer stall
+    stops motion and raises an alarm (docs/behaviour.md, "Stalls")."""
     host: str = "127.0.0.1"
     port_base: int = 50240
     groups: list[GroupConfig] = msgspec.field(default_factory=lambda: [GroupConfig()])
@@ -138,6 +141,7 @@ class Cell:
     port_base: int
     groups: tuple[Group, ...]
     zenoh: ZenohConfig
+    max_lateness_periods: int = 3
 
     @property
     def period_s(self) -> float:
@@ -302,6 +306,8 @@ def resolve(
         raise ConfigError(
             f"{where}: state_period_ms: must be from one interpolation period to 1000"
         )
+    if not 1 <= cell_file.max_lateness_periods <= 1000:
+        raise ConfigError(f"{where}: max_lateness_periods: must be 1 to 1000")
     if not 1 <= cell_file.port_base <= 65533:
         raise ConfigError(f"{where}: port_base: must be 1 to 65533")
     groups = []
@@ -335,4 +341,5 @@ def resolve(
         port_base=cell_file.port_base,
         groups=tuple(groups),
         zenoh=cell_file.zenoh,
+        max_lateness_periods=cell_file.max_lateness_periods,
     )

@@ -21,10 +21,12 @@ import zenoh
 from services.executor.controller_token import ControllerToken
 from services.executor.core import (
     SOFT_LIMIT_ALARM,
+    STALL_ALARM,
     BatchOutcome,
     ExecutorCore,
     heartbeat_ticks,
     pulse_ranges,
+    stalled,
     starting_pulses,
 )
 from shared.bus.schemas import (
@@ -87,6 +89,7 @@ class Executor:
         self.ctx = ctx
         cell: Cell = ctx.cell
         self.period_ns = cell.period_ns
+        self.max_lateness_periods = cell.max_lateness_periods
         remembered = call(ctx.session, ctx.keys.controller_cmd("positions"), timeout=1.0)
         self.core = ExecutorCore(
             starting_pulses(cell, remembered),
@@ -131,11 +134,11 @@ class Executor:
             # Every status is applied in order, so a not-ready blip between two ticks still
             # clears the rings.
             try:
-                core.status_ready = _status.decode(sample.payload.to_bytes()).motion_ready
+                motion_ready = _status.decode(sample.payload.to_bytes()).motion_ready
             except msgspec.DecodeError:
                 log.warning("undecodable controller status ignored")
                 continue
-            core.update_ready()
+            core.on_status(motion_ready)
         core.update_ready()
         for group, channel in enumerate(self.batches):
             while (sample := channel.try_recv()) is not None:
@@ -163,6 +166,32 @@ class Executor:
             self.ctx.keys.controller_cmd("incmove_error"),
             encode(CommandReply(Result.FAILURE, group, value=alarm, detail=reason)),
         )
+
+    def _stall(self, reason: str) -> None:
+        """Stop motion for a stall (nothing queued is applied late) and have the controller
+        raise ``STALL_ALARM``: NOT_READY until START_TRAJ_MODE."""
+        if not self.core.awaiting_not_ready:
+            log.error("%s; stopping motion (alarm %d)", reason, STALL_ALARM)
+        self.core.stop_for_stall()
+        self._publish_queues(force=True)
+        self.ctx.session.put(
+            self.ctx.keys.controller_cmd("incmove_error"),
+            encode(CommandReply(Result.FAILURE, value=STALL_ALARM, detail=reason)),
+        )
+
+    def _check_stalls(self, lateness: int) -> bool:
+        """After draining, before applying: a tick later than the bound, or a controller
+        unheard for too long, stops motion. Returns whether the clock must restart from now
+        (no catching up on the missed periods)."""
+        core = self.core
+        if stalled(lateness, self.period_ns, self.max_lateness_periods):
+            self._stall(f"tick {lateness / 1e6:.1f} ms late")
+            return True
+        if core.controller_silent():
+            self._stall("no controller status heard")
+        elif core.stall_notice_due(self.ticks_per_second):
+            self._stall("stall not yet confirmed by the controller")
+        return False
 
     def _publish_metrics(self, realtime: bool, depths: list[int]) -> None:
         """Once a second, the lateness of the ticks of the last second (issue: metrics)."""
@@ -194,9 +223,10 @@ class Executor:
                 now = time.monotonic_ns()
             lateness = now - deadline
             if lateness >= period:
-                # Catch up instead of skipping: simulated motion never slips, the miss is counted.
                 self.missed += 1
             self.drain()
+            if self._check_stalls(lateness):
+                deadline = now
             for group in self.core.step():
                 if group in self.core.beyond_range:
                     reason = self.core.beyond_range[group]

@@ -69,6 +69,23 @@ BARRIER_TIMEOUT_TICKS = 250
 partner's increments are not coming: the increment path is broken."""
 
 
+STALL_ALARM = 4200
+"""The alarm the controller raises when the motion system missed its clock (the executor
+stalled past its lateness bound, or went without a controller status): a real controller's
+motion system stops the servo with a system alarm when its interpolation clock overruns, it
+never replays the missed periods. Sent as ``CommandReply.value`` of the increment-path
+notice; 0 there means the IncMove error."""
+STATUS_SILENCE_HEARTBEATS = 4
+"""How many controller heartbeats may go unheard before motion stops: fewer than the
+gateway's 5 (``STALE_AFTER_S``), so motion has stopped before a client can be told NOT_READY."""
+
+
+def stalled(lateness_ns: int, period_ns: int, max_lateness_periods: int) -> bool:
+    """Whether a tick this late is a stall: its increments, and all queued behind them, would
+    move the robot later than the cell file allows (``max_lateness_periods``)."""
+    return lateness_ns > max_lateness_periods * period_ns
+
+
 def heartbeat_ticks(period_ns: int) -> int:
     """The ticks between heartbeats that keep a queue state at least HEARTBEAT_S fresh."""
     return max(1, int(HEARTBEAT_S * 1e9) // period_ns)
@@ -126,7 +143,7 @@ class ExecutorCore:
     ) -> None:
         """``max_increments``: per group and Motoman axis, the most pulses the motion system
         takes in one period (None: no limit). ``heartbeat_ticks``: how often an unchanged queue
-        state is published all the same."""
+        state is published all the same, and the controller's status arrives at least."""
         self.command = [list(p) for p in command_pulses]
         self.heartbeat_ticks = heartbeat_ticks
         self.max_increments = max_increments
@@ -142,6 +159,9 @@ class ExecutorCore:
         """The controller's last status said motion-ready."""
         self.controller_present = False
         """The controller's liveliness token is present."""
+        self.awaiting_not_ready = False
+        """Motion stopped for a stall: ready statuses are older news until a not-ready one."""
+        self._silent_ticks = 0
         self.tick = 0
         self.last_increment: list[tuple[int, ...]] = [ZERO] * len(command_pulses)
         self._published_queues: list[tuple[object, ...] | None] = [None] * len(command_pulses)
@@ -202,6 +222,35 @@ class ExecutorCore:
         if self.ready and not ready:
             self.clear_all()
         self.ready = ready
+
+    def on_status(self, motion_ready: bool) -> None:
+        """A controller status, in the order they were published."""
+        self._silent_ticks = 0
+        if self.awaiting_not_ready and motion_ready:
+            return
+        self.awaiting_not_ready = False
+        self.status_ready = motion_ready
+        self.update_ready()
+
+    def controller_silent(self) -> bool:
+        """Counts one tick; true once a ready executor has heard no controller status for
+        ``STATUS_SILENCE_HEARTBEATS`` heartbeats (the controller or the router stalled)."""
+        self._silent_ticks += 1
+        return self.ready and self._silent_ticks > STATUS_SILENCE_HEARTBEATS * self.heartbeat_ticks
+
+    def stop_for_stall(self) -> None:
+        """A stall past the lateness bound: every ring cleared, nothing applied late, and not
+        ready until the controller has said so itself (its alarm), so no ready status sent
+        before the alarm restarts motion."""
+        self.clear_all()
+        self.status_ready = False
+        self.awaiting_not_ready = True
+        self.update_ready()
+
+    def stall_notice_due(self, ticks_per_second: int) -> bool:
+        """Once a second while the controller has not confirmed the stall: a notice lost while
+        the router itself stalled is sent again."""
+        return self.awaiting_not_ready and self.tick % ticks_per_second == 0
 
     def update_ready(self) -> None:
         """Motion-ready needs both a ready status and a controller alive to have sent it."""

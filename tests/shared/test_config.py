@@ -196,6 +196,12 @@ def test_periods_in_range_are_accepted(tmp_path: Path) -> None:
     assert (cell.period_ns, cell.state_period_ns) == (500_000, 500_000)
 
 
+def test_the_lateness_bound_is_three_periods_unless_set(tmp_path: Path) -> None:
+    assert load_cell().max_lateness_periods == 3
+    cell = load_cell(write_cell(tmp_path, "max_lateness_periods = 10\n"))
+    assert cell.max_lateness_periods == 10
+
+
 # --- the catalogue ------------------------------------------------------------------------
 
 
@@ -377,6 +383,10 @@ BAD_FILES: dict[str, tuple[str, tuple[str, ...]]] = {
     "state period too long": (
         "state_period_ms = 2000\n",
         ("state_period_ms", "to 1000"),
+    ),
+    "no lateness allowed": (
+        "max_lateness_periods = 0\n",
+        ("max_lateness_periods", "must be 1 to 1000"),
     ),
     "bad cell name": ('name = "a/b"\n', ("name", "'a/b'", "letters, digits, - or _")),
     "empty cell name": ('name = ""\n', ("name", "''", "letters, digits, - or _")),

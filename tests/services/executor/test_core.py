@@ -15,10 +15,12 @@ from services.executor.core import (
     BARRIER_TIMEOUT_TICKS,
     QUEUE_HEARTBEAT_TICKS,
     RING_CAPACITY,
+    STATUS_SILENCE_HEARTBEATS,
     BatchOutcome,
     ExecutorCore,
     heartbeat_ticks,
     pulse_ranges,
+    stalled,
     starting_pulses,
 )
 from shared.bus.schemas import CommandReply, GroupTick, IncrementBatch, QueueState
@@ -594,3 +596,68 @@ def test_without_a_usable_memory_the_cell_files_initial_positions_are_used(
         [58670, 0, 0, 0, 0, -21990, 0, 0],
         [20000, 0, 0, 0, 0, 0, 0, 0],
     ]
+
+
+# --- stalls -------------------------------------------------------------------------------
+
+
+def test_a_tick_later_than_the_bound_is_a_stall() -> None:
+    assert not stalled(12_000_000, 4_000_000, 3)
+    assert stalled(12_000_001, 4_000_000, 3)
+    assert not stalled(3_000_000_000, 4_000_000, 1000)
+
+
+def stalled_core() -> ExecutorCore:
+    core = ready_core()
+    core.controller_present = True
+    core.on_status(True)
+    core.accept(0, batch(FIRST_EPOCH, 0, [unit(1)] * 5))
+    core.stop_for_stall()
+    return core
+
+
+def test_a_stall_clears_every_ring_and_applies_nothing() -> None:
+    core = stalled_core()
+    assert all(not ring.entries for ring in core.rings)
+    assert core.rings[0].epoch != FIRST_EPOCH
+    core.step()
+    assert core.command == START
+    assert not core.ready
+
+
+def test_after_a_stall_ready_statuses_are_old_news_until_a_not_ready_one() -> None:
+    core = stalled_core()
+    core.on_status(True)
+    assert not core.ready
+    core.on_status(False)
+    assert not core.awaiting_not_ready
+    core.on_status(True)
+    assert core.ready
+
+
+def test_an_unconfirmed_stall_is_reported_again_every_second() -> None:
+    core = stalled_core()
+    due = []
+    for _ in range(500):
+        core.step()
+        due.append(core.stall_notice_due(250))
+    assert due.count(True) == 2
+    core.on_status(False)
+    core.step()
+    assert not any(core.stall_notice_due(1) for _ in range(3))
+
+
+def test_a_silent_controller_stops_a_ready_executor() -> None:
+    core = ExecutorCore(START, FIRST_EPOCH, heartbeat_ticks=25)
+    core.controller_present = True
+    core.on_status(True)
+    limit = STATUS_SILENCE_HEARTBEATS * 25
+    assert not any(core.controller_silent() for _ in range(limit))
+    assert core.controller_silent()
+    core.on_status(True)
+    assert not core.controller_silent()
+
+
+def test_silence_while_not_ready_is_no_stall() -> None:
+    core = ExecutorCore(START, FIRST_EPOCH, heartbeat_ticks=1)
+    assert not any(core.controller_silent() for _ in range(100))
