@@ -1,0 +1,217 @@
+"""A stalled service never causes late motion (issue 13, item 1).
+
+Each test stops one process with SIGSTOP for STALL_S while a long trajectory streams, then
+resumes it. Once the motion client has been told NOT_READY, no tick applies an increment of the
+old trajectory; where the cell never says NOT_READY, motion stays correct (no tick moves an
+axis more than its maximum per period, no catching up) and ends exactly on the goal. Either
+way a new trajectory after START_TRAJ_MODE ends exactly on its goal.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+import pytest
+
+from shared.config import load_cell
+from shared.motion.kinematics import AxisMap
+from shared.protocol.constants import Command, Result
+from shared.protocol.messages import MotoMotionReply
+from testkit.cell import RunningCell, TickLog
+from testkit.client import (
+    BUSY_RETRY_S,
+    MotionClient,
+    PlannedPoint,
+    StateListener,
+    point_messages,
+    smooth_move,
+)
+from testkit.processes import wait_until
+
+pytestmark = pytest.mark.cell
+
+STALL_S = 3.0
+"""As in the issue: shorter than the 5 s lease, so no service is declared gone."""
+MOVE_S = 4.0
+POINTS = 17
+OFFSET = 0.6
+"""How far the long trajectory moves axis S, radians."""
+STALL_ALARM = 4200
+AXIS_MAP = AxisMap(load_cell().groups[0])
+MAX_INCREMENTS = AXIS_MAP.max_increments(load_cell().period_s)
+
+
+def pulses(ros: tuple[float, ...]) -> list[int]:
+    """As the cell converts a position it received: Simple Message carries float32."""
+    return AXIS_MAP.pad_moto(AXIS_MAP.ros_to_pulses(np.array(ros, dtype=np.float32)))
+
+
+@dataclass
+class Stream:
+    """A trajectory streamed on its own thread, as motoman_driver does (BUSY: resend after
+    5 ms); the first refusal ends it."""
+
+    motion: MotionClient
+    trajectory: list[PlannedPoint]
+    accepted: int = 0
+    refusal: MotoMotionReply | None = None
+    refused_ns: int = 0
+    """CLOCK_MONOTONIC when the refusal reached the client."""
+    thread: threading.Thread = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.thread = threading.Thread(target=self._run)
+        self.thread.start()
+
+    def _run(self) -> None:
+        for message in point_messages(0, self.trajectory):
+            reply = self.motion.motion(message)
+            while reply.result == Result.BUSY:
+                time.sleep(BUSY_RETRY_S)
+                reply = self.motion.motion(message)
+            if reply.result != Result.SUCCESS:
+                self.refused_ns = time.monotonic_ns()
+                self.refusal = reply
+                return
+            self.accepted += 1
+
+    def join(self) -> None:
+        self.thread.join(MOVE_S + STALL_S + 10.0)
+        assert not self.thread.is_alive(), "the stream never ended"
+
+
+def positions(state: StateListener) -> tuple[float, ...]:
+    return tuple(state.wait_still(10.0).groups[0].positions[:6])
+
+
+def start_traj_mode(motion: MotionClient) -> None:
+    """START_TRAJ_MODE until it succeeds: the cell may still be hearing from the process that
+    was stopped."""
+
+    def started() -> bool:
+        return motion.command(Command.START_TRAJ_MODE).result == Result.SUCCESS
+
+    wait_until(started, 15.0, "START_TRAJ_MODE to succeed")
+
+
+def assert_arrives(state: StateListener, goal: tuple[float, ...]) -> None:
+    target = pulses(goal)
+
+    def there() -> bool:
+        feedback = state.latest()
+        return (
+            feedback is not None
+            and feedback.status is not None
+            and feedback.status.in_motion == 0
+            and pulses(tuple(feedback.groups[0].positions[:6])) == target
+        )
+
+    wait_until(there, 10.0, "the robot to stop exactly on the goal")
+
+
+def assert_no_burst(ticks: TickLog, first: int) -> None:
+    for tick in ticks.since(first):
+        increment = tick.groups[0].increment
+        assert all(abs(i) <= m for i, m in zip(increment, MAX_INCREMENTS, strict=True)), tick
+
+
+def stalled_stream(
+    motion: MotionClient, state: StateListener, pids: set[int]
+) -> tuple[Stream, tuple[float, ...]]:
+    """Stream the long trajectory, stop ``pids`` for STALL_S once the robot moves, resume
+    them, and wait for the stream to end; the stream and its goal."""
+    start_traj_mode(motion)
+    start = positions(state)
+    goal = (start[0] + (-OFFSET if start[0] > 0 else OFFSET), *start[1:])
+    moving = Stream(motion, smooth_move(start, goal, MOVE_S, POINTS))
+    state.wait_for(lambda f: f.status is not None and f.status.in_motion == 1, 5.0)
+    for pid in pids:
+        os.kill(pid, signal.SIGSTOP)
+    try:
+        time.sleep(STALL_S)  # the stall itself: a duration to inject, not a wait for a state
+    finally:
+        for pid in pids:
+            os.kill(pid, signal.SIGCONT)
+    moving.join()
+    return moving, goal
+
+
+def assert_nothing_late(ticks: TickLog, first: int, refused_ns: int) -> None:
+    """No tick applied after the client was told NOT_READY moved the robot."""
+    late = [
+        tick
+        for tick in ticks.since(first)
+        if tick.deadline_ns + tick.lateness_ns > refused_ns and any(tick.groups[0].increment)
+    ]
+    moved = np.sum([t.groups[0].increment for t in late], axis=0) if late else 0
+    assert not late, f"{len(late)} ticks moved after NOT_READY: {moved} pulses"
+
+
+def recover_and_move(motion: MotionClient, state: StateListener) -> None:
+    """RESET_ALARM and START_TRAJ_MODE, then a short trajectory that must end exactly."""
+    assert motion.command(Command.RESET_ALARM).result == Result.SUCCESS
+    start_traj_mode(motion)
+    start = positions(state)
+    goal = (start[0] + (-0.2 if start[0] > 0 else 0.2), *start[1:])
+    moved = Stream(motion, smooth_move(start, goal, 1.0, 5))
+    moved.join()
+    assert moved.refusal is None, moved.refusal
+    assert_arrives(state, goal)
+
+
+def check_stall(
+    cell: RunningCell,
+    motion: MotionClient,
+    state: StateListener,
+    ticks: TickLog,
+    pids: Callable[[RunningCell], set[int]],
+    alarm: int = 0,
+) -> Stream:
+    """The stall of ``pids``, its checks and the recovery; ``alarm``: the alarm ROBOT_STATUS
+    must show before the recovery."""
+    stopped = pids(cell)
+    assert stopped
+    first = len(ticks)
+    moving, goal = stalled_stream(motion, state, stopped)
+    if moving.refusal is None:
+        assert_arrives(state, goal)
+    else:
+        # The ticks a client may still see: those applied up to now are all published.
+        assert moving.refusal.result == Result.NOT_READY, moving.refusal
+        positions(state)
+        assert_nothing_late(ticks, first, moving.refused_ns)
+    assert_no_burst(ticks, first)
+    if alarm:
+        shown = state.wait_for(lambda f: f.status is not None and f.status.error_code == alarm, 5)
+        assert shown.status is not None and shown.status.in_error == 1
+    recover_and_move(motion, state)
+    return moving
+
+
+def test_an_executor_stall_stops_motion_with_an_alarm(
+    cell: RunningCell, motion: MotionClient, state: StateListener, ticks: TickLog
+) -> None:
+    executor = check_stall(
+        cell, motion, state, ticks, lambda c: c.service_pids("executor"), STALL_ALARM
+    )
+    assert executor.refusal is not None
+
+
+@pytest.mark.parametrize(
+    "service", ["gateway", "interpolator", "broadcaster", "controller", "router"]
+)
+def test_a_stalled_service_causes_no_late_motion(
+    cell: RunningCell, motion: MotionClient, state: StateListener, ticks: TickLog, service: str
+) -> None:
+    def pids(running: RunningCell) -> set[int]:
+        if service == "router":
+            return {running.process.pid}
+        return running.service_pids(service)
+
+    check_stall(cell, motion, state, ticks, pids)
