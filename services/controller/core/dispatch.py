@@ -18,7 +18,7 @@ from services.controller.core.io_table import IoTable
 from services.controller.core.model import OT_ROS_READY, START_TIMEOUT_S, Controller
 from shared.bus.keys import service_of_alive
 from shared.bus.liveness import HEARTBEAT_S
-from shared.bus.schemas import CommandReply, CommandRequest, ControllerStatus
+from shared.bus.schemas import Alarm, CommandReply, CommandRequest, ControllerStatus
 from shared.protocol.constants import TOOL_NUMBERS, InvalidSubcode, Result
 
 log = logging.getLogger("controller")
@@ -113,6 +113,10 @@ class Dispatcher(Generic[Q]):
         5012), or the motion system raised the alarm ``notice.value`` (a soft limit, 4416),
         subcode ``notice.subcode``. Either way the rings are already cleared."""
         if notice.value:
+            # A stall notice is repeated until the executor sees a not-ready status (the
+            # first may be lost while the router stalls): one alarm, however many copies.
+            if Alarm(notice.value, notice.subcode) in self.model.alarms:
+                return
             log.error("alarm %d: %s; motion stopped", notice.value, notice.detail)
             self.model.raise_alarm(notice.value, notice.subcode)
         else:

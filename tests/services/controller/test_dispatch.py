@@ -373,6 +373,16 @@ def test_a_soft_limit_notice_raises_its_alarm_and_stops_motion() -> None:
     assert not status.incmove_error
 
 
+def test_a_repeated_stall_notice_raises_one_alarm() -> None:
+    d = dispatcher()
+    ready(d)
+    stall = CommandReply(Result.FAILURE, value=4200, detail="tick 3000 ms late")
+    d.incmove_error(stall)
+    d.incmove_error(stall)
+    assert d.model.status().alarms == [Alarm(4200)]
+    assert d.model.not_ready_subcode() == NotReadySubcode.ALARM
+
+
 def test_reset_alarm_then_start_traj_mode_recovers_from_a_soft_limit() -> None:
     d = soft_limit_hit()
     assert result(answer(d, "reset_alarm")) == (Result.SUCCESS, 0)
