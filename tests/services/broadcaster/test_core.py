@@ -18,6 +18,7 @@ from services.broadcaster.core import (
 )
 from shared.bus.schemas import Alarm, ControllerStatus, GroupTick, Tick
 from shared.config import Cell, parse_cell
+from tests.statuses import ready_status
 
 MS = 1_000_000
 ARM6_PPU = (58670.0, 58670.0, 58670.0, 32594.0, 32594.0, 21990.0)
@@ -50,25 +51,7 @@ def tick(n: int = 1, deadline_ns: int = 0, *groups: GroupTick, lateness_ns: int 
     return Tick(n, deadline_ns, lateness_ns, 0, True, list(groups or (group_tick(),)))
 
 
-STATUS = ControllerStatus(
-    seq=1,
-    servo_on=True,
-    estop=False,
-    hold=False,
-    alarms=[],
-    error=0,
-    play=False,
-    remote=True,
-    operating=True,
-    job_ready=True,
-    pfl_active=False,
-    incmove_error=False,
-    eco=False,
-    missing_services=[],
-    motion_ready=True,
-    not_ready_subcode=0,
-    tools=[0],
-)
+STATUS = ready_status(play=False)
 
 
 def status(**changes: object) -> ControllerStatus:

@@ -17,6 +17,7 @@ from services.interpolator.core import MAX_BATCH, MAX_PENDING_POINTS, Feeder, qu
 from shared.bus.schemas import ControllerStatus, IncrementBatch, Point, QueueState, Slot
 from shared.config import Group, load_cell, parse_cell
 from shared.motion.kinematics import IntArray
+from tests.statuses import ready_status
 
 PERIOD = 4_000_000
 ARM6: Group = load_cell().groups[0]
@@ -265,25 +266,7 @@ def test_tool_is_not_changed_mid_segment() -> None:
 
 
 def status_with_tools(tools: list[int]) -> ControllerStatus:
-    return ControllerStatus(
-        seq=0,
-        servo_on=True,
-        estop=False,
-        hold=False,
-        alarms=[],
-        error=0,
-        play=True,
-        remote=True,
-        operating=True,
-        job_ready=True,
-        pfl_active=False,
-        incmove_error=False,
-        eco=False,
-        missing_services=[],
-        motion_ready=True,
-        not_ready_subcode=0,
-        tools=tools,
-    )
+    return ready_status(seq=0, tools=tools)
 
 
 def test_the_groups_tool_comes_from_the_controller_status() -> None:

@@ -21,6 +21,7 @@ from shared.bus.schemas import (
 from shared.config import Cell, parse_cell
 from shared.protocol.constants import Result
 from shared.protocol.messages import Message, MotoMotionReply, UnknownMessage
+from tests.statuses import ready_status
 
 INSTANCE = 7
 """The interpolator process every group's slot reports come from."""
@@ -41,24 +42,14 @@ def two_groups() -> Cell:
 def status(
     ready: bool = True, subcode: int = 0, missing: Sequence[str] = (), seq: int = 1
 ) -> ControllerStatus:
-    return ControllerStatus(
+    return ready_status(
         seq=seq,
         servo_on=ready,
-        estop=False,
-        hold=False,
-        alarms=[],
-        error=0,
-        play=True,
-        remote=True,
         operating=ready,
         job_ready=ready,
-        pfl_active=False,
-        incmove_error=False,
-        eco=False,
         missing_services=list(missing),
         motion_ready=ready,
         not_ready_subcode=subcode,
-        tools=[0],
     )
 
 
