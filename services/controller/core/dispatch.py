@@ -90,6 +90,8 @@ class Dispatcher(Generic[Q]):
         self.sequence = first_seq
         self._published: ControllerStatus | None = None
         self._next_refresh = 0.0
+        self._whole_once = False
+        """Every required service has been present at least once (start-up is over)."""
 
     # -- notices ---------------------------------------------------------------------------
     def services_present(self, present: Collection[str]) -> None:
@@ -98,10 +100,14 @@ class Dispatcher(Generic[Q]):
         was killed, or went unheard for the lease."""
         missing = sorted(service_of_alive(key) for key in self.required_alive if key not in present)
         if missing != self.model.missing_services:
-            if missing:
+            if not missing:
+                self._whole_once = True
+                log.info("all services present")
+            elif self._whole_once:
                 log.warning("not ready: services missing: %s", ", ".join(missing))
             else:
-                log.info("all services present")
+                # Starting up: services join one after another; nothing is wrong yet.
+                log.info("waiting for services: %s", ", ".join(missing))
         self.model.set_missing_services(missing)
 
     def connections(self, counts: CommandRequest) -> None:

@@ -331,6 +331,19 @@ def test_all_services_back_make_it_ready_again() -> None:
     assert d.model.motion_ready()
 
 
+def test_a_start_is_quiet_and_a_loss_after_it_is_a_warning(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    d = dispatcher()
+    caplog.set_level("INFO")
+    d.services_present({REQUIRED[0]})
+    d.services_present({*REQUIRED, "@motocell/c/alive/broadcaster/0"})
+    assert [r.levelname for r in caplog.records] == ["INFO", "INFO"]
+    d.services_present({REQUIRED[0]})
+    assert caplog.records[-1].levelname == "WARNING"
+    assert "services missing: gateway/0" in caplog.records[-1].getMessage()
+
+
 def test_connection_counts_set_the_connected_outputs() -> None:
     d = dispatcher()
     d.connections(CommandRequest(args=[1, 0, 2]))
