@@ -185,7 +185,7 @@ def start_cell(
     cell_file = None if config is None else str(config)
     cell = load_cell(cell_file)
     port_base = free_port_block(3, HOST)
-    endpoint = router or f"tcp/{HOST}:{free_port(HOST)}"
+    endpoint = router or f"tcp/{HOST}:{_port_outside(port_base, 3)}"
     zenoh_option = "--zenoh-connect" if router else "--zenoh-listen"
     command = [*LAUNCHER, "--port-base", str(port_base), zenoh_option, endpoint]
     for service in skip:
@@ -205,6 +205,14 @@ def start_cell(
         *(cell, cell_file, HOST, port_base, endpoint, process, spawned_ns, runtime_dir, expected),
         joined_router=router is not None,
     )
+
+
+def _port_outside(base: int, count: int) -> int:
+    """A free port not among ``base``.. ``base + count - 1`` (chosen but not yet bound)."""
+    while True:
+        port = free_port(HOST)
+        if not base <= port < base + count:
+            return port
 
 
 @contextmanager

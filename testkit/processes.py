@@ -50,8 +50,13 @@ def cmdline(pid: int) -> list[str]:
 
 
 def connectable(host: str, port: int) -> bool:
+    """Something listens at ``host:port``. A probe whose kernel-chosen source port happens to
+    be ``port`` itself connects to itself (TCP simultaneous open) with nobody listening: that
+    does not count (seen once in a full run)."""
     with socket.socket() as probe:
-        return probe.connect_ex((host, port)) == 0
+        if probe.connect_ex((host, port)) != 0:
+            return False
+        return bool(probe.getsockname() != probe.getpeername())
 
 
 def wait_until(predicate: Callable[[], bool], timeout: float, what: str) -> None:
