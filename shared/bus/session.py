@@ -38,6 +38,8 @@ motion does not wait for it, the executor bounds its own lateness (docs/liveness
 CONNECT_WAIT_S = 30.0
 """How long a service waits for its router to come up (compose starts them together)."""
 CONNECT_RETRY_S = 0.2
+REFUSED_GRACE_S = 2.0
+"""How long a waiting service retries a router that accepts TCP but refuses the session."""
 BLOCK_WAIT_US = 500_000
 """A link whose queue stays full this long is closed: one stalled observer (a suspended
 `motocell watch`, a slow callback) must not hold back the cell's BLOCK streams for Zenoh's
@@ -98,16 +100,25 @@ def open_session(
 
     ``wait``: keep trying for CONNECT_WAIT_S while nothing listens at ``connect`` (a router
     starting alongside, as under compose). A router that is there but refuses us is answered
-    at once: Zenoh reports both the same way, so a plain TCP probe tells them apart.
+    soon: Zenoh reports both the same way, so a plain TCP probe tells them apart. A router
+    that is still starting accepts TCP before it accepts sessions, so a waiting service gives
+    a refusal REFUSED_GRACE_S before believing it.
     """
     config = bus_config(mode, connect, listen, credentials=credentials)
-    deadline = time.monotonic() + (CONNECT_WAIT_S if wait else 0.0)
+    started = time.monotonic()
+    refused_since: float | None = None
     while True:
         try:
             return zenoh.open(config)
         except zenoh.ZError:
+            now = time.monotonic()
             listening = [endpoint for endpoint in connect if _accepts(endpoint)]
-            if listening or time.monotonic() >= deadline:
+            if listening:
+                refused_since = now if refused_since is None else refused_since
+                waited, limit = now - refused_since, REFUSED_GRACE_S
+            else:
+                waited, limit = now - started, CONNECT_WAIT_S
+            if not wait or waited >= limit:
                 raise ConnectionError(_why_not(connect, listening, credentials)) from None
             time.sleep(CONNECT_RETRY_S)
 
