@@ -23,7 +23,7 @@ import logging
 import os
 import sys
 from collections.abc import Iterator, Sequence
-from contextlib import ExitStack, contextmanager
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -105,8 +105,7 @@ def run(args: argparse.Namespace) -> int:
     configured, one line on stderr says why)."""
     try:
         cell = load_cell(args.config, args.name)
-        with stop_on_signals() as stop, ExitStack() as cell_bus:
-            bus = cell_bus.enter_context(_cell_bus(cell, args))
+        with stop_on_signals() as stop, _cell_bus(cell, args) as bus:
             return run_children(cell, args, bus, stop)
     except (ConfigError, CellNameTakenError, ConnectionError, UnknownServiceError) as exc:
         print(f"motocell up: {_hint(exc, args)}", file=sys.stderr)

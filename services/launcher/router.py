@@ -34,11 +34,11 @@ def open_cell_router(
     """The cell's router: secured with ``credentials`` (passwords, ACL), else open."""
     settings = router_settings(
         listen,
+        connect,
         cell=cell.name if credentials else None,
         identities=cell_identities(len(cell.groups)),
         credentials=credentials,
     )
-    settings["connect"] = {"endpoints": list(connect)}
     try:
         return zenoh.open(zenoh_config(settings))
     except zenoh.ZError:
@@ -54,8 +54,7 @@ def serve_router(
     """A router in this process until ``stop``: a stand-in for zenohd. Open, on ``listen``;
     or exactly as ``config_file`` says (``zenohd -c``)."""
     listen = list(listen) or [WELL_KNOWN_ENDPOINT]
-    settings = router_settings(listen)
-    settings["connect"] = {"endpoints": list(connect)}
+    settings = router_settings(listen, connect)
     where = config_file or ", ".join(listen)
     try:
         config = zenoh.Config.from_file(config_file) if config_file else zenoh_config(settings)

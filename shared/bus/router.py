@@ -26,6 +26,7 @@ ROUTER_CERTIFICATE, ROUTER_KEY = "router.pem", "router.key"
 
 def router_settings(
     listen: Sequence[str],
+    connect: Sequence[str] = (),
     *,
     cell: str | None = None,
     identities: Sequence[Identity] = (),
@@ -36,7 +37,7 @@ def router_settings(
     settings: dict[str, Any] = {
         "mode": "router",
         "listen": {"endpoints": list(listen)},
-        "connect": {"endpoints": []},
+        "connect": {"endpoints": list(connect)},
         "scouting": {"multicast": {"enabled": False}, "gossip": {"enabled": False}},
         "adminspace": {"enabled": False},
         "transport": {"link": {"tx": {"lease": LEASE_MS}}},
