@@ -34,7 +34,6 @@ import numpy as np
 import zenoh
 
 from shared.bus.schemas import Decoder, ExecutorMetrics, State, Tick
-from shared.bus.session import open_session
 from shared.config import Cell
 from shared.motion.kinematics import AxisMap
 from shared.protocol.constants import Command, Result
@@ -258,7 +257,7 @@ def write_cell_file(
 def wait_for_every_slot(cell: RunningCell, timeout: float = START_TIMEOUT_S) -> None:
     """The gateway accepts a group's points only once it has heard that group's interpolator
     (its slot, published on change and every 0.5 s); wait until we have heard every one too."""
-    session = open_session("client", [cell.zenoh_endpoint], wait=False)
+    session = cell.session()
     try:
         heard: set[str] = set()
         subscriber = session.declare_subscriber(
@@ -299,7 +298,7 @@ class Observer:
     """A Zenoh client session on a cell's router that records raw samples of some keys."""
 
     def __init__(self, cell: RunningCell) -> None:
-        self.session = open_session("client", [cell.zenoh_endpoint], wait=False)
+        self.session = cell.session()
         self.keys = cell.keys
         self.ticks: list[bytes] = []
         self.metrics: list[tuple[int, bytes]] = []
