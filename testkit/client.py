@@ -14,8 +14,17 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
-from shared.protocol.codec import CLOSED, NEED_DATA, ByteOrder, Role, SimpleMessageCodec
-from shared.protocol.constants import Command, Result
+from shared.protocol.codec import (
+    CLOSED,
+    NEED_DATA,
+    ByteOrder,
+    Role,
+    SimpleMessageCodec,
+    readable_byte_order,
+)
+from shared.protocol.constants import PREFIX_SIZE, Command, Result, describe_reply
+from shared.protocol.errors import PeerProtocolError
+from shared.protocol.layouts import Direction
 from shared.protocol.messages import (
     JointFeedback,
     JointFeedbackEx,
@@ -31,6 +40,15 @@ class ConnectionClosedError(ConnectionError):
     pass
 
 
+class WrongByteOrderError(PeerProtocolError):
+    """The controller's first frame reads as a frame only in the other byte order: it is an
+    FS100 (big-endian) and we speak little-endian, or the reverse."""
+
+    def __init__(self, error: PeerProtocolError, byte_order: ByteOrder) -> None:
+        super().__init__(f"the controller looks {byte_order.value}-endian ({error})", error.subcode)
+        self.byte_order = byte_order
+
+
 def connect(host: str, port: int, timeout: float = 5.0) -> socket.socket:
     sock = socket.create_connection((host, port), timeout=timeout)
     sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
@@ -43,17 +61,36 @@ class FrameReader:
     def __init__(self, sock: socket.socket, byte_order: ByteOrder) -> None:
         self.sock = sock
         self.codec = SimpleMessageCodec(Role.CLIENT, byte_order)
+        self._opening = b""
+        """The connection's first bytes, up to one length prefix."""
+        self._framed = False
 
     def next(self) -> Message | UnknownMessage:
         while True:
-            event = self.codec.next_event()
+            try:
+                event = self.codec.next_event()
+            except PeerProtocolError as error:
+                raise self._explained(error) from None
             if event is NEED_DATA:
-                self.codec.receive_data(self.sock.recv(65536))
+                data = self.sock.recv(65536)
+                self._opening += data[: PREFIX_SIZE - len(self._opening)]
+                self.codec.receive_data(data)
                 continue
             if event is CLOSED:
                 raise ConnectionClosedError("the controller closed the connection")
             assert isinstance(event, Message | UnknownMessage)
+            self._framed = True
             return event
+
+    def _explained(self, error: PeerProtocolError) -> PeerProtocolError:
+        """A first frame that reads only in the other byte order says which one the
+        controller speaks; anything later is plain garbage."""
+        if self._framed or len(self._opening) < PREFIX_SIZE:
+            return error
+        readable = readable_byte_order(self._opening, Direction.TO_CLIENT)
+        if readable is None or readable is self.codec.byte_order:
+            return error
+        return WrongByteOrderError(error, readable)
 
 
 class MotionClient:
@@ -75,7 +112,7 @@ class MotionClient:
     def motion(self, message: Message) -> MotoMotionReply:
         reply = self.request(message)
         if not isinstance(reply, Message) or not isinstance(reply.body, MotoMotionReply):
-            raise AssertionError(f"expected a MOTO_MOTION_REPLY, got {reply}")
+            raise AssertionError(f"expected a MOTO_MOTION_REPLY, got type {reply.msg_type}")
         return reply.body
 
     def command(self, command: Command, group: int = 0) -> MotoMotionReply:
@@ -114,6 +151,8 @@ class StateListener:
         self.changed = threading.Condition()
         self._current = Feedback(0)
         self.closed = False
+        self.failure: PeerProtocolError | None = None
+        """What the controller sent that could not be read (the reading stopped there)."""
         self.thread = threading.Thread(target=self._run, name="state-listener", daemon=True)
         self.thread.start()
 
@@ -123,10 +162,16 @@ class StateListener:
                 frame = self.reader.next()
                 if isinstance(frame, Message):
                     self._take(frame)
+        except PeerProtocolError as error:
+            self._end(error)
         except (ConnectionError, OSError):
-            with self.changed:
-                self.closed = True
-                self.changed.notify_all()
+            self._end(None)
+
+    def _end(self, failure: PeerProtocolError | None) -> None:
+        with self.changed:
+            self.failure = failure
+            self.closed = True
+            self.changed.notify_all()
 
     def _take(self, frame: Message) -> None:
         body = frame.body
@@ -151,7 +196,9 @@ class StateListener:
             return self.cycles[-1] if self.cycles else None
 
     def wait_for(self, predicate: Callable[[Feedback], bool], timeout: float) -> Feedback:
-        """The first state cycle, from now on, that satisfies ``predicate``."""
+        """The first state cycle, from now on, that satisfies ``predicate``; TimeoutError when
+        none came in time or the connection closed first, or the PeerProtocolError that
+        stopped the reading (e.g. a ``WrongByteOrderError``) as soon as it happens."""
         deadline = time.monotonic() + timeout
         with self.changed:
             start = max(0, len(self.cycles) - 1)
@@ -161,6 +208,8 @@ class StateListener:
                         return cycle
                 start = len(self.cycles)
                 remaining = deadline - time.monotonic()
+                if self.failure is not None:
+                    raise self.failure
                 if remaining <= 0 or self.closed:
                     raise TimeoutError(f"no matching state within {timeout} s")
                 self.changed.wait(remaining)
@@ -217,6 +266,12 @@ class StreamResult:
     last_reply: MotoMotionReply | None = None
     first_sent_ns: int = 0
     last_accepted_ns: int = 0
+
+    @property
+    def outcome(self) -> str:
+        """The last reply as a person reads it: ``SUCCESS``, ``INVALID 3013 (too fast)``."""
+        reply = self.last_reply
+        return "no reply" if reply is None else describe_reply(reply.result, reply.subcode)
 
 
 BUSY_RETRY_S = 0.005

@@ -35,15 +35,7 @@ def build_parser() -> argparse.ArgumentParser:
     launcher.add_router_arguments(router)
     router.set_defaults(run=launcher.router)
 
-    run_demo = commands.add_parser(
-        "demo", help="start a cell and drive it like motoman_driver does, then stop it"
-    )
-    run_demo.add_argument("--host", default="127.0.0.1")
-    run_demo.add_argument("--port-base", type=int, help="use a running cell at this port base")
-    run_demo.add_argument("--config", help="cell TOML file for the cell the demo starts")
-    run_demo.add_argument("--points", type=int, default=20)
-    run_demo.add_argument("--duration", type=float, default=2.0, help="trajectory seconds")
-    run_demo.set_defaults(run=demo.run)
+    demo.add_parser(commands)
     for subcommand in commands.choices.values():
         # No abbreviated options anywhere: `--port-bas` must not silently mean `--port-base`.
         subcommand.allow_abbrev = False

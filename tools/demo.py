@@ -3,90 +3,241 @@
 START_TRAJ_MODE (robot_enable), CHECK_MOTION_READY, stream a trajectory that starts at the
 current position (resending on BUSY after 5 ms), wait until the robot has arrived (feedback
 at the goal and in_motion false, as joint_trajectory_action judges it), STOP_TRAJ_MODE.
+A cell of one group gets JOINT_TRAJ_PT_FULL (14); on a cell of several, every group moves and
+each point is one MOTO_JOINT_TRAJ_PT_FULL_EX (2016), as motoman_driver streams such a cell.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import tempfile
 import time
+from collections.abc import Sequence
 from contextlib import ExitStack
+from pathlib import Path
 
 import numpy as np
 
-from shared.config import Cell, load_cell
+from shared.config import Cell, ConfigError, Group, load_cell
 from shared.motion.kinematics import AxisMap
 from shared.protocol.codec import ByteOrder
-from shared.protocol.constants import Command, Result
+from shared.protocol.constants import Command, Result, describe_reply
+from shared.protocol.errors import PeerProtocolError
+from shared.protocol.messages import MotoMotionReply
 from testkit.cell import running_cell
-from testkit.client import MotionClient, StateListener, smooth_move, stream
+from testkit.client import (
+    Feedback,
+    MotionClient,
+    PlannedPoint,
+    StateListener,
+    StreamResult,
+    WrongByteOrderError,
+    smooth_move,
+    stream,
+    stream_ex,
+)
 from testkit.processes import connectable, wait_until
 
 GOAL_TOLERANCE_RAD = 1e-4
-CONNECT_TIMEOUT_S = 20.0
+READY_TIMEOUT_S = 120.0
+"""How long to wait for a cell to start and its ports to answer: a loaded machine was seen to
+need more than the 20 s this once was; a cell that is not coming fails long before."""
+OFFSETS = (0.4, -0.3, 0.25, 0.8, -0.5, 1.2, 0.6, 0.3)
+"""How far each axis moves (rad; m for a linear axis): the other way where it would pass a
+joint limit."""
+LOG_LINES = 20
 
 
-def drive(cell: Cell, host: str, port_base: int, points: int, duration: float) -> int:
-    byte_order = ByteOrder(cell.byte_order)
-    axis_map = AxisMap(cell.groups[0])
-    axes = axis_map.axes
-    wait_until(lambda: connectable(host, port_base + 1), CONNECT_TIMEOUT_S, "the state port")
+def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    demo = commands.add_parser(
+        "demo",
+        help="start a cell and drive it like motoman_driver does, then stop it",
+        description=__doc__,
+    )
+    demo.add_argument("--host", default="127.0.0.1", help="the running cell's address")
+    demo.add_argument("--port-base", type=int, help="use a running cell at this port base")
+    demo.add_argument(
+        "--config",
+        help="cell TOML file: of the cell the demo starts, or of the running cell (its groups)",
+    )
+    demo.add_argument(
+        "--byte-order",
+        choices=[order.value for order in ByteOrder],
+        help="the running cell's byte order (default: the cell file's: FS100 big, others little)",
+    )
+    demo.add_argument("--points", type=int, default=20, help="trajectory points (2 or more)")
+    demo.add_argument("--duration", type=float, default=2.0, help="trajectory seconds")
+    demo.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.points < 2 or not args.duration > 0:
+        return _failed("--points must be 2 or more and --duration above 0", status=2)
+    try:
+        cell = load_cell(args.config)
+    except ConfigError as exc:
+        return _failed(str(exc), status=2)
+    byte_order = ByteOrder(args.byte_order or cell.byte_order)
+    if args.port_base:
+        return _reported(cell, args.host, args.port_base, byte_order, args)
+    print("starting a cell ...", flush=True)
+    with tempfile.TemporaryDirectory(prefix="motocell-demo-") as scratch:
+        log = Path(scratch) / "cell.log"
+        try:
+            with running_cell(
+                args.config,
+                log=log,
+                log_level=os.environ.get("MOTOCELL_LOG", "INFO"),
+                timeout=READY_TIMEOUT_S,
+                attempts=2,
+            ) as started:
+                print(
+                    f"cell {cell.name} up on {started.host}:{started.port_base}-"
+                    f"{started.port_base + 2}"
+                )
+                status = _reported(cell, started.host, started.port_base, byte_order, args)
+        except (TimeoutError, ChildProcessError, OSError) as exc:
+            status = _failed(f"the cell did not start: {exc}")
+        if status != 0:
+            _print_tail(log)
+        return status
+
+
+def _reported(
+    cell: Cell, host: str, port_base: int, byte_order: ByteOrder, args: argparse.Namespace
+) -> int:
+    """``drive``, with what stopped it said in one line."""
+    try:
+        return drive(
+            cell, host, port_base, byte_order=byte_order, points=args.points, duration=args.duration
+        )
+    except WrongByteOrderError as exc:
+        order = exc.byte_order.value
+        return _failed(f"the cell looks {order}-endian: use --byte-order {order}")
+    except PeerProtocolError as exc:
+        return _failed(f"the cell sent something unreadable: {exc}")
+    except (TimeoutError, OSError) as exc:
+        return _failed(str(exc))
+
+
+def _failed(problem: str, status: int = 1) -> int:
+    print(f"motocell demo: {problem}", flush=True)
+    return status
+
+
+def _print_tail(log: Path) -> None:
+    try:
+        lines = log.read_text(errors="replace").splitlines()[-LOG_LINES:]
+    except OSError:
+        return
+    if lines:
+        print("the cell's last log lines:")
+        print("\n".join(f"  {line}" for line in lines))
+
+
+def drive(
+    cell: Cell, host: str, port_base: int, *, byte_order: ByteOrder, points: int, duration: float
+) -> int:
+    wait_until(
+        lambda: connectable(host, port_base + 1),
+        READY_TIMEOUT_S,
+        f"the state port {host}:{port_base + 1}",
+    )
     with ExitStack() as stack:
         state = stack.enter_context(StateListener(host, port_base + 1, byte_order))
-        state.wait_for(lambda f: f.status is not None, CONNECT_TIMEOUT_S)
+        first = state.wait_for(lambda f: f.status is not None, READY_TIMEOUT_S)
+        if sorted(first.groups) != [group.index for group in cell.groups]:
+            return _failed(
+                f"the cell reports groups {sorted(first.groups)}, the cell file "
+                f"{len(cell.groups)}: give the running cell's file with --config",
+                status=2,
+            )
         motion = stack.enter_context(MotionClient(host, port_base, byte_order))
         started = time.monotonic()
         reply = motion.command(Command.START_TRAJ_MODE)
-        print(
-            f"START_TRAJ_MODE -> {Result(reply.result).name} {reply.subcode} "
-            f"({(time.monotonic() - started) * 1e3:.0f} ms)"
-        )
+        _show("START_TRAJ_MODE", reply, f" ({(time.monotonic() - started) * 1e3:.0f} ms)")
         reply = motion.command(Command.CHECK_MOTION_READY)
-        print(f"CHECK_MOTION_READY -> {Result(reply.result).name} {reply.subcode}")
+        _show("CHECK_MOTION_READY", reply)
         if reply.result != Result.SUCCESS:
             return 1
-        latest = state.latest()
-        assert latest is not None
-        start = latest.groups[0].positions[:axes]
-        offsets = (0.4, -0.3, 0.25, 0.8, -0.5, 1.2, 0.6, 0.3)
-        goal = tuple(p + offsets[i] for i, p in enumerate(start))
-        trajectory = smooth_move(start, goal, duration, points)
-        result = stream(motion, trajectory)
-        if result.points != len(trajectory):
-            print(f"streaming stopped at point {result.points}: {result.last_reply}")
+        here = state.latest()
+        assert here is not None
+        goals = {
+            group.index: goal_within(_positions(here, group), group.joint_limits)
+            for group in cell.groups
+        }
+        trajectories = {
+            g: smooth_move(_positions(here, cell.groups[g]), goal, duration, points)
+            for g, goal in goals.items()
+        }
+        result = _stream(motion, trajectories)
+        if result.points != points:
+            print(f"streaming stopped at point {result.points}: {result.outcome}")
             return 1
-        arrived = state.wait_for(
-            lambda f: (
-                f.status is not None
-                and f.status.in_motion == 0
-                and all(
-                    abs(a - b) <= GOAL_TOLERANCE_RAD
-                    for a, b in zip(f.groups[0].positions[:axes], goal, strict=True)
-                )
-            ),
-            timeout=duration + 10.0,
-        )
+        arrived = state.wait_for(lambda f: _arrived(f, cell, goals), timeout=duration + 10.0)
         elapsed = (arrived.received_ns - result.first_sent_ns) / 1e9
-        final = np.array(arrived.groups[0].positions[:axes])
-        error = np.abs(axis_map.ros_to_pulses(final) - axis_map.ros_to_pulses(np.array(goal)))
+        error = max(_pulse_error(arrived, group, goals[group.index]) for group in cell.groups)
         reply = motion.command(Command.STOP_TRAJ_MODE)
-        print(f"points sent:      {result.points}")
+        axes = sum(group.axes for group in cell.groups)
+        print(f"points sent:      {result.points}" + _message_kind(cell))
         print(f"BUSY replies:     {result.busy}")
         print(
             f"duration:         {elapsed:.3f} s (nominal {duration:.3f} s, "
             f"+{(elapsed - duration) * 1e3:.0f} ms incl. state sampling)"
         )
-        print(f"final error:      {int(error.max())} pulse(s) (max over {axes} axes)")
-        print(f"STOP_TRAJ_MODE -> {Result(reply.result).name} {reply.subcode}")
-        return 0 if reply.result == Result.SUCCESS and error.max() == 0 else 1
+        print(f"final error:      {error} pulse(s) (max over {axes} axes)")
+        _show("STOP_TRAJ_MODE", reply)
+        return 0 if reply.result == Result.SUCCESS and error == 0 else 1
 
 
-def run(args: argparse.Namespace) -> int:
-    cell = load_cell(args.config)
-    if args.port_base:
-        return drive(cell, args.host, args.port_base, args.points, args.duration)
-    print("starting a cell ...", flush=True)
-    log_level = os.environ.get("MOTOCELL_LOG", "WARNING")
-    with running_cell(args.config, log_level=log_level) as started:
-        print(f"cell {cell.name} up on {started.host}:{started.port_base}-{started.port_base + 2}")
-        return drive(cell, started.host, started.port_base, args.points, args.duration)
+def _show(command: str, reply: MotoMotionReply, extra: str = "") -> None:
+    print(f"{command} -> {describe_reply(reply.result, reply.subcode)}{extra}")
+
+
+def _message_kind(cell: Cell) -> str:
+    if len(cell.groups) == 1:
+        return ""
+    return f" (MOTO_JOINT_TRAJ_PT_FULL_EX, {len(cell.groups)} groups each)"
+
+
+def _stream(motion: MotionClient, trajectories: dict[int, list[PlannedPoint]]) -> StreamResult:
+    if len(trajectories) == 1:
+        ((group, trajectory),) = trajectories.items()
+        return stream(motion, trajectory, group)
+    return stream_ex(motion, trajectories)
+
+
+def goal_within(start: Sequence[float], limits: Sequence[tuple[float, float]]) -> tuple[float, ...]:
+    """``start`` moved by OFFSETS, each axis the other way where it would pass a limit (and
+    no further than the limit where the range is narrower than the move)."""
+    goal = []
+    for value, offset, (lower, upper) in zip(start, OFFSETS[: len(start)], limits, strict=True):
+        target = value + offset if lower <= value + offset <= upper else value - offset
+        goal.append(min(max(target, lower), upper))
+    return tuple(goal)
+
+
+def _positions(feedback: Feedback, group: Group) -> tuple[float, ...]:
+    return feedback.groups[group.index].positions[: group.axes]
+
+
+def _arrived(feedback: Feedback, cell: Cell, goals: dict[int, tuple[float, ...]]) -> bool:
+    return (
+        feedback.status is not None
+        and feedback.status.in_motion == 0
+        and all(
+            group.index in feedback.groups
+            and all(
+                abs(a - b) <= GOAL_TOLERANCE_RAD
+                for a, b in zip(_positions(feedback, group), goals[group.index], strict=True)
+            )
+            for group in cell.groups
+        )
+    )
+
+
+def _pulse_error(feedback: Feedback, group: Group, goal: tuple[float, ...]) -> int:
+    axis_map = AxisMap(group)
+    final = axis_map.ros_to_pulses(np.array(_positions(feedback, group)))
+    return int(np.abs(final - axis_map.ros_to_pulses(np.array(goal))).max())

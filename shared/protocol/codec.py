@@ -34,6 +34,7 @@ __all__ = [
     "decode_frames",
     "encode",
     "max_frame_length",
+    "readable_byte_order",
 ]
 
 
@@ -67,6 +68,21 @@ Event = Message | UnknownMessage | NeedData | Closed
 def max_frame_length(direction: Direction) -> int:
     """The largest length prefix a receiver of ``direction`` accepts: header + largest body."""
     return HEADER_SIZE + layouts.max_body_size(direction)
+
+
+def readable_byte_order(prefix: bytes, direction: Direction) -> ByteOrder | None:
+    """The byte order in which ``prefix``, the first four bytes of a frame, is a length that a
+    receiver of ``direction`` accepts; None if it is one in neither.
+
+    A real length is below 2**16, so swapping its bytes gives one of at least 2**16: at most
+    one byte order can read it. A peer of the other byte order shows up as a length of about
+    a gigabyte in ours (the state port of an FS100 to a little-endian client: -1879048192).
+    """
+    for byte_order in ByteOrder:
+        (length,) = PREFIX[byte_order].unpack_from(prefix)
+        if HEADER_SIZE <= length <= max_frame_length(direction):
+            return byte_order
+    return None
 
 
 class SimpleMessageCodec:

@@ -123,6 +123,53 @@ class NotReadySubcode(IntEnum):
     INC_MOVE_ERROR = 5012
 
 
+SUBCODE_MEANINGS: dict[int, str] = {
+    InvalidSubcode.UNSPECIFIED: "unspecified",
+    InvalidSubcode.MSGSIZE: "wrong message size",
+    InvalidSubcode.MSGHEADER: "bad header",
+    InvalidSubcode.MSGTYPE: "unknown message type",
+    InvalidSubcode.GROUPNO: "no such group",
+    InvalidSubcode.SEQUENCE: "bad sequence",
+    InvalidSubcode.COMMAND: "unknown command",
+    InvalidSubcode.DATA: "bad data",
+    InvalidSubcode.DATA_START_POS: "start is not the current position",
+    InvalidSubcode.DATA_POSITION: "bad position",
+    InvalidSubcode.DATA_SPEED: "too fast",
+    InvalidSubcode.DATA_ACCEL: "bad acceleration",
+    InvalidSubcode.DATA_INSUFFICIENT: "time, position and velocity needed",
+    InvalidSubcode.DATA_TIME: "bad time",
+    InvalidSubcode.DATA_TOOLNO: "no such tool",
+    NotReadySubcode.UNSPECIFIED: "not ready",
+    NotReadySubcode.ALARM: "alarm",
+    NotReadySubcode.ERROR: "error",
+    NotReadySubcode.ESTOP: "E-stop",
+    NotReadySubcode.NOT_PLAY: "TEACH mode",
+    NotReadySubcode.NOT_REMOTE: "not REMOTE",
+    NotReadySubcode.SERVO_OFF: "servo off",
+    NotReadySubcode.HOLD: "HOLD",
+    NotReadySubcode.NOT_STARTED: "INIT_ROS job not running",
+    NotReadySubcode.WAITING_ROS: "job not at its WAIT",
+    NotReadySubcode.SKILLSEND: "SKILLSEND",
+    NotReadySubcode.PFL_ACTIVE: "PFL stop",
+    NotReadySubcode.INC_MOVE_ERROR: "IncMove error",
+}
+"""What each INVALID and NOT_READY subcode means, in a few words for a person."""
+
+
+def describe_reply(result: int, subcode: int = 0) -> str:
+    """A motion reply's result and subcode as a person reads them: ``SUCCESS``, ``BUSY``,
+    ``NOT_READY 5003 (E-stop)``; numbers without a name stay numbers (``result 9``, and a
+    subcode that is a count or -1, as CHECK_QUEUE_CNT and failures give)."""
+    try:
+        name = Result(result).name
+    except ValueError:
+        name = f"result {result}"
+    if subcode == 0:
+        return name
+    meaning = SUBCODE_MEANINGS.get(subcode)
+    return f"{name} {subcode}" if meaning is None else f"{name} {subcode} ({meaning})"
+
+
 class IoResult(IntEnum):
     """resultCode of the I/O replies. MotoROS 1.9.2+ sends 0 on success (the 2012 spec's
     1 = success / 2 = failure is superseded; the real io_relay client checks for 0)."""

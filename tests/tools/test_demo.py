@@ -1,0 +1,52 @@
+"""``motocell demo`` without a cell: its options, and the goals it picks."""
+
+from __future__ import annotations
+
+import argparse
+
+import pytest
+
+from tools import demo
+from tools.demo import OFFSETS, goal_within
+
+LIMITS = ((-1.0, 1.0), (-1.0, 1.0), (-0.1, 0.1))
+
+
+def parse(*argv: str) -> argparse.Namespace:
+    parser = argparse.ArgumentParser()
+    demo.add_parser(parser.add_subparsers())
+    return parser.parse_args(["demo", *argv])
+
+
+def test_byte_order_is_an_option() -> None:
+    args = parse("--port-base", "50240", "--byte-order", "big")
+    assert (args.port_base, args.byte_order) == (50240, "big")
+
+
+def test_goals_move_away_from_the_limits() -> None:
+    goal = goal_within((0.0, 0.9, 0.0), LIMITS)
+    assert goal[0] == OFFSETS[0]
+    assert goal[1] == pytest.approx(0.9 + OFFSETS[1])
+    # Neither way fits a 0.2-wide range: as far as it goes.
+    assert goal[2] == -0.1
+
+
+def test_a_goal_past_the_upper_limit_turns_back() -> None:
+    goal = goal_within((0.8, 0.0, 0.0), LIMITS)
+    assert goal[0] == pytest.approx(0.8 - OFFSETS[0])
+
+
+@pytest.mark.parametrize("argv", [["--points", "1"], ["--duration", "0"]])
+def test_a_trajectory_that_cannot_be_made_is_refused_in_one_line(
+    argv: list[str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    args = parse("--port-base", "1", *argv)
+    assert args.run(args) == 2
+    assert capsys.readouterr().out.count("\n") == 1
+
+
+def test_a_bad_cell_file_is_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+    args = parse("--config", "/nonexistent/cell.toml")
+    assert args.run(args) == 2
+    out = capsys.readouterr().out
+    assert out.startswith("motocell demo: /nonexistent/cell.toml: cannot read")
