@@ -8,8 +8,11 @@ catalogue in ``models.toml``. Bad files are refused with a message naming the fi
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import math
+import re
 import tomllib
+import typing
 from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import StrEnum
@@ -181,20 +184,39 @@ def _decode_models(raw: object, where: str) -> dict[str, RobotModel]:
         try:
             models[name] = msgspec.convert(fields, RobotModel)
         except msgspec.ValidationError as exc:
-            raise ConfigError(f"{where}: {_problem(exc, f'models.{name}')}") from exc
+            raise ConfigError(f"{where}: {_problem(exc, f'models.{name}', RobotModel)}") from exc
         _check_model(f"{where}: models.{name}", models[name])
     return models
 
 
-def _problem(exc: msgspec.ValidationError, prefix: str = "") -> str:
+def _problem(
+    exc: msgspec.ValidationError, prefix: str = "", within: type[msgspec.Struct] | None = None
+) -> str:
     """msgspec says "Expected `int`, got `str` - at `$.groups[0].name`"; we say
-    "groups[0].name: Expected `int`, got `str`", naming the field first."""
+    "groups[0].name: Expected `int`, got `str`", naming the field first. A misspelt field
+    gets the nearest one of the table it is in (``within``: the whole file's, ``CellFile``)."""
     problem, _, at = str(exc).partition(" - at `")
     path = at.rstrip("`").removeprefix("$").removeprefix(".")
+    problem += _did_you_mean(problem, path, within or CellFile)
     if prefix and path:
         path = prefix + ("" if path.startswith("[") else ".") + path
     field = path or prefix
     return f"{field}: {problem}" if field else problem
+
+
+def _did_you_mean(problem: str, path: str, within: type[msgspec.Struct]) -> str:
+    unknown = re.fullmatch(r"Object contains unknown field `(.+)`", problem)
+    if unknown is None:
+        return ""
+    table: Any = within
+    for step in re.findall(r"\w+", path):  # "groups[0]": the field, then a list item
+        if step.isdigit():
+            (table,) = typing.get_args(table)
+        else:
+            table = {field.name: field.type for field in msgspec.structs.fields(table)}[step]
+    names = [field.name for field in msgspec.structs.fields(table)]
+    close = difflib.get_close_matches(unknown[1], names, n=1)
+    return f"; did you mean `{close[0]}`?" if close else ""
 
 
 def _check_model(where: str, model: RobotModel) -> None:

@@ -11,6 +11,7 @@ is secured; on an open bus the command acts on every cell the router carries.
 from __future__ import annotations
 
 import argparse
+import difflib
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -123,7 +124,7 @@ def targets(args: argparse.Namespace) -> list[Target]:
         try:
             entries = [registry.find(name) for name in cells] if cells else registry.running()
         except registry.NoSuchCellError as exc:
-            raise TargetError(str(exc)) from None
+            raise TargetError(f"{exc}{_did_you_mean(cells)}") from None
         return [
             Target(
                 entry.zenoh_endpoint,
@@ -137,6 +138,16 @@ def targets(args: argparse.Namespace) -> list[Target]:
     if len(cells) != 1:
         raise TargetError("--credentials needs one --cell: credentials belong to one cell")
     return [Target(args.zenoh_connect, tuple(cells), Path(args.credentials))]
+
+
+def _did_you_mean(names: list[str]) -> str:
+    """ "; did you mean arm?" for a name that is not running but close to one that is."""
+    running = [entry.name for entry in registry.running()]
+    for name in names:
+        close = difflib.get_close_matches(name, running, n=1)
+        if name not in running and close:
+            return f"; did you mean {close[0]}?"
+    return ""
 
 
 def some_targets(args: argparse.Namespace) -> list[Target]:

@@ -487,6 +487,26 @@ def test_unknown_top_level_key_message_is_well_formed(tmp_path: Path) -> None:
     assert ": :" not in refused(tmp_path, "colour = 1\n")
 
 
+@pytest.mark.parametrize(
+    ("text", "suggestion"),
+    [
+        ('nmae = "x"\n', "`nmae`; did you mean `name`?"),
+        ("state_period = 10\n", "did you mean `state_period_ms`?"),
+        ('[[groups]]\nmodle = "arm6"\n', "groups[0]: Object contains unknown field `modle`; "),
+        ("[zenoh]\nconect = []\n", "zenoh: Object contains unknown field `conect`; did you"),
+        ('[models.x]\nkind = "robot"\naxis_typs = []\n', "did you mean `axis_types`?"),
+    ],
+)
+def test_a_misspelt_field_gets_the_nearest_one_of_its_table(
+    tmp_path: Path, text: str, suggestion: str
+) -> None:
+    assert suggestion in refused(tmp_path, text)
+
+
+def test_a_field_like_no_other_gets_no_suggestion(tmp_path: Path) -> None:
+    assert "did you mean" not in refused(tmp_path, "colour = 1\n")
+
+
 # --- motocell up ----------------------------------------------------------------------------
 
 

@@ -8,6 +8,7 @@ as the launcher does, and stand in for the cell's services with their own identi
 
 from __future__ import annotations
 
+import argparse
 import os
 import re
 import subprocess
@@ -105,6 +106,17 @@ def test_a_name_not_running_fails_at_once_listing_the_cells_that_are(
     err = capsys.readouterr().err
     assert err == (
         f"motocell {words[0]}: no cell named nosuch is running here (running: arm, gantry)\n"
+    )
+
+
+def test_a_name_close_to_a_running_one_is_suggested() -> None:
+    register("arm")
+    register("gantry")
+    args = argparse.Namespace(cell=["amr"], zenoh_connect=None, credentials=None)
+    with pytest.raises(TargetError) as refused:
+        cells.targets(args)
+    assert str(refused.value) == (
+        "no cell named amr is running here (running: arm, gantry); did you mean arm?"
     )
 
 
