@@ -18,13 +18,13 @@ from shared.bus.catalog import Role
 from shared.bus.keys import CellKeys
 from shared.bus.schemas import CommandRequest
 from shared.bus.session import call
-from shared.protocol.constants import Result
+from shared.protocol.constants import Result, describe_reply
 from tools import cells
 from tools.cells import CellsError, JoinError, Target, TargetError
 
 OPERATOR = Identity(Role.OPERATOR)
 
-# kind -> accepted words -> (value, needs code)
+# kind -> accepted words (any case) -> value
 SWITCHES = {
     "estop": {"on": 1, "off": 0},
     "hold": {"on": 1, "off": 0},
@@ -34,6 +34,9 @@ SWITCHES = {
     "play": {"play": 1, "teach": 0},
     "ot889": {"on": 1, "off": 0},
 }
+CODES = range(1, 10_000)
+"""A controller numbers its alarms and errors with at most four digits (4100, 2010)."""
+SUBCODES = range(10_000)
 
 
 def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -45,26 +48,43 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
             "error 2010 | error clear | servo off | play teach | remote off | pfl on | ot889 off"
         ),
     )
-    fault.add_argument("kind", choices=(*SWITCHES, "alarm", "error"))
-    fault.add_argument("setting", help="on/off, play/teach, a code, or clear")
-    fault.add_argument("subcode", nargs="?", type=int, default=0, help="alarm subcode")
+    fault.add_argument("kind", type=str.lower, choices=(*SWITCHES, "alarm", "error"))
+    fault.add_argument("setting", help="on/off, play/teach, a code, or clear (any case)")
+    fault.add_argument("subcode", nargs="?", type=int, help="alarm subcode (default 0)")
     cells.add_arguments(fault, several=False)
     fault.set_defaults(run=run)
 
 
-def request_for(kind: str, setting: str, subcode: int) -> CommandRequest:
+def request_for(kind: str, setting: str, subcode: int | None = None) -> CommandRequest:
+    """The fault request; ValueError with one line for a setting the kind does not take."""
+    word = setting.lower()
+    if kind == "alarm" and subcode is not None and word != "clear":
+        if subcode not in SUBCODES:
+            raise ValueError(f"alarm: subcode {subcode} is not 0 to {SUBCODES[-1]}")
+    elif subcode is not None:
+        raise ValueError(f"{kind} {setting}: takes no subcode (got {subcode})")
     if kind in SWITCHES:
         words = SWITCHES[kind]
-        if setting not in words:
+        if word not in words:
             raise ValueError(f"{kind}: expected {' or '.join(words)}, got {setting!r}")
-        return CommandRequest(value=words[setting])
-    if setting == "clear":
+        return CommandRequest(value=words[word])
+    if word == "clear":
         return CommandRequest(value=0)
     try:
         code = int(setting)
     except ValueError:
         raise ValueError(f"{kind}: expected a code or 'clear', got {setting!r}") from None
-    return CommandRequest(value=1, args=[code, subcode])
+    if code not in CODES:
+        raise ValueError(f"{kind}: code {code} is not 1 to {CODES[-1]}")
+    return CommandRequest(value=1, args=[code, subcode or 0])
+
+
+def echo(args: argparse.Namespace) -> str:
+    """The fault as given, in the words the command takes: ``alarm 4100 2``, ``hold on``."""
+    words = [args.kind, args.setting.lower()]
+    if args.subcode is not None:
+        words.append(str(args.subcode))
+    return " ".join(words)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -79,12 +99,16 @@ def run(args: argparse.Namespace) -> int:
         return cells.failed("fault", exc)
     try:
         reply = call(session, CellKeys(cell).controller_fault(args.kind), request, timeout=3.0)
+        live = cells.cells_on(session) if reply is None else []
     finally:
         session.close()
     if reply is None:
-        print(f"motocell fault: no controller of cell {cell!r} answered", file=sys.stderr)
+        # A cell name that is not on the router named with --zenoh-connect: say which are.
+        there = f" (live there: {', '.join(live)})" if live and cell not in live else ""
+        print(f"motocell fault: no controller of cell {cell!r} answered{there}", file=sys.stderr)
         return 1
-    print(f"{args.kind} {args.setting}: {Result(reply.result).name}")
+    shown = describe_reply(reply.result, reply.subcode)
+    print(f"{echo(args)}: {shown}" + (f" ({reply.detail})" if reply.detail else ""))
     return 0 if reply.result == Result.SUCCESS else 1
 
 
