@@ -184,7 +184,7 @@ def drive(
         print(f"BUSY replies:     {result.busy}")
         print(
             f"duration:         {elapsed:.3f} s (nominal {duration:.3f} s, "
-            f"+{(elapsed - duration) * 1e3:.0f} ms incl. state sampling)"
+            f"{(elapsed - duration) * 1e3:+.0f} ms incl. state sampling)"
         )
         print(f"final error:      {error} pulse(s) (max over {axes} axes)")
         _show("STOP_TRAJ_MODE", reply)

@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
 
 import pytest
 
@@ -50,3 +53,25 @@ def test_a_bad_cell_file_is_one_line(capsys: pytest.CaptureFixture[str]) -> None
     assert args.run(args) == 2
     out = capsys.readouterr().out
     assert out.startswith("motocell demo: /nonexistent/cell.toml: cannot read")
+
+
+def test_a_cell_that_does_not_start_shows_its_last_log_lines(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    @contextmanager
+    def never_ready(config: object, *, log: Path, **_: object) -> Iterator[None]:
+        log.write_text("".join(f"line {n}\n" for n in range(30)))
+        raise TimeoutError("timed out after 120.0 s waiting for every service to start")
+        yield
+
+    monkeypatch.setattr(demo, "running_cell", never_ready)
+    args = parse()
+    assert args.run(args) == 1
+    out = capsys.readouterr().out.splitlines()
+    assert out[:3] == [
+        "starting a cell ...",
+        "motocell demo: the cell did not start: timed out after 120.0 s waiting for every "
+        "service to start",
+        "the cell's last log lines:",
+    ]
+    assert out[3:] == [f"  line {n}" for n in range(10, 30)]
