@@ -32,14 +32,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     # matplotlib and mcap are in the tools extra, and matplotlib is slow to import: imported by
     # this command only, not by every `motocell`.
-    from mcap.exceptions import McapError  # noqa: PLC0415
-
     from tools.plotting import plot_recording  # noqa: PLC0415
 
     out = args.out or str(Path(args.file).with_suffix(".png"))
     try:
         plot_recording(args.file, out, args.cell)
-    except (OSError, McapError, ValueError) as exc:
+    except (OSError, ValueError) as exc:
         print(f"motocell plot: {exc}", file=sys.stderr)
         return 1
     print(f"wrote {out}")

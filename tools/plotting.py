@@ -6,6 +6,7 @@ import this module.
 
 from __future__ import annotations
 
+import struct
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -15,10 +16,13 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
+from mcap.exceptions import McapError
 
 from shared.bus import catalog
 from tools.recording import read_recording
 
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+"""The first 8 bytes of every MCAP file (the MCAP format specification, "Magic")."""
 WIDTH_IN = 12.0
 ROW_HEIGHT_IN = 2.5
 DPI = 100
@@ -37,18 +41,27 @@ class CellSeries:
 
 
 def collect(path: str | Path) -> dict[str, CellSeries]:
-    """``state`` and ``executor/tick`` of every cell in the recording."""
+    """``state`` and ``executor/tick`` of every cell in the recording; ValueError with one
+    line for a file that is not an MCAP file, or not a whole one."""
+    with open(path, "rb") as stream:
+        if stream.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
+            raise ValueError(f"{path}: not an MCAP file (`motocell record` writes them)")
     cells: dict[str, CellSeries] = {}
-    for key, log_ns, payload in read_recording(path):
-        name = catalog.cell_of(key)
-        series = cells.setdefault(name, CellSeries(first_ns=log_ns))
-        suffix = catalog.suffix_of(key)
-        if suffix == "state":
-            series.state_ns.append(log_ns)
-            series.states.append(payload)
-        elif suffix == "executor/tick":
-            series.tick_ns.append(log_ns)
-            series.ticks.append(payload)
+    try:
+        for key, log_ns, payload in read_recording(path):
+            name = catalog.cell_of(key)
+            series = cells.setdefault(name, CellSeries(first_ns=log_ns))
+            suffix = catalog.suffix_of(key)
+            if suffix == "state":
+                series.state_ns.append(log_ns)
+                series.states.append(payload)
+            elif suffix == "executor/tick":
+                series.tick_ns.append(log_ns)
+                series.ticks.append(payload)
+    except (McapError, struct.error, OSError) as exc:
+        # What the mcap reader raises for a file cut short depends on where it was cut: a
+        # seek before the start (EINVAL), a short unpack, a record running past the end.
+        raise ValueError(f"{path}: an MCAP file cut short or damaged") from exc
     return cells
 
 
