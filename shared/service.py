@@ -31,7 +31,7 @@ from shared.bus.credentials import CredentialsError
 from shared.bus.credentials import load as load_credentials
 from shared.bus.keys import CellKeys
 from shared.bus.schemas import ServiceInfo, encode
-from shared.bus.session import open_session
+from shared.bus.session import ENCODING, open_session
 from shared.config import EXIT_CONFIG, Cell, ConfigError, load_cell
 
 PARENT_PID_ENV = "MOTOCELL_PARENT_PID"
@@ -238,7 +238,7 @@ def _service_session(
     def describe(query: zenoh.Query) -> None:
         # Under its own key, not the query's: one wildcard query gets every service's reply,
         # and replies on one key would be consolidated into one.
-        query.reply(keys.service_info(service, instance), encode(info))
+        query.reply(keys.service_info(service, instance), encode(info), encoding=ENCODING)
         query.drop()
 
     try:

@@ -37,7 +37,7 @@ from shared.bus.schemas import (
     IncrementBatch,
     encode,
 )
-from shared.bus.session import answer, call, command_of, publisher
+from shared.bus.session import ENCODING, answer, call, command_of, publisher
 from shared.config import Cell
 from shared.metrics import Window
 from shared.motion.kinematics import AxisMap
@@ -165,6 +165,7 @@ class Executor:
         self.ctx.session.put(
             self.ctx.keys.controller_cmd("incmove_error"),
             encode(CommandReply(Result.FAILURE, group, value=alarm, detail=reason)),
+            encoding=ENCODING,
         )
 
     def _stall(self, reason: str) -> None:
@@ -177,6 +178,7 @@ class Executor:
         self.ctx.session.put(
             self.ctx.keys.controller_cmd("incmove_error"),
             encode(CommandReply(Result.FAILURE, value=STALL_ALARM, detail=reason)),
+            encoding=ENCODING,
         )
 
     def _check_stalls(self, lateness: int) -> bool:

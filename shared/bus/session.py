@@ -40,6 +40,11 @@ CONNECT_WAIT_S = 30.0
 CONNECT_RETRY_S = 0.2
 REFUSED_GRACE_S = 2.0
 """How long a waiting service retries a router that accepts TCP but refuses the session."""
+ENCODING = zenoh.Encoding("application/msgpack")
+"""What every sample and reply of a cell carries: msgpack (schemas.py). Set on every put and
+reply so Zenoh tools show the format rather than plain bytes; the payload type follows from
+the key (catalog.py). Zenoh 1.x predefines no msgpack encoding (zenoh-facts §1.6), so this is
+its free-form MIME type (a few bytes more per sample)."""
 BLOCK_WAIT_US = 500_000
 """A link whose queue stays full this long is closed: one stalled observer (a suspended
 `motocell watch`, a slow callback) must not hold back the cell's BLOCK streams for Zenoh's
@@ -167,6 +172,7 @@ def publisher(
     congestion = zenoh.CongestionControl.DROP if latest else zenoh.CongestionControl.BLOCK
     return session.declare_publisher(
         key,
+        encoding=ENCODING,
         congestion_control=congestion,
         priority=zenoh.Priority.REAL_TIME if realtime else zenoh.Priority.DATA,
     )
@@ -231,7 +237,7 @@ def call(
 ) -> CommandReply | None:
     """One command query; ``None`` when nobody answered in time."""
     payload = encode(request or CommandRequest())
-    for reply in session.get(key, payload=payload, timeout=timeout):
+    for reply in session.get(key, payload=payload, encoding=ENCODING, timeout=timeout):
         if reply.ok is not None:
             try:
                 return _reply_decoder.decode(reply.ok.payload.to_bytes())
@@ -253,7 +259,7 @@ def command_of(query: zenoh.Query) -> CommandRequest:
 def answer(query: zenoh.Query, reply: CommandReply) -> None:
     """Reply and finalise the query at once: the asker's ``get`` ends only when the query is
     dropped, which a lingering Python reference would otherwise delay until its timeout."""
-    query.reply(query.key_expr, encode(reply))
+    query.reply(query.key_expr, encode(reply), encoding=ENCODING)
     query.drop()
 
 
