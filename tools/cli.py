@@ -10,7 +10,7 @@ from collections.abc import Sequence
 
 from services.launcher import __main__ as launcher
 from shared.service import version
-from tools import bench, credentials, demo, fault, observe, plot, record
+from tools import bench, credentials, demo, echo, fault, hz, observe, plot, record
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -24,6 +24,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     fault.add_parser(commands)
     observe.add_parsers(commands)
+    echo.add_parser(commands)
+    hz.add_parser(commands)
     record.add_parser(commands)
     plot.add_parser(commands)
     bench.add_parser(commands)

@@ -18,6 +18,8 @@ COMMANDS = (
     "fault",
     "ps",
     "watch",
+    "echo",
+    "hz",
     "record",
     "plot",
     "bench",

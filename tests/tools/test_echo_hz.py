@@ -1,0 +1,74 @@
+"""``motocell echo`` and ``motocell hz`` without a cell: which keys they take, how a sample is
+shown, and the rate statistics."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from shared.bus.schemas import Slot, encode
+from tools.cells import TargetError
+from tools.echo import as_json
+from tools.hz import Rate
+from tools.listen import PUBLISHED, Received, published_key
+
+MS = 1_000_000
+
+
+@pytest.mark.parametrize("key", ["state", "controller/status", "group/0/queue", "group/*/queue"])
+def test_published_keys_are_taken(key: str) -> None:
+    assert published_key(key) == key
+
+
+def test_every_published_key_is_one_an_observer_receives() -> None:
+    assert "state" in PUBLISHED
+    assert "controller/cmd/*" not in PUBLISHED
+    assert all("/**" not in key for key in PUBLISHED)
+
+
+@pytest.mark.parametrize(
+    ("key", "problem"),
+    [
+        ("stat", "no cell publishes 'stat'; did you mean state? (keys: "),
+        ("group/0/queu", "did you mean group/*/queue? (keys: "),
+        ("**", "no cell publishes '**' (keys: "),
+        ("controller/cmd/positions", "'controller/cmd/positions' is asked (a Zenoh query)"),
+    ],
+)
+def test_other_keys_are_refused_naming_the_published_ones(key: str, problem: str) -> None:
+    with pytest.raises(TargetError) as refused:
+        published_key(key)
+    assert problem in str(refused.value)
+    assert refused.value.status == 2
+
+
+def test_a_sample_is_one_json_line_with_field_names() -> None:
+    line = as_json(Received("motocell/c1/group/1/slot", encode(Slot(7, 3)), 0))
+    assert b"\n" not in line
+    shown = json.loads(line)
+    assert shown["key"] == "motocell/c1/group/1/slot"
+    assert shown["payload"]["taken_id"] == 7
+    assert shown["payload"]["epoch"] == 3
+
+
+@pytest.mark.parametrize(
+    ("key", "payload"),
+    [("motocell/c1/state", b"\x01\x02\xff"), ("motocell/c1/somebody/else", b"\x93\x01\x02\x03")],
+)
+def test_a_payload_that_does_not_decode_is_shown_as_hex(key: str, payload: bytes) -> None:
+    assert json.loads(as_json(Received(key, payload, 0))) == {"key": key, "hex": payload.hex()}
+
+
+def test_the_rate_over_the_window() -> None:
+    rate = Rate(window=3)
+    assert rate.report() == "no new samples"
+    rate.add(0)
+    assert rate.report() == "one sample so far"
+    for t in (10 * MS, 30 * MS, 40 * MS, 50 * MS):
+        rate.add(t)
+    # The window keeps the last 3 intervals: 20, 10 and 10 ms.
+    assert rate.report() == (
+        "average rate 75.000 Hz  min 0.0100 s  max 0.0200 s  std dev 0.00471 s  window 3"
+    )
+    assert rate.report() == "no new samples"
