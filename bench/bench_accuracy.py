@@ -22,21 +22,22 @@ point's pulses. One trajectory per run, three runs.
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
+from bench.clients import StreamClientProcess, stream_bound_s
 from bench.harness import (
     Observer,
-    Streamer,
     bench_cell,
     figure_result,
     positions_of,
-    start_traj_mode,
     workdir,
 )
 from services.interpolator.core import MAX_BATCH
+from shared.bus.schemas import Tick
 from shared.config import Group, load_catalogue
 from shared.motion.interpolation import Knot, Trajectory, time_to_ns
 from shared.motion.kinematics import AxisMap
@@ -50,6 +51,7 @@ QUICK_SEGMENTS = 500
 E2E_POINTS = 40
 QUICK_E2E_POINTS = 12
 GOAL_PULSES = 0.5
+RANGE_MARGIN = 0.2
 DECIMALS = 6
 """Deviations are reported rounded to 1e-6 pulse: two float64 evaluations of the same cubic
 differ by ~1e-9, which must not turn an exact 0.5 into a miss."""
@@ -122,17 +124,22 @@ def wire(value: float) -> float:
 
 
 def e2e_plans(
-    rng: np.random.Generator, starts: dict[int, tuple[float, ...]], maps: list[AxisMap], count: int
+    rng: np.random.Generator, starts: dict[int, tuple[float, ...]], groups: list[Group], count: int
 ) -> dict[int, list[PlannedPoint]]:
     """Random knots for every group at shared off-grid times; non-zero start velocity on
-    every axis (so the first tick moves), zero at the end."""
+    every axis (so the first tick moves), zero at the end; positions kept 0.2 rad (m) inside
+    the joint ranges (the executor refuses a tick past one)."""
     times = [0.0]
     for _ in range(count - 1):
         times.append(times[-1] + float(rng.integers(40, 300)) / 1000 + 0.000_37)
     plans: dict[int, list[PlannedPoint]] = {}
     for g, start in starts.items():
-        limits = maps[g].max_speed_ros
-        axes = maps[g].axes
+        axis_map = AxisMap(groups[g])
+        limits = axis_map.max_speed_ros
+        axes = axis_map.axes
+        lower, upper = np.array(groups[g].joint_limits).T + np.array(
+            [[RANGE_MARGIN], [-RANGE_MARGIN]]
+        )
         positions = np.array(start)
         points = []
         for i, t in enumerate(times):
@@ -146,7 +153,7 @@ def e2e_plans(
                 # Within the speed limits all along the cubic (the executor refuses faster
                 # increments): average speed and knot speeds at most 0.3 x the limit.
                 step = rng.uniform(-0.3, 0.3, axes) * limits * (t - times[i - 1])
-                positions = positions + step
+                positions = np.clip(positions + step, lower, upper)
             points.append(PlannedPoint(t, tuple(positions.tolist()), tuple(velocity.tolist())))
         plans[g] = points
     return plans
@@ -155,53 +162,60 @@ def e2e_plans(
 def e2e_runs(points: int) -> tuple[list[float], list[float]]:
     deviations: list[float] = []
     finals: list[float] = []
-    with workdir() as directory, bench_cell(directory, "bench8") as cell:
-        maps = [AxisMap(group) for group in cell.cell.groups]
-        with Observer(cell) as observer, cell.motion() as motion:
-            observer.record_ticks()
-            start_traj_mode(motion)
-            for seed in range(RUNS):
-                still = observer.wait_still()
-                plans = e2e_plans(
-                    np.random.default_rng(100 + seed), positions_of(cell.cell, still), maps, points
-                )
-                mark = observer.mark()
-                streamer = Streamer(motion, ex_messages(plans))
-                streamer.run()
-                if streamer.error is not None:
-                    raise RuntimeError(f"streaming failed: {streamer.error}")
-                observer.wait_still(timeout=30.0)
-                ticks = observer.ticks_since(mark)
-                first = next(t.tick for t in ticks if any(any(g.increment) for g in t.groups))
-                # By tick number: a tick sample the observer missed is skipped, not misaligned.
-                by_number = {t.tick: t for t in ticks}
-                worst = 0.0
-                final = 0
-                for g, plan in plans.items():
-                    knots = [
-                        Knot(
-                            time_to_ns(wire(p.time)),
-                            np.array([wire(x) for x in p.positions]),
-                            np.array([wire(x) for x in p.velocities]),
-                        )
-                        for p in plan
-                    ]
-                    axes = maps[g].axes
-                    end = knots[-1].time_ns
-                    count = -(-end // PERIOD_NS)  # ticks until the last waypoint is applied
-                    grid = np.minimum(np.arange(1, count + 1, dtype=np.int64) * PERIOD_NS, end)
-                    exact = closed_form(knots, grid, maps[g])
-                    seen = [j for j in range(count) if first + j in by_number]
-                    applied = np.array(
-                        [by_number[first + j].groups[g].command_pulses[:axes] for j in seen]
-                    )
-                    worst = max(worst, float(np.max(np.abs(applied - exact[seen]))))
-                    target = maps[g].ros_to_pulses(knots[-1].positions)
-                    feedback = np.array(ticks[-1].groups[g].feedback_pulses[:axes])
-                    final = max(final, int(np.max(np.abs(feedback - target))))
-                deviations.append(round(worst, DECIMALS))
-                finals.append(float(final))
+    with contextlib.ExitStack() as stack:
+        directory = stack.enter_context(workdir())
+        cell = stack.enter_context(bench_cell(directory, "bench8"))
+        groups = list(cell.cell.groups)
+        maps = [AxisMap(group) for group in groups]
+        observer = stack.enter_context(Observer(cell))
+        observer.record_ticks()
+        streamer = stack.enter_context(StreamClientProcess(cell, directory))
+        streamer.start_traj_mode()
+        for seed in range(RUNS):
+            still = observer.wait_still()
+            plans = e2e_plans(
+                np.random.default_rng(100 + seed), positions_of(cell.cell, still), groups, points
+            )
+            mark = observer.mark()
+            duration = plans[0][-1].time
+            streamer.stream(ex_messages(plans), stream_bound_s(duration)).check()
+            observer.wait_still(timeout=30.0)
+            worst, final = deviation(plans, maps, observer.ticks_since(mark))
+            deviations.append(round(worst, DECIMALS))
+            finals.append(float(final))
     return deviations, finals
+
+
+def deviation(
+    plans: dict[int, list[PlannedPoint]], maps: list[AxisMap], ticks: list[Tick]
+) -> tuple[float, int]:
+    """(max |commanded - closed form| over every tick and group, final feedback error)."""
+    first = next(t.tick for t in ticks if any(any(g.increment) for g in t.groups))
+    # By tick number: a tick sample the observer missed is skipped, not misaligned.
+    by_number = {t.tick: t for t in ticks}
+    worst = 0.0
+    final = 0
+    for g, plan in plans.items():
+        knots = [
+            Knot(
+                time_to_ns(wire(p.time)),
+                np.array([wire(x) for x in p.positions]),
+                np.array([wire(x) for x in p.velocities]),
+            )
+            for p in plan
+        ]
+        axes = maps[g].axes
+        end = knots[-1].time_ns
+        count = -(-end // PERIOD_NS)  # ticks until the last waypoint is applied
+        grid = np.minimum(np.arange(1, count + 1, dtype=np.int64) * PERIOD_NS, end)
+        exact = closed_form(knots, grid, maps[g])
+        seen = [j for j in range(count) if first + j in by_number]
+        applied = np.array([by_number[first + j].groups[g].command_pulses[:axes] for j in seen])
+        worst = max(worst, float(np.max(np.abs(applied - exact[seen]))))
+        target = maps[g].ros_to_pulses(knots[-1].positions)
+        feedback = np.array(ticks[-1].groups[g].feedback_pulses[:axes])
+        final = max(final, int(np.max(np.abs(feedback - target))))
+    return worst, final
 
 
 def run(quick: bool) -> list[dict[str, Any]]:

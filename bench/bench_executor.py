@@ -4,9 +4,10 @@
 
 A 4-group cell (arm6, arm6, arm7, positioner2, YRC1000, 4 ms period) with the state period set
 to one tick (4 ms), 4 state clients connected (each its own process), and all 4 groups moving
-(a constant-velocity 2016 trajectory, points 100 ms apart, streamed like motoman_driver, so the
-gateway also answers a BUSY point every ~5 ms). Each run is one window (60 s; 2 s in quick
-mode) of the ``executor/tick`` stream, observed from a Zenoh client on the cell's router.
+(a constant-velocity 2016 trajectory, points 100 ms apart, streamed like motoman_driver by a
+motion client in its own process, so the gateway also answers a BUSY point every ~5 ms); see
+``bench.loaded``. Each run is one window (60 s; 2 s in quick mode) of the ``executor/tick``
+stream, observed from a Zenoh client on the cell's router.
 
 Lateness is the executor's own figure per tick (wake time - absolute deadline, CLOCK_MONOTONIC);
 missed periods are the increase of ``Tick.missed`` over the window (ticks woken a whole period
@@ -20,7 +21,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from bench.harness import figure_result, loaded_runs, percentiles
+from bench.harness import figure_result, percentiles
+from bench.loaded import loaded_runs
 
 FIGURE = 3
 RUNS = 3

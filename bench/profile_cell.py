@@ -11,9 +11,11 @@ the output directory.
 Scenarios:
 
 - ``points``: figures 4/5, a 2016 trajectory for 4 groups with points 4 ms apart streamed like
-  motoman_driver (SUCCESS, then BUSY and a 5 ms back-off), over and over;
+  motoman_driver (SUCCESS, then BUSY and a 5 ms back-off), every axis swinging 0.2 rad;
 - ``state``: figures 3/6, state period 4 ms, 4 state clients, 4 groups moving (points 100 ms
   apart).
+
+The clients run in processes of their own (``bench.clients``), as in the benchmarks.
 """
 
 from __future__ import annotations
@@ -23,21 +25,18 @@ import shutil
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 from collections import Counter
 from contextlib import ExitStack
 from pathlib import Path
 
+from bench.clients import StateClientProcess, StreamClientProcess, stream_bound_s
 from bench.harness import (
     Observer,
-    StateClientProcess,
-    Streamer,
     bench_cell,
+    oscillations,
     positions_of,
     process_kinds,
-    ramps,
-    start_traj_mode,
     wait_moving,
     workdir,
 )
@@ -133,36 +132,17 @@ def main(argv: list[str] | None = None) -> int:
         cell = stack.enter_context(bench_cell(directory, "profile", state_period_ms=state_period))
         observer = stack.enter_context(Observer(cell))
         observer.record_ticks()
-        clients: list[StateClientProcess] = []
-
-        def kill_clients() -> None:
-            for client in clients:
-                client.kill()
-
-        stack.callback(kill_clients)
         for index in range(4 if args.scenario == "state" else 1):
-            clients.append(StateClientProcess(cell, directory / f"state{index}.npz"))
-        motion = stack.enter_context(cell.motion())
-        start_traj_mode(motion)
-        stop = threading.Event()
-
-        def load() -> None:
-            direction = 1.0
-            while not stop.is_set():
-                starts = positions_of(cell.cell, observer.wait_still(timeout=30.0))
-                if args.scenario == "points":
-                    plans = ramps(starts, direction * 0.2, 4.0, 0.004)
-                else:
-                    plans = ramps(starts, direction * 0.05, args.seconds + 30.0, 0.1)
-                streamer = Streamer(motion, ex_messages(plans), stop)
-                streamer.run()
-                direction = -direction
-
-        loader = threading.Thread(target=load, name="load", daemon=True)
+            client = StateClientProcess(cell, directory / f"state{index}.npz", args.seconds + 60)
+            stack.callback(client.kill)
+        streamer = stack.enter_context(StreamClientProcess(cell, directory))
+        streamer.start_traj_mode()
+        starts = positions_of(cell.cell, observer.wait_still(timeout=30.0))
+        interval = 0.004 if args.scenario == "points" else 0.1
+        plans = oscillations(starts, 0.2, 4.0, args.seconds + 30.0, interval)
         mark = observer.mark()
-        loader.start()
-        stack.callback(loader.join, 15.0)
-        stack.callback(stop.set)
+        streamer.begin(ex_messages(plans), stream_bound_s(args.seconds + 30.0))
+        stack.callback(streamer.end)
         wait_moving(observer, mark)
         time.sleep(1.0)
         targets = {

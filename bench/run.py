@@ -4,21 +4,29 @@
 
 Figures (goals are for a 2-core machine running the whole cell):
 
-1. codec decode/encode frames/s                       (bench.bench_codec)
-2. interpolation entries/s per group                  (bench.bench_interpolation)
-3. executor lateness and missed periods under load    (bench.bench_executor)
-4. request -> reply round trips on the motion port    (bench.bench_roundtrip)
-5. streaming 4 groups at one point per period         (bench.bench_streaming)
-6. state rate and feedback age with 4 clients         (bench.bench_state; same runs as 3)
-7. cells per machine, CPU and RSS per process         (bench.bench_scale)
-8. accuracy against the float64 closed form           (bench.bench_accuracy)
-9. start-up and stop                                  (bench.bench_startup)
+1. codec decode/encode frames/s                               (bench.bench_codec)
+2. interpolation entries/s per group                          (bench.bench_interpolation)
+3. executor lateness and missed periods under load            (bench.bench_executor)
+4. motion-port round trips: commands, CHECK_QUEUE_CNT, points (bench.bench_roundtrip)
+5. streaming point by point: motoman_driver, paced clients,
+   slot turnaround, the pending-point FIFO                    (bench.bench_streaming)
+6. state rate and feedback age with 4 clients                 (bench.bench_state; runs of 3)
+7. cells per machine with 0 missed periods, CPU and RSS       (bench.bench_scale)
+8. accuracy against the float64 closed form                   (bench.bench_accuracy)
+9. start-up and stop                                          (bench.bench_startup)
 
 Every figure is the median and [min-max] of at least 3 runs. Benchmarks report; they never fail
-on a time. The full suite takes about 11 minutes here (figure 3: 3 x 60 s runs), ``--quick``
-about one minute. Results: ``<UTC timestamp>.json`` and ``latest.json`` in ``--out``, by default
-``bench/results`` under the current directory: in a checkout's root that is the repository's
-``bench/results``, and an installed motocell never writes into its own package.
+on a time. The clients that measure are processes of their own (``bench.clients``: the state
+clients and the motion client, garbage collector off, records preallocated), so the benchmark is
+never the slowest part. Before the results the suite prints each figure's conditions: whether
+the executor ran SCHED_FIFO (``ExecutorMetrics.realtime``) and the 1-minute load average at its
+start and end, with a warning (also in the JSON) when either exceeds 0.7 x the CPUs, which makes
+that figure's numbers unreliable.
+
+The full suite takes about 13 minutes here (figures 3 and 7: 3 x 60 s windows each),
+``--quick`` about 2. Results: ``<UTC timestamp>.json`` and ``latest.json`` in ``--out``, by
+default ``bench/results`` under the current directory: in a checkout's root that is the
+repository's ``bench/results``, and an installed motocell never writes into its own package.
 """
 
 from __future__ import annotations
@@ -46,11 +54,12 @@ from bench import (
     bench_state,
     bench_streaming,
 )
-from bench.harness import RESULTS_DIR, compare, goal_text, machine_info
+from bench.harness import EXECUTOR_MODES, RESULTS_DIR, compare, goal_text, machine_info
 from testkit.processes import descendants
 
 Results = list[dict[str, Any]]
 
+LOAD_SHARE = 0.7
 DECODE_GOAL = 200_000.0
 INTERPOLATION_GOAL = 1_000_000.0
 
@@ -85,7 +94,7 @@ FIGURES: dict[int, tuple[str, Callable[[bool], Results]]] = {
     2: ("interpolation throughput", interpolation),
     3: ("executor lateness", bench_executor.run),
     4: ("round trips", bench_roundtrip.run),
-    5: ("streaming at 4 ms", bench_streaming.run),
+    5: ("streaming point by point", bench_streaming.run),
     6: ("state rate and age", bench_state.run),
     7: ("scale", bench_scale.run),
     8: ("accuracy", bench_accuracy.run),
@@ -134,8 +143,12 @@ def table(results: Results) -> str:
                 "" if met is None else ("yes" if met else "NO"),
             ]
         )
-    widths = [max(len(row[i]) for row in rows) for i in range(len(header))]
-    right = {2, 3}
+    return markdown(rows, right={2, 3})
+
+
+def markdown(rows: list[list[str]], right: set[int]) -> str:
+    """A Markdown table, the first row its header; columns in ``right`` right-aligned."""
+    widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
 
     def line(row: list[str]) -> str:
         cells = [
@@ -152,6 +165,61 @@ def table(results: Results) -> str:
         + "|"
     )
     return "\n".join([line(rows[0]), separator, *(line(row) for row in rows[1:])])
+
+
+def load_limit(cpus: int) -> float:
+    """The 1-minute load average above which a figure's numbers are not to be trusted: the
+    benchmark then shares the machine with other work (LOAD_SHARE of the CPUs)."""
+    return LOAD_SHARE * cpus
+
+
+def load_warning(before: float, after: float, cpus: int) -> str | None:
+    """Why a figure whose load average was ``before`` at its start and ``after`` at its end is
+    unreliable; None when both are within ``load_limit``."""
+    limit = load_limit(cpus)
+    if max(before, after) <= limit:
+        return None
+    return (
+        f"load average {before:.2f} at start, {after:.2f} at end: above {limit:g} "
+        f"({LOAD_SHARE:g} x {cpus} CPUs), unreliable"
+    )
+
+
+def executor_text(realtime: bool | None) -> str:
+    if realtime is None:
+        return "-"
+    return "SCHED_FIFO" if realtime else "NOT SCHED_FIFO"
+
+
+def conditions(figures: dict[str, dict[str, Any]]) -> str:
+    """Per figure: how the executor ran, the load average around it, whether it is reliable."""
+    rows = [["fig", "title", "executor", "load average start / end", "reliable", "s"]]
+    for figure, entry in figures.items():
+        before, after = entry["loadavg_before"][0], entry["loadavg_after"][0]
+        rows.append(
+            [
+                figure,
+                str(entry["title"]),
+                executor_text(entry["executor_realtime"]),
+                f"{before:.2f} / {after:.2f}",
+                "NO" if entry["unreliable"] else "yes",
+                f"{entry['seconds']:.0f}",
+            ]
+        )
+    return markdown(rows, right={5})
+
+
+def warnings(figures: dict[str, dict[str, Any]]) -> list[str]:
+    lines = []
+    for figure, entry in figures.items():
+        if entry["unreliable"]:
+            lines.append(f"WARNING: figure {figure}: {entry['unreliable']}")
+        if entry["executor_realtime"] is False:
+            lines.append(
+                f"WARNING: figure {figure}: the executor ran without SCHED_FIFO "
+                "(run as root, or grant CAP_SYS_NICE and an rtprio limit)"
+            )
+    return lines
 
 
 def parse_only(text: str | None) -> list[int]:
@@ -176,7 +244,7 @@ def write(report: dict[str, Any], stamp: str, directory: Path) -> list[Path]:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--quick", action="store_true", help="every benchmark briefly (~1 min)")
+    parser.add_argument("--quick", action="store_true", help="every benchmark briefly (1-2 min)")
     parser.add_argument("--only", metavar="N,N", help="only these figures, e.g. 3,6")
     parser.add_argument(
         "--out",
@@ -197,6 +265,31 @@ def main(argv: Sequence[str] | None = None) -> int:
     return run(parser.parse_args(argv))
 
 
+def run_figure(figure: int, quick: bool, results: Results) -> dict[str, Any]:
+    """Measure one figure into ``results``; its entry for the report (conditions, errors)."""
+    title, bench = FIGURES[figure]
+    print(f"  [{figure}] {title} ...", end="", flush=True)
+    begun = time.monotonic()
+    entry: dict[str, Any] = {"title": title, "loadavg_before": os.getloadavg()}
+    EXECUTOR_MODES.clear()
+    try:
+        results += bench(quick)
+    except Exception as exc:
+        traceback.print_exc()
+        entry["error"] = f"{type(exc).__name__}: {exc}"
+        results.append({"figure": figure, "error": entry["error"]})
+    entry["seconds"] = round(time.monotonic() - begun, 1)
+    entry["loadavg_after"] = os.getloadavg()
+    entry["executor_realtime"] = EXECUTOR_MODES.realtime()
+    entry["load_limit"] = load_limit(os.cpu_count() or 1)
+    entry["unreliable"] = load_warning(
+        entry["loadavg_before"][0], entry["loadavg_after"][0], os.cpu_count() or 1
+    )
+    load = entry["loadavg_after"][0]
+    print(f" {entry['seconds']:.0f} s (load average {load:.1f})", flush=True)
+    return entry
+
+
 def run_suite(quick: bool, figures: list[int], out: Path) -> int:
     stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
     report: dict[str, Any] = {
@@ -213,29 +306,20 @@ def run_suite(quick: bool, figures: list[int], out: Path) -> int:
     status = 0
     try:
         for figure in figures:
-            title, bench = FIGURES[figure]
-            print(f"  [{figure}] {title} ...", end="", flush=True)
-            begun = time.monotonic()
-            entry: dict[str, Any] = {"title": title, "loadavg_before": os.getloadavg()}
-            try:
-                results += bench(quick)
-            except Exception as exc:
-                traceback.print_exc()
-                entry["error"] = f"{type(exc).__name__}: {exc}"
-                results.append({"figure": figure, "error": entry["error"]})
-                status = 1
-            entry["seconds"] = round(time.monotonic() - begun, 1)
-            entry["loadavg_after"] = os.getloadavg()
-            report["figures"][str(figure)] = entry
-            load = entry["loadavg_after"][0]
-            print(f" {entry['seconds']:.0f} s (load average {load:.1f})", flush=True)
+            entry = report["figures"][str(figure)] = run_figure(figure, quick, results)
+            status = 1 if "error" in entry else status
     except KeyboardInterrupt:
         report["interrupted"] = True
         status = 130
         print("\ninterrupted; writing what was measured", file=sys.stderr)
     report["seconds"] = round(time.monotonic() - started, 1)
     report["machine"]["loadavg_at_end"] = os.getloadavg()
+    report["warnings"] = warnings(report["figures"])
     print()
+    print(conditions(report["figures"]))
+    print()
+    for line in report["warnings"]:
+        print(line)
     print(table(results))
     machine = report["machine"]
     print(

@@ -1,0 +1,196 @@
+"""The loaded cell of figures 3 and 6: 4 groups moving, 4 state clients at a one-tick period.
+
+One cell (``bench_cell``, state period 4 ms), 4 ``bench.state_client`` processes and one
+``bench.stream_client`` process (a constant-velocity 2016 trajectory, points 100 ms apart,
+streamed like motoman_driver, so the gateway also answers a BUSY point every ~5 ms). Each run is
+one window of the ``executor/tick`` stream; figures 3 and 6 read the same runs.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from bench.clients import StateClientProcess, StreamClientProcess, StreamRecord
+from bench.harness import (
+    Observer,
+    bench_cell,
+    gc_paused,
+    positions_of,
+    ramps,
+    wait_moving,
+    wake_ns,
+    workdir,
+)
+from shared.bus.schemas import State, Tick
+from testkit.cell import RunningCell
+from testkit.client import ex_messages
+
+STATE_CLIENTS = 4
+LOADED_SPEED = 0.05
+"""rad/s (m/s) on every axis: every tick moves every axis by at least 4 pulses, so feedback
+pulses identify the tick they come from."""
+POINT_INTERVAL_S = 0.1
+SETTLE_S = 0.5
+"""After the first move, until the ring is full and state flows."""
+RUN_OVERHEAD_S = 20.0
+"""Per run besides its window: waiting for the robot to stop and start, settling, stopping."""
+
+
+@dataclass
+class LoadedRun:
+    """One measurement window."""
+
+    window_s: float
+    start_ns: int
+    end_ns: int
+    lateness_ns: np.ndarray
+    missed: int
+    ticks: int
+    tick_gaps: int
+    wake: np.ndarray
+    """Wake time (ns) of each tick of the window."""
+    keys: np.ndarray
+    """Feedback pulses of every group, concatenated, one row per tick of the window."""
+    clients: list[dict[str, np.ndarray]]
+    """Per state client: ``received_ns`` and ``pulses`` (the same layout as ``keys``)."""
+    dropped: int
+    """State cycles and requests past the clients' records (the whole figure)."""
+    state_period_ns: int
+    points: int
+    busy: int
+    state_age_ms: np.ndarray
+    """Per ``state`` sample: when the observer got it - its ``tick_ns`` (broadcaster part)."""
+    state_repeats: int
+    """``state`` samples that show the same tick as the previous one."""
+    state_samples: int
+
+
+_loaded_cache: dict[tuple[int, float], list[LoadedRun]] = {}
+
+
+def loaded_runs(runs: int, seconds: float) -> list[LoadedRun]:
+    """Figures 3 and 6 are measured in the same runs (same conditions); the first caller
+    measures, the second reuses."""
+    key = (runs, seconds)
+    if key not in _loaded_cache:
+        _loaded_cache[key] = _measure_loaded(runs, seconds)
+    return _loaded_cache[key]
+
+
+@dataclass
+class _Window:
+    first: int
+    last: int
+    start_ns: int
+    end_ns: int
+    record: StreamRecord
+
+
+def _measure_loaded(runs: int, seconds: float) -> list[LoadedRun]:
+    with contextlib.ExitStack() as stack:
+        directory = stack.enter_context(workdir())
+        cell = stack.enter_context(bench_cell(directory, "bench34", state_period_ms=4.0))
+        observer = stack.enter_context(Observer(cell))
+        observer.record_ticks()
+        observer.record_states()
+        recording_s = runs * (seconds + RUN_OVERHEAD_S) + RUN_OVERHEAD_S
+        clients: list[StateClientProcess] = []
+        for index in range(STATE_CLIENTS):
+            client = StateClientProcess(cell, directory / f"state{index}.npz", recording_s)
+            stack.callback(client.kill)
+            clients.append(client)
+        streamer = stack.enter_context(StreamClientProcess(cell, directory))
+        stack.enter_context(gc_paused())
+        streamer.start_traj_mode()
+        windows = [_window(cell, observer, streamer, run, seconds) for run in range(runs)]
+        observer.wait_still()
+        recorded = [client.stop() for client in clients]
+        dropped = sum(int(data["dropped"]) for data in recorded)
+        dropped += sum(w.record.dropped for w in windows)
+        return [
+            _loaded_run(
+                cell=cell,
+                ticks=observer.ticks_since(w.first - 1, w.last),
+                states=observer.states_between(w.start_ns, w.end_ns),
+                window=w,
+                recorded=recorded,
+                dropped=dropped,
+                seconds=seconds,
+            )
+            for w in windows
+        ]
+
+
+def _window(
+    cell: RunningCell, observer: Observer, streamer: StreamClientProcess, run: int, seconds: float
+) -> _Window:
+    still = observer.wait_still()
+    direction = 1.0 if run % 2 == 0 else -1.0
+    duration = seconds + RUN_OVERHEAD_S
+    plans = ramps(
+        positions_of(cell.cell, still), direction * LOADED_SPEED, duration, POINT_INTERVAL_S
+    )
+    mark = observer.mark()
+    streamer.begin(ex_messages(plans), duration)
+    try:
+        wait_moving(observer, mark)
+        time.sleep(SETTLE_S)
+        first = observer.mark()
+        start_ns = time.monotonic_ns()
+        time.sleep(seconds)
+        last = observer.mark()
+        end_ns = time.monotonic_ns()
+    finally:
+        record = streamer.end()
+    return _Window(first, last, start_ns, end_ns, record.check())
+
+
+def _loaded_run(
+    *,
+    cell: RunningCell,
+    ticks: list[Tick],
+    states: list[tuple[int, State]],
+    window: _Window,
+    recorded: list[dict[str, np.ndarray]],
+    dropped: int,
+    seconds: float,
+) -> LoadedRun:
+    before, inside = ticks[0], ticks[1:]
+    axes = [group.axes for group in cell.cell.groups]
+    keys = np.array(
+        [
+            [p for g, n in zip(t.groups, axes, strict=True) for p in g.feedback_pulses[:n]]
+            for t in inside
+        ],
+        dtype=np.int64,
+    )
+    numbers = np.array([t.tick for t in inside])
+    clients = []
+    for data in recorded:
+        received = data["received_ns"]
+        within = (received >= window.start_ns) & (received <= window.end_ns)
+        clients.append({"received_ns": received[within], "pulses": data["pulses"][within]})
+    return LoadedRun(
+        window_s=seconds,
+        start_ns=window.start_ns,
+        end_ns=window.end_ns,
+        lateness_ns=np.array([t.lateness_ns for t in inside], dtype=np.int64),
+        missed=inside[-1].missed - before.missed,
+        ticks=len(inside),
+        tick_gaps=int(np.sum(np.diff(numbers) != 1)),
+        wake=np.array([wake_ns(t) for t in inside], dtype=np.int64),
+        keys=keys,
+        clients=clients,
+        dropped=dropped,
+        state_period_ns=cell.cell.state_period_ns,
+        points=window.record.points,
+        busy=window.record.busy,
+        state_age_ms=np.array([(at - st.tick_ns) / 1e6 for at, st in states]),
+        state_repeats=sum(1 for (_, a), (_, b) in itertools.pairwise(states) if a.tick == b.tick),
+        state_samples=len(states),
+    )

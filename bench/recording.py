@@ -1,0 +1,100 @@
+"""What the measuring child processes (``bench.state_client``, ``bench.stream_client``) share.
+
+A measuring process must not pause while it measures: a full garbage collection of a heap of
+recorded frames stopped a state client's reader for 53-253 ms and showed up as feedback-age
+maxima of that size (issue 14). So each one records into numpy arrays preallocated for the whole
+run (``Columns``: no objects per sample, a fixed bound) and turns the collector off once set up
+(``freeze_gc``). Both are told to stop by a line on stdin (``StdinControl``), never by a thread.
+"""
+
+from __future__ import annotations
+
+import gc
+import os
+import select
+import sys
+from collections.abc import Mapping
+
+import numpy as np
+
+
+def freeze_gc() -> None:
+    """Collect once, move everything that survives out of the collector's sight, and turn the
+    automatic collector off: what the measuring loop allocates is freed by reference counting
+    alone (it makes no cycles), so nothing can stop the loop for a full collection."""
+    gc.collect()
+    gc.freeze()
+    gc.disable()
+
+
+class Columns:
+    """Rows of named int64 columns, preallocated: ``capacity`` rows at most; rows offered past
+    it are counted in ``dropped`` instead of stored (the caller sizes it from the run length,
+    so a drop means the run outlived its own plan, and is reported)."""
+
+    def __init__(self, capacity: int, names: tuple[str, ...]) -> None:
+        self.capacity = capacity
+        self.columns = {name: np.zeros(capacity, dtype=np.int64) for name in names}
+        self.rows = 0
+        self.dropped = 0
+
+    def add(self, *values: int) -> None:
+        row = self.rows
+        if row >= self.capacity:
+            self.dropped += 1
+            return
+        for column, value in zip(self.columns.values(), values, strict=True):
+            column[row] = value
+        self.rows = row + 1
+
+    def arrays(self) -> Mapping[str, np.ndarray]:
+        """The filled rows of each column (views, not copies)."""
+        return {name: column[: self.rows] for name, column in self.columns.items()}
+
+
+class StdinControl:
+    """Lines on stdin, read without blocking the measuring loop (one ``poll`` of the pipe).
+
+    Reads the pipe itself (no ``sys.stdin`` buffer that could hold a line ``poll`` cannot see).
+    """
+
+    def __init__(self) -> None:
+        self.fd = sys.stdin.fileno()
+        self._poller = select.poll()
+        self._poller.register(self.fd, select.POLLIN | select.POLLHUP)
+        self._buffer = bytearray()
+        self._ended = False
+
+    def pending(self) -> bool:
+        """A whole line, or the end of stdin, is waiting."""
+        if b"\n" in self._buffer or self._ended:
+            return True
+        if self._poller.poll(0):
+            self._fill()
+        return b"\n" in self._buffer or self._ended
+
+    def read_line(self) -> str:
+        """The next line without its newline, blocking; EOFError at the end of stdin."""
+        while b"\n" not in self._buffer and not self._ended:
+            self._fill()
+        end = self._buffer.find(b"\n")
+        if end < 0:
+            if not self._buffer:
+                raise EOFError("stdin closed")
+            end = len(self._buffer)
+        line = bytes(self._buffer[:end])
+        del self._buffer[: end + 1]
+        return line.decode()
+
+    def _fill(self) -> None:
+        data = os.read(self.fd, 1 << 16)
+        if data:
+            self._buffer += data
+        else:
+            self._ended = True
+
+
+def report(line: str) -> None:
+    """One line to the parent (``ready``, ``done``, ``error ...``)."""
+    sys.stdout.write(line + "\n")
+    sys.stdout.flush()
