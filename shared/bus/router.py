@@ -38,7 +38,13 @@ def router_settings(
         "mode": "router",
         "listen": {"endpoints": list(listen)},
         "connect": {"endpoints": list(connect)},
-        "scouting": {"multicast": {"enabled": False}, "gossip": {"enabled": False}},
+        # No scouting, so nothing to wait for: Zenoh's default delay held every router's
+        # start for 500 ms, a third of a cell's start-up.
+        "scouting": {
+            "delay": 0,
+            "multicast": {"enabled": False},
+            "gossip": {"enabled": False},
+        },
         "adminspace": {"enabled": False},
         "transport": {"link": {"tx": {"lease": LEASE_MS}}},
     }
