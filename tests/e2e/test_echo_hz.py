@@ -11,6 +11,7 @@ import subprocess
 import sys
 import threading
 from collections.abc import Callable, Iterator
+from pathlib import Path
 
 import pytest
 import zenoh
@@ -136,3 +137,27 @@ def test_every_sample_says_it_is_msgpack(cell: RunningCell, observer: zenoh.Sess
             subscriber.undeclare()
     with lock:
         assert encodings == {key: {str(ENCODING)} for key in encodings}
+
+
+def test_the_subscriber_example_of_the_docs_works(cell: RunningCell, repo: Path) -> None:
+    page = (repo / "docs" / "observing.md").read_text()
+    (example,) = re.findall(r"```python\n(.*?)```", page, re.DOTALL)
+    # The example's cell, at this cell's endpoint and credentials.
+    here = example.replace("tcp/127.0.0.1:7447", cell.zenoh_endpoint).replace(
+        'Path.home() / ".local/state/motocell/credentials/cell1"',
+        f"Path({str(cell.credentials)!r})",
+    )
+    assert here.count(cell.zenoh_endpoint) == 1 and str(cell.credentials) in here
+    process = subprocess.Popen(
+        [sys.executable, "-c", here], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    try:
+        assert process.stdout is not None
+        line = process.stdout.readline()
+    finally:
+        process.kill()
+        _, err = process.communicate()
+    assert line, err
+    seq, positions = line.split(" ", 1)
+    assert int(seq) > 0
+    assert len(json.loads(positions)) == 6

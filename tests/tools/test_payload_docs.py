@@ -1,0 +1,40 @@
+"""ARCHITECTURE.md's payload tables are what the schemas say: regenerated and compared."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import msgspec
+
+from shared.bus import schemas
+from shared.bus.catalog import ROUTES
+from tools import payload_docs
+
+ARCHITECTURE = Path(__file__).resolve().parents[2] / "ARCHITECTURE.md"
+
+
+def test_the_document_shows_the_schemas_as_they_are() -> None:
+    text = ARCHITECTURE.read_text()
+    start = text.index(payload_docs.BEGIN)
+    end = text.index(payload_docs.END) + len(payload_docs.END)
+    assert text[start:end] == payload_docs.generate(), (
+        "ARCHITECTURE.md's payload tables are stale: run `python -m tools.payload_docs`"
+    )
+
+
+def test_every_payload_of_the_catalogue_and_every_field_is_shown() -> None:
+    generated = payload_docs.generate()
+    carried = {route.payload for route in ROUTES} | {route.reply for route in ROUTES}
+    for kind in payload_docs.payload_types():
+        assert f"#### `{kind.__name__}`" in generated
+        for index, field in enumerate(msgspec.structs.fields(kind)):
+            assert f"| {index} | `{field.name}` |" in generated
+    assert carried - {None} <= set(payload_docs.payload_types())
+    assert schemas.Alarm in payload_docs.payload_types()
+
+
+def test_rewriting_replaces_only_the_block(tmp_path: Path) -> None:
+    page = tmp_path / "page.md"
+    page.write_text(f"before\n{payload_docs.BEGIN}\nold\n{payload_docs.END}\nafter\n")
+    assert payload_docs.main([str(page)]) == 0
+    assert page.read_text() == f"before\n{payload_docs.generate()}\nafter\n"
