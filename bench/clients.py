@@ -56,8 +56,11 @@ class ChildProcess:
             raise
 
     def send(self, line: str) -> None:
+        """One line (a job can be megabytes: a raw pipe may take it in several writes)."""
         assert self.process.stdin is not None
-        self.process.stdin.write(line.encode() + b"\n")
+        data = memoryview(line.encode() + b"\n")
+        while data:
+            data = data[self.process.stdin.write(data) or 0 :]
 
     def expect(self, word: str, timeout: float) -> None:
         line = self.read_line(timeout)

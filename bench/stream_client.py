@@ -19,6 +19,7 @@ and sends STOP_MOTION, which clears the queues.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import gc
 import math
 import time
@@ -130,7 +131,8 @@ class Streaming:
         retry_ns = round(self.job.busy_retry_s * 1e9)
         while True:
             if self.control.pending():
-                self.control.read_line()
+                with contextlib.suppress(EOFError):  # the parent is gone: stop as well
+                    self.control.read_line()
                 return None
             sent = time.monotonic_ns()
             result, _ = self.link.exchange(frame)
