@@ -5,6 +5,7 @@ the children must exit cleanly within a deadline (a deadlock would hang them).""
 
 from __future__ import annotations
 
+import gc
 import os
 import signal
 import subprocess
@@ -14,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from shared.service import StopFlag, stop_on_signals
+from shared.service import StopFlag, freeze_what_lives_forever, stop_on_signals
 
 REPO = Path(__file__).resolve().parents[2]
 DEADLINE_S = 20.0
@@ -192,3 +193,12 @@ def test_a_forgotten_flag_releases_its_descriptors() -> None:
     for _ in range(50):
         StopFlag().set()
     assert len(os.listdir("/proc/self/fd")) <= before + 2
+
+
+def test_what_start_up_made_is_frozen_out_of_full_collections() -> None:
+    before = gc.get_freeze_count()
+    try:
+        freeze_what_lives_forever()
+        assert gc.get_freeze_count() > before
+    finally:
+        gc.unfreeze()

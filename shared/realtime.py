@@ -1,0 +1,79 @@
+"""Real-time scheduling of the executor's clock: where it may run, and the one command that lets
+it run SCHED_FIFO. The executor applies these (``services/executor/__main__.py``); the launcher,
+``motocell ps`` and ``motocell watch`` show the command when it runs without (docs/realtime.md).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import sys
+from collections.abc import Set
+
+RT_PRIORITY = 50
+"""The clock thread's SCHED_FIFO priority: above every ordinary thread and below the kernel's own
+real-time threads (interrupt threads run at 50 too, and the migration threads at 99)."""
+
+MIN_CPUS_FOR_AFFINITY = 4
+"""Below this the clock is never restricted: with two or three CPUs, the ones left to it would be
+busy with everything else too, and the scheduler needs them all to place it at once."""
+
+PR_SET_TIMERSLACK = 29
+TIMER_SLACK_NS = 1
+
+CAP_SYS_NICE = 23
+ELSEWHERE = "give its process an rtprio limit of 50 or more, or CAP_SYS_NICE (docs/realtime.md)"
+
+
+def clock_cpus(allowed: Set[int]) -> set[int] | None:
+    """The CPUs the clock thread may run on, or None for no restriction.
+
+    With at least MIN_CPUS_FOR_AFFINITY allowed CPUs, every one but the lowest-numbered: the
+    boot CPU keeps housekeeping (legacy interrupts, the timekeeping duty of a tickless kernel,
+    nohz_full's housekeeping by default). Never a single CPU: several cells' clocks pinned to one
+    would queue behind each other there, while the real-time scheduler spreads unpinned
+    SCHED_FIFO threads over the CPUs not running one.
+    """
+    if len(allowed) < MIN_CPUS_FOR_AFFINITY:
+        return None
+    return set(allowed) - {min(allowed)}
+
+
+def tighten_timer_slack() -> None:
+    """The calling thread's sleeps end at their deadline, not up to 50 µs after it (the default
+    slack lets the kernel batch wake-ups). A SCHED_FIFO thread has no slack anyway; this is for
+    a clock refused real-time priority (zenoh-facts §5: sleep lateness p50 59 µs instead of
+    107). Needs no privilege; nothing to do off Linux."""
+    if sys.platform.startswith("linux"):
+        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_TIMERSLACK, TIMER_SLACK_NS)
+
+
+def fix_command(pid: int | str = "self") -> str:
+    """The one command that lets process ``pid`` of this machine (an executor) run SCHED_FIFO;
+    ELSEWHERE when this process cannot look at it (not Linux, another user's process)."""
+    proc = f"/proc/{pid}"
+    try:
+        with open(f"{proc}/status") as status:
+            capabilities = next(line for line in status if line.startswith("CapEff:"))
+        interpreter = os.readlink(f"{proc}/exe")
+    except (OSError, StopIteration):
+        return ELSEWHERE
+    return fix(int(capabilities.split()[1], 16), interpreter)
+
+
+def fix(capabilities: int, interpreter: str) -> str:
+    """For a process with these effective ``capabilities`` running ``interpreter``.
+
+    Verified on Linux 6.18 with a process holding no capabilities and an rtprio limit of 0:
+    ``setcap`` on the interpreter made SCHED_FIFO 50 succeed. It lets every program that
+    interpreter runs raise its priority; docs/realtime.md has the narrower ways. In a container
+    the rtprio limit is the way: Docker gives a non-root user no capabilities from ``cap_add``.
+    """
+    if capabilities >> CAP_SYS_NICE & 1:
+        # Allowed but refused: no budget (cgroup v1 real-time group scheduling gives a new
+        # cgroup 0 µs of real-time time per period).
+        return "give its cgroup a real-time budget (cpu.rt_runtime_us, docs/realtime.md)"
+    return (
+        f"sudo setcap cap_sys_nice+ep {interpreter} (in a container: --ulimit rtprio=99; "
+        "compose: ulimits: {rtprio: 99})"
+    )
