@@ -68,7 +68,7 @@ FS100 = "a real FS100: 0.34 ms median, 1.13 ms worst (../shared/data)"
 COMMAND_MESSAGES = {"CHECK_MOTION_READY": CHECK_MOTION_READY, "CHECK_QUEUE_CNT": CHECK_QUEUE_CNT}
 """Timed idle, and as the probes (in this order) of a stream while 4 groups move."""
 MOVING = " while 4 groups move"
-RECORDING_S = 1800.0
+RECORDING_S = 600.0
 """Bound of the state client's record (it only loads the cell here)."""
 
 Series = dict[str, list[np.ndarray]]

@@ -69,7 +69,7 @@ from the initial position, within every model's joint range."""
 FINISH_GOAL_MS = 50.0
 TURNAROUND_P99_GOAL_MS = 2.0
 QUICK_DIVISOR = 20
-RECORDING_S = 1200.0
+RECORDING_S = 600.0
 """Bound of the state client's record (it only loads the cell here)."""
 
 
