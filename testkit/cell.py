@@ -262,6 +262,8 @@ def wait_for_whole_cell(
     wait_until(lambda: connectable(host, port_base + 1), timeout, "the state port to listen")
     with StateListener(host, port_base + 1, byte_order) as state:
         state.wait_for(lambda f: f.status is not None and f.status.drives_powered != -1, timeout)
+    # The state port is the broadcaster's, the motion port the gateway's: either can be first.
+    wait_until(lambda: connectable(host, port_base), timeout, "the motion port to listen")
     with MotionClient(host, port_base, byte_order) as motion:
         wait_until(
             lambda: (

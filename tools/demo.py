@@ -153,6 +153,13 @@ def drive(
                 f"{len(cell.groups)}: give the running cell's file with --config",
                 status=2,
             )
+        # The motion port is the gateway's, the state port the broadcaster's: either can be
+        # up first.
+        wait_until(
+            lambda: connectable(host, port_base),
+            READY_TIMEOUT_S,
+            f"the motion port {host}:{port_base}",
+        )
         motion = stack.enter_context(MotionClient(host, port_base, byte_order))
         started = time.monotonic()
         reply = motion.command(Command.START_TRAJ_MODE)

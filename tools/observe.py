@@ -22,6 +22,7 @@ from shared.bus.access import Identity
 from shared.bus.catalog import Role
 from shared.bus.keys import ALIVE_ROOT, ROOT
 from shared.bus.schemas import (
+    BroadcasterMetrics,
     ControllerStatus,
     Decoder,
     ExecutorMetrics,
@@ -163,11 +164,19 @@ class WatchedCell:
     state: State | None = None
     executor: ExecutorMetrics | None = None
     gateway: GatewayMetrics | None = None
+    broadcaster: BroadcasterMetrics | None = None
     groups: dict[int, InterpolatorMetrics] = field(default_factory=dict)
     alive: set[str] = field(default_factory=set)
 
 
-SHOWN = ("controller/status", "state", "executor/metrics", "gateway/metrics", "group/*/metrics")
+SHOWN = (
+    "controller/status",
+    "state",
+    "executor/metrics",
+    "gateway/metrics",
+    "broadcaster/metrics",
+    "group/*/metrics",
+)
 """The keys ``watch`` subscribes to: ticks, queues and increments are too fast to matter to a
 person."""
 
@@ -216,6 +225,8 @@ class Watcher:
                 view.executor = payload
             elif isinstance(payload, GatewayMetrics):
                 view.gateway = payload
+            elif isinstance(payload, BroadcasterMetrics):
+                view.broadcaster = payload
             elif isinstance(payload, InterpolatorMetrics):
                 view.groups[int(key.split("/")[3])] = payload
 
@@ -279,12 +290,21 @@ def render_cell(name: str, view: WatchedCell) -> list[str]:
             f"{late.p99_us:.0f} us  max {late.max_us:.0f} us   missed {executor.missed_total}   "
             f"{'SCHED_FIFO' if executor.realtime else 'no RT priority'}"
         )
-    gateway = view.gateway
+    gateway, broadcaster = view.gateway, view.broadcaster
     if gateway is not None:
+        # The state port is the broadcaster's: its count comes from its own metrics.
+        state = "?" if broadcaster is None else broadcaster.state_clients
         lines.append(
-            f"  clients: motion {gateway.motion_clients}  state {gateway.state_clients}  "
+            f"  clients: motion {gateway.motion_clients}  state {state}  "
             f"io {gateway.io_clients}   BUSY {gateway.busy_total}  INVALID "
             f"{gateway.invalid_total}  NOT_READY {gateway.not_ready_total}"
+        )
+    if broadcaster is not None:
+        age = broadcaster.write_age
+        lines.append(
+            f"  state port: frames out {age.p50_us:.0f} us after the tick (p50), p99 "
+            f"{age.p99_us:.0f} us  max {age.max_us:.0f} us   replaced "
+            f"{broadcaster.replaced_total}  closed stuck {broadcaster.stuck_closed_total}"
         )
     lines.append(f"  services alive: {' '.join(sorted(view.alive)) or 'none'}")
     if view.state is not None:

@@ -1,38 +1,59 @@
-"""The state broadcaster: at the state period, one snapshot of the cell for the gateway's state
-port and for anyone watching Zenoh. ``core`` decides when and what; this module wires Zenoh."""
+"""The state broadcaster: at the state period, one snapshot of the cell, to the TCP state clients
+(port_base + 1) and on Zenoh. ``core`` decides when and what; ``loop`` runs the one thread that
+carries a tick to the sockets; this module wires."""
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Sequence
 
 from services.broadcaster.controller_watch import ControllerWatch
 from services.broadcaster.core import Broadcaster
-from shared.bus.schemas import Decoder, Tick, encode
-from shared.bus.session import Inbox, payload_of, publisher
-from shared.service import ServiceContext, argument_parser, running_service
+from services.broadcaster.loop import StateLoop
+from services.broadcaster.reports import Reports
+from services.broadcaster.state_port import StatePort, listen
+from services.broadcaster.ticks import TickSource
+from shared.bus.session import publisher
+from shared.protocol.codec import ByteOrder
+from shared.service import argument_parser, running_service
 
-
-def run(ctx: ServiceContext) -> None:
-    keys = ctx.keys
-    session = ctx.session
-    broadcaster = Broadcaster(ctx.cell, ControllerWatch(session, keys))
-    state_pub = publisher(session, keys.state, realtime=True, latest=True)
-    ticks = Inbox(maxsize=64)
-    tick_subscriber = session.declare_subscriber(
-        keys.executor_tick, ticks.feed("tick", payload_of(Decoder(Tick)))
-    )
-    while not ctx.stop.is_set():
-        item = ticks.get(timeout=broadcaster.silence_s)
-        state = broadcaster.on_silence() if item is None else broadcaster.on_tick(item[1])
-        if state is not None:
-            state_pub.put(encode(state))
-    tick_subscriber.undeclare()
+log = logging.getLogger("broadcaster")
 
 
 def main(argv: Sequence[str] | None = None) -> None:
-    args = argument_parser("broadcaster", "Controller state at the state period.").parse_args(argv)
+    parser = argument_parser("broadcaster", "Controller state at the state period.")
+    parser.add_argument("--host", help="address to listen on (default: the cell file's)")
+    parser.add_argument("--port-base", type=int, help="motion port; the state port follows it")
+    parser.add_argument("--byte-order", choices=("little", "big"))
+    args = parser.parse_args(argv)
     with running_service("broadcaster", "0", args) as ctx:
-        run(ctx)
+        host = args.host or ctx.cell.host
+        port = args.port_base + 1 if args.port_base else ctx.cell.state_port
+        byte_order = ByteOrder(args.byte_order or ctx.cell.byte_order)
+        state_port = StatePort(listen(host, port))
+        watch = ControllerWatch(ctx.session, ctx.keys)
+        broadcaster = Broadcaster(ctx.cell, watch)
+        state_pub = publisher(ctx.session, ctx.keys.state, realtime=True, latest=True)
+        reports = Reports(ctx.session, ctx.keys)
+        ticks = TickSource(ctx.session, ctx.keys, broadcaster.silence_s, ctx.stop)
+        loop = StateLoop(
+            broadcaster,
+            ticks,
+            state_port,
+            byte_order=byte_order,
+            publish_state=state_pub.put,
+            reports=reports,
+        )
+        log.info("state port on %s:%d (%s-endian)", host, port, byte_order)
+        try:
+            while not ctx.stop.is_set():
+                loop.cycle()
+        finally:
+            ticks.close()
+            loop.close()
+            for adapter in (reports, watch):
+                adapter.close()
+            state_pub.undeclare()
 
 
 if __name__ == "__main__":

@@ -2,30 +2,44 @@
 
 from __future__ import annotations
 
+import logging
+
+import msgspec
 import zenoh
 
 from shared.bus.keys import CellKeys
 from shared.bus.schemas import ControllerStatus, Decoder
 from shared.bus.session import Liveness
 
+log = logging.getLogger("broadcaster")
+
 _status_decoder = Decoder(ControllerStatus)
 
 
 class ControllerWatch:
-    """A ``core.ControllerView`` fed by Zenoh. The status callback only stores the newest
-    sample: statuses are few, and the broadcaster needs only the latest when a snapshot is due."""
+    """A ``core.ControllerView`` fed by Zenoh. Statuses wait in a one-sample ring channel and
+    are read when a snapshot is due: only the newest matters, and no Zenoh thread runs Python
+    for them."""
 
     def __init__(self, session: zenoh.Session, keys: CellKeys) -> None:
         self._status: ControllerStatus | None = None
         self._token = keys.alive("controller", "0")
         self._liveness = Liveness(session, self._token)
-        self._subscriber = session.declare_subscriber(keys.controller_status, self._store)
-
-    def _store(self, sample: zenoh.Sample) -> None:
-        self._status = _status_decoder.decode(sample.payload.to_bytes())
+        self._subscriber = session.declare_subscriber(
+            keys.controller_status, zenoh.handlers.RingChannel(1)
+        )
 
     def status(self) -> ControllerStatus | None:
+        sample = self._subscriber.try_recv()
+        if sample is not None:
+            try:
+                self._status = _status_decoder.decode(sample.payload.to_bytes())
+            except msgspec.DecodeError as exc:
+                log.warning("undecodable controller status dropped: %s", exc)
         return self._status
 
     def alive(self) -> bool:
         return self._token in self._liveness.present()
+
+    def close(self) -> None:
+        self._subscriber.undeclare()

@@ -1,4 +1,5 @@
-"""The broadcaster's decisions, no I/O: when a state snapshot is due, and what it holds.
+"""The broadcaster's decisions, no I/O: when a state snapshot is due, what it holds, and
+which state clients the port keeps.
 
 Snapshots follow the executor's ticks (default 10 ms, 100 Hz: the first tick at or after each
 due time), so feedback leaves as soon as its tick arrives and the rate is exact on average even
@@ -9,6 +10,7 @@ for (motoman#516).
 
 from __future__ import annotations
 
+from enum import Enum
 from typing import Protocol
 
 from shared.bus.schemas import ControllerStatus, GroupState, RobotStatusFields, State, Tick
@@ -20,6 +22,8 @@ IN_MOTION_PULSES = 30
 v1.8.1)."""
 
 MIN_SILENCE_S = 0.05
+MAX_STATE_CLIENTS = 4
+"""MotoROS 1.9.4+ serves up to 4 state clients, each with its own sender (motoros1 §6)."""
 
 
 class ControllerView(Protocol):
@@ -43,6 +47,26 @@ def in_motion(tick: Tick) -> bool:
         )
         for group in tick.groups
     )
+
+
+def queued(tick: Tick) -> bool:
+    """Motion data is queued for some group: MotoROS then refuses a 5th state client."""
+    return any(group.depth > 0 for group in tick.groups)
+
+
+class Admission(Enum):
+    ACCEPT = "accept"
+    REFUSE = "refuse"
+    REPLACE_FIRST = "replace the first"
+
+
+def admission(clients: int, motion_queued: bool) -> Admission:
+    """What the state port does with a newcomer when ``clients`` are connected (motoros1 §6):
+    up to 4; a 5th is refused while motion data is queued, otherwise slot 0 is closed and
+    reused."""
+    if clients < MAX_STATE_CLIENTS:
+        return Admission.ACCEPT
+    return Admission.REFUSE if motion_queued else Admission.REPLACE_FIRST
 
 
 def robot_status(
@@ -128,6 +152,10 @@ class Broadcaster:
         if not self.schedule.due(tick.deadline_ns):
             return None
         return self._snapshot(tick)
+
+    def motion_queued(self) -> bool:
+        """Whether the newest tick had motion data queued (no tick yet: nothing is)."""
+        return self.last is not None and queued(self.last)
 
     def on_silence(self) -> State | None:
         """No tick for ``silence_s``: the last tick again, with the controller as it is now."""

@@ -1,7 +1,8 @@
-"""The gateway: Simple Message over TCP on the motion, state and I/O ports, forwarded over Zenoh.
+"""The gateway: Simple Message over TCP on the motion and I/O ports, forwarded over Zenoh (the
+state port is the broadcaster's).
 
-Wiring only: the handlers in ``core`` decide, ``ZenohCell``, ``tcp``, ``state_port`` and
-``reporter`` do the I/O.
+Wiring only: the handlers in ``core`` decide, ``ZenohCell``, ``tcp`` and ``reporter`` do the
+I/O.
 """
 
 from __future__ import annotations
@@ -14,7 +15,6 @@ from services.gateway.core.io import IoHandler
 from services.gateway.core.motion import MotionHandler
 from services.gateway.metrics import GatewayStats
 from services.gateway.reporter import Reporter
-from services.gateway.state_port import StatePort
 from services.gateway.tcp import RequestServer, listen
 from services.gateway.zenoh_cell import ZenohCell
 from shared.protocol.codec import ByteOrder
@@ -26,7 +26,7 @@ log = logging.getLogger("gateway")
 def main(argv: Sequence[str] | None = None) -> None:
     parser = argument_parser("gateway", "Simple Message TCP servers of one controller.")
     parser.add_argument("--host", help="address to listen on (default: the cell file's)")
-    parser.add_argument("--port-base", type=int, help="motion port; state and I/O follow")
+    parser.add_argument("--port-base", type=int, help="motion port; I/O is port-base + 2")
     parser.add_argument("--byte-order", choices=("little", "big"))
     args = parser.parse_args(argv)
     with running_service("gateway", "0", args) as ctx:
@@ -59,17 +59,14 @@ def main(argv: Sequence[str] | None = None) -> None:
             moving=moving,
             observe=stats.observe,
         )
-        state_port = StatePort(
-            ctx.session, ctx.keys, listen(host, port_base + 1), byte_order, moving
-        )
-        reporter = Reporter(
-            ctx.session, ctx.keys, stats=stats, motion=motion_server, state=state_port, io=io_server
-        )
+        reporter = Reporter(ctx.session, ctx.keys, stats=stats, motion=motion_server, io=io_server)
         motion_server.on_change = io_server.on_change = reporter.report_connections
-        adapters = (cell_port, motion_server, io_server, state_port, reporter)
+        adapters = (cell_port, motion_server, io_server, reporter)
         for adapter in adapters:
             adapter.start()
-        log.info("listening on %s:%d-%d (%s-endian)", host, port_base, port_base + 2, byte_order)
+        log.info(
+            "listening on %s:%d and %d (%s-endian)", host, port_base, port_base + 2, byte_order
+        )
         ctx.stop.wait()
         for adapter in adapters:
             adapter.close()

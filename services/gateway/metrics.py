@@ -56,7 +56,7 @@ class GatewayStats:
             elif body.result == Result.NOT_READY:
                 self.not_ready += 1
 
-    def snapshot(self, motion: int, state: int, io: int) -> GatewayMetrics:
+    def snapshot(self, motion: int, io: int) -> GatewayMetrics:
         """Counts since start; latencies of the replies since the last snapshot."""
         with self._lock:
             requests = [
@@ -67,7 +67,6 @@ class GatewayStats:
                 window.clear()
             return GatewayMetrics(
                 motion_clients=motion,
-                state_clients=state,
                 io_clients=io,
                 requests=requests,
                 busy_total=self.busy,

@@ -1,6 +1,6 @@
 """What the gateway tells the rest of the cell about itself: which clients are connected, for
-the controller's OT#893-#895 (incremental-motion §4.2, motoros1 §7.4), and its metrics on
-``gateway/metrics``."""
+the controller's OT#893 and OT#895 (incremental-motion §4.2, motoros1 §7.4; OT#894, the state
+port's, is the broadcaster's to report), and its metrics on ``gateway/metrics``."""
 
 from __future__ import annotations
 
@@ -9,15 +9,16 @@ import threading
 import zenoh
 
 from services.gateway.metrics import GatewayStats
-from services.gateway.state_port import StatePort
 from services.gateway.tcp import RequestServer
 from shared.bus.keys import CellKeys
 from shared.bus.schemas import CommandRequest, encode
 from shared.bus.session import publisher
 
 REFRESH_S = 1.0
-"""Connections are reported on every change and also this often: state clients leave
-silently, and a restarted controller has to learn them again."""
+"""Connections are reported on every change and also this often: a restarted controller has
+to learn them again."""
+NOT_SERVED = -1
+"""In a ``connections`` notice, the state port: the broadcaster serves it and reports it."""
 
 
 class Reporter:
@@ -28,14 +29,12 @@ class Reporter:
         *,
         stats: GatewayStats,
         motion: RequestServer,
-        state: StatePort,
         io: RequestServer,
     ) -> None:
         self.session = session
         self.keys = keys
         self.stats = stats
         self.motion = motion
-        self.state = state
         self.io = io
         self._metrics = publisher(session, keys.metrics("gateway"), latest=True)
         self._stop = threading.Event()
@@ -44,12 +43,13 @@ class Reporter:
     def start(self) -> None:
         self._thread.start()
 
-    def connections(self) -> tuple[int, int, int]:
-        """Motion, state and I/O clients connected now."""
-        return int(self.motion.connected()), self.state.client_count(), int(self.io.connected())
+    def connections(self) -> tuple[int, int]:
+        """Motion and I/O clients connected now."""
+        return int(self.motion.connected()), int(self.io.connected())
 
     def report_connections(self) -> None:
-        request = CommandRequest(args=list(self.connections()))
+        motion, io = self.connections()
+        request = CommandRequest(args=[motion, NOT_SERVED, io])
         self.session.put(self.keys.controller_cmd("connections"), encode(request))
 
     def _run(self) -> None:

@@ -1,5 +1,5 @@
 """The motion and I/O ports' TCP servers: thin blocking-socket shells around the pure codec and
-the handlers (the state port's is in ``state_port``).
+the handlers.
 
 A thread per connection keeps the reply path short: recv, decode, decide, send, with no event
 loop hop in between. Connection limits and take-over follow MotoROS 1.9.4+ (motoros1 §2.1,

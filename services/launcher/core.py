@@ -59,12 +59,14 @@ def child_specs(
     def spec(name: str, module: str, *extra: str) -> ChildSpec:
         return ChildSpec(name, (*python, f"services.{module}", *common, *extra))
 
-    specs = [spec(service, service) for service in ("controller", "executor", "broadcaster")]
+    ports = _port_options(options)
+    specs = [spec(service, service) for service in ("controller", "executor")]
+    specs.append(spec("broadcaster", "broadcaster", *ports))
     specs += [
         spec(f"interpolator/{g.index}", "interpolator", "--group", str(g.index))
         for g in cell.groups
     ]
-    specs.append(spec("gateway", "gateway", *_gateway_options(options)))
+    specs.append(spec("gateway", "gateway", *ports))
     unknown = set(options.skip) - {s.name for s in specs}
     if unknown:
         raise UnknownServiceError(
@@ -74,7 +76,9 @@ def child_specs(
     return [s for s in specs if s.name not in options.skip]
 
 
-def _gateway_options(options: UpOptions) -> list[str]:
+def _port_options(options: UpOptions) -> list[str]:
+    """Where the TCP ports are and their byte order: the gateway's motion and I/O ports, the
+    broadcaster's state port."""
     extra = []
     if options.host:
         extra += ["--host", options.host]

@@ -14,6 +14,7 @@ from typing import Any
 import msgspec
 
 from shared.bus.schemas import (
+    BroadcasterMetrics,
     CommandReply,
     CommandRequest,
     ControllerStatus,
@@ -109,7 +110,7 @@ ROUTES: tuple[Route, ...] = (
         "controller/cmd/connections",
         Op.PUT,
         CommandRequest,
-        _roles(GATEWAY),
+        _roles(GATEWAY, BROADCASTER),
         _roles(CONTROLLER) | WATCHERS,
     ),
     Route(
@@ -145,7 +146,8 @@ ROUTES: tuple[Route, ...] = (
     ),
     Route("executor/metrics", Op.PUT, ExecutorMetrics, _roles(EXECUTOR), WATCHERS),
     Route("gateway/metrics", Op.PUT, GatewayMetrics, _roles(GATEWAY), WATCHERS),
-    Route("state", Op.PUT, State, _roles(BROADCASTER), _roles(GATEWAY) | WATCHERS),
+    Route("broadcaster/metrics", Op.PUT, BroadcasterMetrics, _roles(BROADCASTER), WATCHERS),
+    Route("state", Op.PUT, State, _roles(BROADCASTER), WATCHERS),
     Route("service/*/*", Op.QUERY, None, WATCHERS | SERVICES, SERVICES, ServiceInfo),
     Route(
         "alive/*/*",

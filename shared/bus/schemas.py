@@ -161,7 +161,7 @@ class RobotStatusFields(msgspec.Struct, array_like=True, frozen=True):
 
 
 class State(msgspec.Struct, array_like=True, frozen=True):
-    """``state``: one state snapshot, what the gateway sends on port 50241."""
+    """``state``: one state snapshot, what the broadcaster sends on port 50241."""
 
     seq: int
     tick: int
@@ -234,13 +234,27 @@ class GatewayMetrics(msgspec.Struct, array_like=True, frozen=True):
     """``gateway/metrics``, every second."""
 
     motion_clients: int
-    state_clients: int
     io_clients: int
     requests: list[RequestStats]
     busy_total: int
     invalid_total: int
     not_ready_total: int
     busy_by_group: list[int]
+
+
+class BroadcasterMetrics(msgspec.Struct, array_like=True, frozen=True):
+    """``broadcaster/metrics``, every second: the state port's clients and how late its frames
+    leave."""
+
+    state_clients: int
+    write_age: Percentiles
+    """A tick's wake-up (``State.tick_ns``) -> its frames handed to every state client, over the
+    last second. CLOCK_MONOTONIC: meaningful when the broadcaster shares the executor's host."""
+    replaced_total: int
+    """States a slow client never got because a newer one came first (it gets the newest,
+    never a burst of old ones)."""
+    stuck_closed_total: int
+    """State clients closed because they took nothing for 2 s."""
 
 
 class InterpolatorMetrics(msgspec.Struct, array_like=True, frozen=True):

@@ -49,6 +49,7 @@ from testkit.processes import wait_until
 pytestmark = pytest.mark.cell
 
 OT_MOTION_CONNECTED = 11124
+OT_STATE_CONNECTED = 11125
 OT_IO_CONNECTED = 11126
 
 
@@ -129,6 +130,24 @@ def test_connection_outputs_are_readable(cell: RunningCell) -> None:
             )
 
         wait_until(both_on, 5.0, "OT#893 and OT#895 on")
+
+
+def test_the_state_output_follows_the_state_clients(cell: RunningCell) -> None:
+    """OT#894 comes from the broadcaster, which serves the state port; OT#893 and OT#895 from
+    the gateway: neither report undoes the other's."""
+    with cell.io() as io:
+
+        def output(ot: int) -> int:
+            reply = body(io.request(read_io_bit(ot)))
+            assert isinstance(reply, ReadIOBitReply)
+            return reply.value
+
+        with cell.state() as state:
+            state.wait_for(lambda f: f.status is not None, 5.0)
+            wait_until(lambda: output(OT_STATE_CONNECTED) == 1, 5.0, "OT#894 on")
+            assert output(OT_IO_CONNECTED) == 1
+        wait_until(lambda: output(OT_STATE_CONNECTED) == 0, 5.0, "OT#894 off")
+        assert output(OT_IO_CONNECTED) == 1
 
 
 # -- the motion port ---------------------------------------------------------------------------

@@ -111,7 +111,8 @@ class Dispatcher(Generic[Q]):
         self.model.set_missing_services(missing)
 
     def connections(self, counts: CommandRequest) -> None:
-        """The gateway's motion, state and I/O client counts, in ``args``."""
+        """Motion, state and I/O client counts, in ``args``: the gateway reports the motion and
+        I/O ports, the broadcaster the state port, each -1 for the ports it does not serve."""
         self.model.set_connections(*[*counts.args, 0, 0, 0][:3])
 
     def incmove_error(self, notice: CommandReply) -> None:

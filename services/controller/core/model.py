@@ -263,10 +263,12 @@ class Controller:
 
     def set_connections(self, motion: int, state: int, io: int) -> None:
         """OT#893-#895: a motion, state or I/O client is connected (incremental-motion §4.2,
-        motoros1 §7.4)."""
-        self.set_output(OT_MOTION_CONNECTED, int(motion > 0))
-        self.set_output(OT_STATE_CONNECTED, int(state > 0))
-        self.set_output(OT_IO_CONNECTED, int(io > 0))
+        motoros1 §7.4). A negative count leaves its output as it is: that port is another
+        process's to report."""
+        counts = ((OT_MOTION_CONNECTED, motion), (OT_STATE_CONNECTED, state), (OT_IO_CONNECTED, io))
+        for output, count in counts:
+            if count >= 0:
+                self.set_output(output, int(count > 0))
 
     def select_tool(self, group: int, tool: int) -> None:
         self.tools[group] = tool

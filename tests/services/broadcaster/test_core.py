@@ -10,10 +10,14 @@ import pytest
 
 from services.broadcaster.core import (
     IN_MOTION_PULSES,
+    MAX_STATE_CLIENTS,
+    Admission,
     Broadcaster,
     Feedback,
     Schedule,
+    admission,
     in_motion,
+    queued,
     robot_status,
 )
 from shared.bus.schemas import Alarm, ControllerStatus, GroupTick, Tick
@@ -370,3 +374,39 @@ def test_silence_is_three_state_periods_but_never_under_fifty_ms(
 ) -> None:
     broadcaster = Broadcaster(cell(state_period_ms=state_period_ms), FakeController())
     assert broadcaster.silence_s == pytest.approx(silence_s)
+
+
+# -- state clients (motoros1 §6) ---------------------------------------------------------------
+
+
+@pytest.mark.parametrize("clients", range(MAX_STATE_CLIENTS))
+@pytest.mark.parametrize("motion_queued", [False, True])
+def test_up_to_four_state_clients_are_taken(clients: int, motion_queued: bool) -> None:
+    assert admission(clients, motion_queued) is Admission.ACCEPT
+
+
+def test_a_fifth_state_client_replaces_the_first_while_nothing_is_queued() -> None:
+    assert admission(MAX_STATE_CLIENTS, motion_queued=False) is Admission.REPLACE_FIRST
+
+
+def test_a_fifth_state_client_is_refused_while_motion_is_queued() -> None:
+    assert admission(MAX_STATE_CLIENTS, motion_queued=True) is Admission.REFUSE
+
+
+def test_motion_is_queued_while_any_ring_holds_entries() -> None:
+    assert not queued(tick(1, 0, group_tick(), group_tick()))
+    assert queued(tick(1, 0, group_tick(), group_tick(depth=1)))
+
+
+def test_a_feedback_lag_alone_is_motion_but_queues_nothing() -> None:
+    lagging = tick(1, 0, group_tick(command=[IN_MOTION_PULSES + 1] + [0] * 7, feedback=[0] * 8))
+    assert in_motion(lagging) and not queued(lagging)
+
+
+def test_the_broadcaster_knows_whether_motion_is_queued_from_the_newest_tick() -> None:
+    broadcaster = Broadcaster(cell(), FakeController())
+    assert not broadcaster.motion_queued()
+    broadcaster.on_tick(tick(1, 0, group_tick(depth=3)))
+    assert broadcaster.motion_queued()
+    broadcaster.on_tick(tick(2, 4 * MS))
+    assert not broadcaster.motion_queued()

@@ -352,6 +352,17 @@ def test_connection_counts_set_the_connected_outputs() -> None:
     assert outputs[OT_IO_CONNECTED] == 1
 
 
+def test_the_gateway_and_the_broadcaster_each_report_their_own_ports() -> None:
+    d = dispatcher()
+    d.connections(CommandRequest(args=[-1, 2, -1]))  # the broadcaster: the state port
+    d.connections(CommandRequest(args=[1, -1, 0]))  # the gateway: motion and I/O
+    outputs = d.model.outputs
+    assert (outputs[OT_MOTION_CONNECTED], outputs[OT_STATE_CONNECTED]) == (1, 1)
+    assert outputs[OT_IO_CONNECTED] == 0
+    d.connections(CommandRequest(args=[-1, 0, -1]))
+    assert (outputs[OT_MOTION_CONNECTED], outputs[OT_STATE_CONNECTED]) == (1, 0)
+
+
 def test_short_connection_counts_mean_no_clients() -> None:
     d = dispatcher()
     d.connections(CommandRequest(args=[1]))

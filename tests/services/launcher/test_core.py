@@ -103,12 +103,13 @@ def test_config_name_and_credentials_go_to_every_child() -> None:
         assert command[command.index("--credentials") + 1] == "/run/creds"
 
 
-def test_gateway_options_go_to_the_gateway_only() -> None:
+def test_port_options_go_to_the_services_that_serve_tcp_only() -> None:
     chosen = specs(options=UpOptions(host="0.0.0.0", port_base=50300, byte_order="big"))
-    gateway = list(chosen["gateway"].argv)
-    assert gateway[-6:] == ["--host", "0.0.0.0", "--port-base", "50300", "--byte-order", "big"]
+    for name in ("gateway", "broadcaster"):
+        argv = list(chosen[name].argv)
+        assert argv[-6:] == ["--host", "0.0.0.0", "--port-base", "50300", "--byte-order", "big"]
     for name, spec in chosen.items():
-        if name != "gateway":
+        if name not in ("gateway", "broadcaster"):
             assert "--host" not in spec.argv
             assert "--port-base" not in spec.argv
 

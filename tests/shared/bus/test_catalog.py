@@ -27,6 +27,7 @@ BUILT = [
     (KEYS.group_metrics(2), Op.PUT),
     (KEYS.metrics("executor"), Op.PUT),
     (KEYS.metrics("gateway"), Op.PUT),
+    (KEYS.metrics("broadcaster"), Op.PUT),
     (KEYS.service_info("interpolator", "2"), Op.QUERY),
     (KEYS.alive("interpolator", "2"), Op.TOKEN),
     (KEYS.claim("interpolator", "2", "a1b2"), Op.TOKEN),
@@ -44,7 +45,7 @@ def test_an_exact_key_wins_over_a_wildcard() -> None:
     route = catalog.route_of(KEYS.controller_cmd("connections"))
     assert route is not None
     assert route.suffix == "controller/cmd/connections"
-    assert route.senders == {Role.GATEWAY}
+    assert route.senders == {Role.GATEWAY, Role.BROADCASTER}
 
 
 def test_unknown_keys_have_no_route() -> None:

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from services.gateway.state_port import FEEDBACK_FIELDS, decode_state, state_frames
-from shared.bus.schemas import GroupState, RobotStatusFields, State, encode
+from services.broadcaster.frames import FEEDBACK_FIELDS, state_frames
+from shared.bus.schemas import GroupState, RobotStatusFields, State
 from shared.protocol.codec import NEED_DATA, ByteOrder, Role, SimpleMessageCodec
 from shared.protocol.constants import CommType, MsgType, ReplyType
 from shared.protocol.messages import JointFeedback, JointFeedbackEx, Message, RobotStatus
@@ -103,8 +103,3 @@ def test_big_endian_frames_read_back_the_same() -> None:
     big_bytes = state_frames(two, ByteOrder.BIG)
     assert big_bytes != state_frames(two, ByteOrder.LITTLE)
     assert read_back(big_bytes, ByteOrder.BIG) == little
-
-
-def test_a_state_sample_decodes_to_the_state_the_broadcaster_sent() -> None:
-    sent = state(group(0), group(1))
-    assert decode_state(encode(sent)) == sent

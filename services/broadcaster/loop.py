@@ -1,0 +1,72 @@
+"""The broadcaster's one thread: a tick in, its state out to the TCP clients and on Zenoh.
+
+Every cycle, in this order: the newest tick (or a wake-up without one), the snapshot if one is
+due, waiting connections taken, the frames encoded once and written to every client, then the
+``state`` sample for observers (after the sockets: the TCP clients are the ones a late frame
+hurts), then the reports. Nothing here blocks except the wait for the next tick.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Protocol
+
+from services.broadcaster.core import Broadcaster
+from services.broadcaster.frames import state_frames
+from services.broadcaster.state_port import StatePort
+from shared.bus.schemas import Tick, encode
+from shared.protocol.codec import ByteOrder
+
+
+class TickFeed(Protocol):
+    def next(self) -> Tick | None:
+        """The newest tick; None when woken without one (silence, or stop)."""
+        ...
+
+
+class ReportSink(Protocol):
+    def written(self, age_ns: int) -> None: ...
+
+    def report(self, now: float, clients: int, replaced: int, stuck_closed: int) -> None: ...
+
+
+class StateLoop:
+    def __init__(
+        self,
+        broadcaster: Broadcaster,
+        ticks: TickFeed,
+        port: StatePort,
+        *,
+        byte_order: ByteOrder,
+        publish_state: Callable[[bytes], object],
+        reports: ReportSink,
+    ) -> None:
+        self.broadcaster = broadcaster
+        self.ticks = ticks
+        self.port = port
+        self.byte_order = byte_order
+        self.publish_state = publish_state
+        self.reports = reports
+
+    def cycle(self) -> None:
+        tick = self.ticks.next()
+        broadcaster, port = self.broadcaster, self.port
+        state = broadcaster.on_silence() if tick is None else broadcaster.on_tick(tick)
+        now = time.monotonic()
+        port.admit(broadcaster.motion_queued())
+        if state is not None and port.clients:
+            port.send(state_frames(state, self.byte_order), now)
+            if tick is not None:
+                self.reports.written(time.monotonic_ns() - state.tick_ns)
+        else:
+            port.flush(now)
+        if state is not None:
+            self.publish_state(encode(state))
+        self.reports.report(now, len(port.clients), port.replaced_total(), port.closed_stuck)
+
+    def close(self) -> None:
+        """Close the port and tell the controller its state clients are gone."""
+        port = self.port
+        port.close()
+        self.reports.report(time.monotonic(), 0, port.replaced_total(), port.closed_stuck)

@@ -1,0 +1,50 @@
+"""What the broadcaster tells the cell about its state port, from its own thread: the client
+count for the controller's OT#894 (motoros1 §6, incremental-motion §4.2) on every change and
+every second, and ``broadcaster/metrics`` every second."""
+
+from __future__ import annotations
+
+import zenoh
+
+from shared.bus.keys import CellKeys
+from shared.bus.schemas import BroadcasterMetrics, CommandRequest, encode
+from shared.bus.session import publisher
+from shared.metrics import Window
+
+REFRESH_S = 1.0
+"""Also this often: a restarted controller has to learn the clients again."""
+NOT_SERVED = -1
+"""In a ``connections`` notice, a port this process does not serve (motion and I/O are the
+gateway's): the controller keeps what the gateway said about them."""
+AGE_WINDOW = 1024
+"""Ages kept per second: 250 cycles at the fastest state period, with room."""
+
+
+class Reports:
+    def __init__(self, session: zenoh.Session, keys: CellKeys) -> None:
+        self._connections = publisher(session, keys.controller_cmd("connections"))
+        self._metrics = publisher(session, keys.metrics("broadcaster"), latest=True)
+        self._ages = Window(AGE_WINDOW)
+        self._reported_clients: int | None = None
+        self._next_s = 0.0
+
+    def written(self, age_ns: int) -> None:
+        """A tick's frames were handed to the clients ``age_ns`` after its wake-up."""
+        self._ages.add(age_ns / 1000)
+
+    def report(self, now: float, clients: int, replaced: int, stuck_closed: int) -> None:
+        """Publish what changed, and everything once a second (``now``: time.monotonic())."""
+        due = now >= self._next_s
+        if due or clients != self._reported_clients:
+            request = CommandRequest(args=[NOT_SERVED, clients, NOT_SERVED])
+            self._connections.put(encode(request))
+            self._reported_clients = clients
+        if due:
+            self._next_s = now + REFRESH_S
+            metrics = BroadcasterMetrics(clients, self._ages.summary(), replaced, stuck_closed)
+            self._ages.clear()
+            self._metrics.put(encode(metrics))
+
+    def close(self) -> None:
+        self._connections.undeclare()
+        self._metrics.undeclare()
