@@ -27,6 +27,8 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
+import zenoh
+
 from services.launcher.children import Child, stop_children, supervise
 from services.launcher.core import (
     WELL_KNOWN_ENDPOINT,
@@ -35,10 +37,15 @@ from services.launcher.core import (
     UpOptions,
     child_specs,
 )
+from services.launcher.realtime import RealtimeNotice
 from services.launcher.router import cell_router_endpoints, open_cell_router, serve_router
 from shared import registry
-from shared.bus.access import cell_identities
-from shared.bus.credentials import write_passwords
+from shared.bus.access import Identity, cell_identities
+from shared.bus.catalog import Role
+from shared.bus.credentials import CredentialsError, write_passwords
+from shared.bus.credentials import load as load_credentials
+from shared.bus.keys import CellKeys
+from shared.bus.session import open_session
 from shared.config import EXIT_CONFIG, Cell, ConfigError, load_cell
 from shared.registry import CellEntry, CellNameTakenError
 from shared.service import StopFlag, add_bus_arguments, add_cell_arguments, stop_on_signals
@@ -107,7 +114,13 @@ def run(args: argparse.Namespace) -> int:
         cell = load_cell(args.config, args.name)
         with stop_on_signals() as stop, _cell_bus(cell, args) as bus:
             return run_children(cell, args, bus, stop)
-    except (ConfigError, CellNameTakenError, ConnectionError, UnknownServiceError) as exc:
+    except (
+        ConfigError,
+        CellNameTakenError,
+        ConnectionError,
+        CredentialsError,
+        UnknownServiceError,
+    ) as exc:
         print(f"motocell up: {_hint(exc, args)}", file=sys.stderr)
         return EXIT_CONFIG
 
@@ -123,6 +136,8 @@ def _hint(exc: Exception, args: argparse.Namespace) -> str:
 class CellBus:
     endpoint: str
     credentials: Path | None
+    session: zenoh.Session
+    """The launcher's own: its router, or an observer's session on the router it joined."""
 
 
 @contextmanager
@@ -147,15 +162,18 @@ def _cell_bus(cell: Cell, args: argparse.Namespace) -> Iterator[CellBus]:
     registry.register(entry)
     try:
         if args.zenoh_connect:
-            yield CellBus(listen[0], credentials)
-            return
-        if credentials is not None:
-            write_passwords(credentials, cell.name, cell_identities(len(cell.groups)))
-        router = open_cell_router(cell, listen, connect, credentials)
+            observer = None
+            if credentials is not None:
+                observer = load_credentials(credentials, cell.name, Identity(Role.OBSERVER))
+            session = open_session("client", listen, credentials=observer)
+        else:
+            if credentials is not None:
+                write_passwords(credentials, cell.name, cell_identities(len(cell.groups)))
+            session = open_cell_router(cell, listen, connect, credentials)
         try:
-            yield CellBus(listen[0], credentials)
+            yield CellBus(listen[0], credentials, session)
         finally:
-            router.close()
+            session.close()
     finally:
         registry.unregister(cell.name, os.getpid())
 
@@ -178,12 +196,21 @@ def run_children(cell: Cell, args: argparse.Namespace, bus: CellBus, stop: StopF
         "secured" if bus.credentials else "open bus",
     )
     children = [Child(spec) for spec in specs]
+    notice = RealtimeNotice(bus.session, CellKeys(cell.name), lambda: _pid(children, "executor"))
     try:
-        status = supervise(children, RestartPolicy(), stop)
+        status = supervise(children, RestartPolicy(), stop, notice.check)
     finally:
+        notice.close()
         stop_children(children)
         log.info("cell %s stopped", cell.name)
     return status
+
+
+def _pid(children: list[Child], name: str) -> int | None:
+    for child in children:
+        if child.name == name and child.process is not None:
+            return child.process.pid
+    return None
 
 
 def router(args: argparse.Namespace) -> int:

@@ -9,6 +9,7 @@ import os
 import signal
 import subprocess
 import time
+from collections.abc import Callable
 
 from services.launcher.core import ChildSpec, Restart, RestartPolicy
 from shared.config import EXIT_CONFIG
@@ -43,12 +44,16 @@ class Child:
         return self.process is not None and self.process.poll() is None
 
 
-def supervise(children: list[Child], policy: RestartPolicy, stop: StopFlag) -> int:
-    """Start every child, then restart those that die, until ``stop`` (status 0) or until one
-    cannot start as configured (EXIT_CONFIG: it has said why on stderr)."""
+def supervise(
+    children: list[Child], policy: RestartPolicy, stop: StopFlag, check: Callable[[], None]
+) -> int:
+    """Start every child at once, then restart those that die, until ``stop`` (status 0) or
+    until one cannot start as configured (EXIT_CONFIG: it has said why on stderr). ``check``
+    runs at every look (WATCH_S) and must not block."""
     for child in children:
         child.start()
     while not stop.wait(WATCH_S):
+        check()
         now = time.monotonic()
         for child in children:
             if child.alive():

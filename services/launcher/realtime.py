@@ -1,0 +1,60 @@
+"""One line in ``motocell up``'s output when the cell's clock runs without real-time priority,
+with the command that lets it: the executor's own warning scrolls by among every service's
+start-up lines, and without SCHED_FIFO the clock misses periods under load (zenoh-facts §5).
+
+The executor says in every ``ExecutorMetrics`` (the first one before its clock starts) whether
+it got SCHED_FIFO; the launcher reads the newest from a one-sample channel each time it looks
+after its children, so no Python runs on Zenoh's threads for it.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from typing import Any
+
+import msgspec
+import zenoh
+
+from shared.bus.keys import CellKeys
+from shared.bus.schemas import Decoder, ExecutorMetrics
+from shared.realtime import ELSEWHERE, RT_PRIORITY, fix_command
+
+log = logging.getLogger("motocell")
+
+_metrics = Decoder(ExecutorMetrics)
+
+
+class RealtimeNotice:
+    def __init__(
+        self, session: zenoh.Session, keys: CellKeys, executor_pid: Callable[[], int | None]
+    ) -> None:
+        """``executor_pid``: the executor this launcher runs, None if it runs none (--skip)."""
+        self._samples: zenoh.Subscriber[Any] = session.declare_subscriber(
+            keys.metrics("executor"), zenoh.handlers.RingChannel(1)
+        )
+        self._executor_pid = executor_pid
+        self.told = False
+
+    def check(self) -> None:
+        """Tell once, the first time the executor reports it runs without SCHED_FIFO; never
+        waits."""
+        sample = self._samples.try_recv()
+        if sample is None or self.told:
+            return
+        try:
+            realtime = _metrics.decode(sample.payload.to_bytes()).realtime
+        except msgspec.DecodeError:
+            return
+        if not realtime:
+            self.told = True
+            pid = self._executor_pid()
+            log.warning(
+                "the executor runs WITHOUT real-time priority (SCHED_FIFO %d refused) and will "
+                "miss periods under load; to allow it: %s; then start the cell again",
+                RT_PRIORITY,
+                ELSEWHERE if pid is None else fix_command(pid),
+            )
+
+    def close(self) -> None:
+        self._samples.undeclare()

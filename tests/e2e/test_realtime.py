@@ -1,0 +1,62 @@
+"""A clock without real-time priority is loud: `motocell up` says so once, with the command that
+allows it, and `motocell ps` and `motocell watch` mark it.
+
+The cell's launcher runs without CAP_SYS_NICE in its bounding set, so as root (how these tests
+run) the executor is refused SCHED_FIFO exactly as an ordinary user would be (rtprio limit 0).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+import testkit.cell
+from shared.registry import ENV as RUNTIME_DIR_ENV
+from testkit.cell import RunningCell, running_cell
+from testkit.processes import wait_until
+
+pytestmark = [
+    pytest.mark.cell,
+    pytest.mark.skipif(
+        os.geteuid() != 0 or shutil.which("setpriv") is None,
+        reason="needs root and setpriv to take CAP_SYS_NICE away from a cell",
+    ),
+]
+
+NOTICE = "motocell WARNING the executor runs WITHOUT real-time priority"
+
+
+@pytest.fixture(scope="module")
+def log(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return tmp_path_factory.mktemp("realtime") / "cell.log"
+
+
+@pytest.fixture(scope="module")
+def cell(log: Path) -> Iterator[RunningCell]:
+    with pytest.MonkeyPatch.context() as patch:
+        unprivileged = ("setpriv", "--bounding-set", "-sys_nice", *testkit.cell.LAUNCHER)
+        patch.setattr(testkit.cell, "LAUNCHER", unprivileged)
+        with running_cell(log=log, log_level="INFO") as running:
+            yield running
+
+
+def test_up_says_once_that_the_clock_runs_without_sched_fifo_and_how_to_allow_it(
+    cell: RunningCell, log: Path
+) -> None:
+    wait_until(lambda: NOTICE in log.read_text(), 10.0, "the launcher's notice")
+    notices = [line for line in log.read_text().splitlines() if NOTICE in line]
+    assert len(notices) == 1
+    interpreter = os.path.realpath(sys.executable)
+    assert f"to allow it: sudo setcap cap_sys_nice+ep {interpreter} " in notices[0]
+
+
+def motocell(cell: RunningCell, *args: str) -> subprocess.CompletedProcess[str]:
+    env = {**os.environ, RUNTIME_DIR_ENV: str(cell.runtime_dir)}
+    command = [sys.executable, "-m", "tools.cli", *args]
+    return subprocess.run(command, capture_output=True, text=True, timeout=30, env=env, check=False)
