@@ -6,17 +6,64 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import Any, cast
 
 from services.launcher import __main__ as launcher
 from shared.service import version
 from tools import bench, credentials, demo, echo, fault, hz, observe, plot, record
 
 
+class CommandParser(argparse.ArgumentParser):
+    """A subcommand's parser whose options a ``fill`` function may add only when that command
+    runs, so that a command whose module is slow to import (the benchmark suite imports numpy)
+    costs nothing to the others: every command builds the whole parser, and `motocell up`
+    does so before it starts a single service."""
+
+    def __init__(
+        self,
+        *args: Any,
+        fill: Callable[[argparse.ArgumentParser], None] | None = None,
+        **kwargs: Any,
+    ) -> None:
+        super().__init__(*args, **kwargs)
+        self._fill = fill
+
+    def parse_known_args(  # type: ignore[override]
+        self, args: Sequence[str] | None = None, namespace: argparse.Namespace | None = None
+    ) -> tuple[argparse.Namespace, list[str]]:
+        # argparse hands a chosen subcommand its arguments through this method.
+        if self._fill is not None:
+            fill, self._fill = self._fill, None
+            fill(self)
+        return super().parse_known_args(args, namespace)
+
+
+class ShowVersion(argparse.Action):
+    """``--version``, looked up only when asked (importlib.metadata takes 10-20 ms to import)."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS) -> None:
+        super().__init__(option_strings, dest, nargs=0, help="show the version and exit")
+
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: object,
+        option_string: str | None = None,
+    ) -> None:
+        print(f"motocell {version()}")
+        parser.exit()
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="motocell", description=__doc__, allow_abbrev=False)
-    parser.add_argument("--version", action="version", version=f"motocell {version()}")
-    commands = parser.add_subparsers(dest="command", required=True)
+    parser.add_argument("--version", action=ShowVersion)
+    # Every command module takes the usual subparsers; they may pass ``fill`` through.
+    commands = cast(
+        "argparse._SubParsersAction[argparse.ArgumentParser]",
+        parser.add_subparsers(dest="command", required=True, parser_class=CommandParser),
+    )
 
     up = commands.add_parser("up", help="run a whole cell in the foreground")
     launcher.add_arguments(up)

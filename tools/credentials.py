@@ -14,7 +14,6 @@ import sys
 from pathlib import Path
 
 from shared.bus.access import Identity, cell_identities
-from shared.bus.certificates import write_certificates
 from shared.bus.credentials import CA_FILE, USERS_FILE, write_passwords
 from shared.bus.router import ROUTER_CERTIFICATE, ROUTER_KEY
 from shared.config import ConfigError, load_cell
@@ -68,6 +67,9 @@ def run(args: argparse.Namespace) -> int:
     write_passwords(directory, cell.name, identities)
     hosts = args.host or list(DEFAULT_HOSTS)
     if args.tls:
+        # cryptography only for --tls: 20-30 ms every other motocell command would pay.
+        from shared.bus.certificates import write_certificates  # noqa: PLC0415
+
         write_certificates(directory, cell.name, identities, hosts)
     print(report(directory, cell.name, identities, hosts if args.tls else None))
     return 0

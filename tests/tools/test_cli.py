@@ -57,6 +57,33 @@ def test_help_imports_neither_mcap_nor_matplotlib(tmp_path: Path) -> None:
     assert done.stdout.splitlines()[-1] == "[]"
 
 
+def test_up_imports_neither_the_benchmarks_nor_cryptography(tmp_path: Path) -> None:
+    # `motocell up` parses its arguments before it starts a single service.
+    probe = (
+        "import sys\n"
+        "from tools import cli\n"
+        "cli.build_parser().parse_args(['up', '--port-base', '51240'])\n"
+        "print(sorted({name.split('.')[0] for name in sys.modules} & {'bench', 'cryptography'}))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", probe],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=True,
+    )
+    assert done.stdout.splitlines()[-1] == "[]"
+
+
+def test_a_deferred_command_has_its_options_when_run(capsys: pytest.CaptureFixture[str]) -> None:
+    args = build_parser().parse_args(["bench", "--quick", "--only", "9"])
+    assert (args.quick, args.only) == (True, "9")
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["bench", "--help"])
+    assert "--quick" in capsys.readouterr().out
+
+
 def test_abbreviated_options_are_refused(capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as exit_status:
         build_parser().parse_args(["up", "--port-bas", "51240"])
