@@ -1,4 +1,4 @@
-"""One state-port client in its own process, for the state benchmarks (figures 3, 6 and 7).
+"""One state-port client in its own process: the state figures (3, 6) and the load of 4, 5, 7.
 
     python -m bench.state_client --port P --config CELL.toml --seconds S --out OUT.npz
 

@@ -1,4 +1,4 @@
-"""The cell's motion client in its own process, for the motion benchmarks (figures 3-8).
+"""The cell's motion client in its own process, for every figure that moves (3-8).
 
     python -m bench.stream_client --port P [--host H] [--byte-order little|big]
 
