@@ -35,6 +35,7 @@ from shared.protocol.constants import NotReadySubcode
 from shared.service import stop_on_signals
 from tools import cells
 from tools.cells import CellsError, Target
+from tools.realtime import NOT_REALTIME, ClockModes, fix_for
 
 QUERY_TIMEOUT_S = 2.0
 OBSERVER = Identity(Role.OBSERVER)
@@ -101,21 +102,40 @@ def format_uptime(seconds: float) -> str:
     return f"{hours}:{minutes:02d}:{secs:02d}"
 
 
-def render_ps(rows: list[Row], now_ns: int) -> str:
-    header = ("CELL", "SERVICE", "GROUP", "HOST", "PID", "UPTIME", "VERSION")
+def render_ps(rows: list[Row], now_ns: int, realtime: dict[str, bool]) -> str:
+    """``realtime``: whether each cell's executor runs SCHED_FIFO, where known (column RT)."""
+    header = ("CELL", "SERVICE", "GROUP", "HOST", "PID", "UPTIME", "VERSION", "RT")
     table = [header]
     for row in rows:
         group = row.instance if row.service == "interpolator" else "-"
+        clock = _clock(row, realtime)
         info = row.info
         if info is None:
-            table.append((row.cell, row.service, group, "?", "?", "?", "?"))
+            table.append((row.cell, row.service, group, "?", "?", "?", "?", clock))
             continue
         uptime = format_uptime((now_ns - info.started_unix_ns) / 1e9)
-        table.append((row.cell, row.service, group, info.host, str(info.pid), uptime, info.version))
+        details = (info.host, str(info.pid), uptime, info.version, clock)
+        table.append((row.cell, row.service, group, *details))
     widths = [max(len(line[i]) for line in table) for i in range(len(header))]
     return "\n".join(
         "  ".join(cell.ljust(width) for cell, width in zip(line, widths, strict=True)).rstrip()
         for line in table
+    )
+
+
+def _clock(row: Row, realtime: dict[str, bool]) -> str:
+    if row.service != "executor":
+        return "-"
+    known = realtime.get(row.cell)
+    return "?" if known is None else "yes" if known else "NO"
+
+
+def render_clock_warnings(rows: list[Row], realtime: dict[str, bool]) -> str:
+    """A line for every executor that runs without SCHED_FIFO, with what allows it."""
+    return "\n".join(
+        f"cell {row.cell}: the executor runs {NOT_REALTIME}; to allow it: {fix_for(row.info)}"
+        for row in rows
+        if row.service == "executor" and realtime.get(row.cell) is False
     )
 
 
@@ -139,17 +159,22 @@ def run_ps(args: argparse.Namespace) -> int:
     if not found:
         print(cells.NOTHING_RUNNING)
         return 0
+    modes = ClockModes()
     try:
+        for target, session in joined:
+            modes.follow(session, target.names)
         rows = [row for target, session in joined for row in live_services(session, target)]
+        realtime = modes.wait_for({row.cell for row in rows if row.service == "executor"})
     finally:
+        modes.close()
         cells.close_all(joined)
     if rows:
-        print(render_ps(rows, time.time_ns()))
+        print(render_ps(rows, time.time_ns(), realtime))
     else:
         print(f"no motocell service is live on {', '.join(t.describe() for t in found)}")
-    buses = render_buses(found)
-    if buses:
-        print(f"\n{buses}")
+    for section in (render_clock_warnings(rows, realtime), render_buses(found)):
+        if section:
+            print(f"\n{section}")
     return 0
 
 
@@ -288,8 +313,12 @@ def render_cell(name: str, view: WatchedCell) -> list[str]:
         lines.append(
             f"  executor: tick {executor.tick}   lateness p50 {late.p50_us:.0f} us  p99 "
             f"{late.p99_us:.0f} us  max {late.max_us:.0f} us   missed {executor.missed_total}   "
-            f"{'SCHED_FIFO' if executor.realtime else 'no RT priority'}"
+            f"{'SCHED_FIFO' if executor.realtime else 'NO REAL-TIME PRIORITY'}"
         )
+        if not executor.realtime:
+            lines.append(
+                f"  !! the executor runs {NOT_REALTIME}; `motocell ps` says what allows it"
+            )
     gateway, broadcaster = view.gateway, view.broadcaster
     if gateway is not None:
         # The state port is the broadcaster's: its count comes from its own metrics.

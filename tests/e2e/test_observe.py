@@ -88,7 +88,8 @@ def test_ps_lists_every_live_service_with_its_details(
     assert result.returncode == 0, result.stderr
     table, buses = result.stdout.split("\n\n")
     lines = table.splitlines()
-    assert lines[0].split() == ["CELL", "SERVICE", "GROUP", "HOST", "PID", "UPTIME", "VERSION"]
+    header = ["CELL", "SERVICE", "GROUP", "HOST", "PID", "UPTIME", "VERSION", "RT"]
+    assert lines[0].split() == header
     rows = {(r.split()[1], r.split()[2]): r.split() for r in lines[1:]}
     assert set(rows) == {
         ("broadcaster", "-"),
@@ -102,6 +103,7 @@ def test_ps_lists_every_live_service_with_its_details(
         assert f"services.{service}" in cmdline(int(row[4]))
         assert int(row[4]) in cell.children()
         assert row[6] == "0.1.0"
+        assert row[7] == ("yes" if service == "executor" else "-")  # the tests run as root
     assert buses == (
         f"cell {cell.cell.name}: Zenoh {cell.zenoh_endpoint}, credentials {cell.credentials}\n"
     )

@@ -60,3 +60,22 @@ def motocell(cell: RunningCell, *args: str) -> subprocess.CompletedProcess[str]:
     env = {**os.environ, RUNTIME_DIR_ENV: str(cell.runtime_dir)}
     command = [sys.executable, "-m", "tools.cli", *args]
     return subprocess.run(command, capture_output=True, text=True, timeout=30, env=env, check=False)
+
+
+def test_ps_marks_the_executor_and_says_what_allows_it(cell: RunningCell) -> None:
+    result = motocell(cell, "ps")
+    assert result.returncode == 0, result.stderr
+    table, warning, _buses = result.stdout.split("\n\n")
+    executor = next(line.split() for line in table.splitlines() if " executor " in line)
+    assert executor[-1] == "NO"
+    interpreter = os.path.realpath(sys.executable)
+    assert warning.startswith(f"cell {cell.cell.name}: the executor runs WITHOUT real-time")
+    assert f"to allow it: sudo setcap cap_sys_nice+ep {interpreter} " in warning
+
+
+def test_watch_shows_the_clock_without_real_time_priority(cell: RunningCell) -> None:
+    result = motocell(cell, "watch", "--count", "4", "--interval", "0.6")
+    assert result.returncode == 0, result.stderr
+    frame = result.stdout.split("motocell watch")[-1]
+    assert "NO REAL-TIME PRIORITY" in frame
+    assert "`motocell ps` says what allows it" in frame
