@@ -318,8 +318,8 @@ def run_suite(quick: bool, figures: list[int], out: Path) -> int:
     print()
     print(conditions(report["figures"]))
     print()
-    for line in report["warnings"]:
-        print(line)
+    if report["warnings"]:
+        print("\n".join(report["warnings"]) + "\n")
     print(table(results))
     machine = report["machine"]
     print(
