@@ -11,7 +11,7 @@ from typing import Any, cast
 
 from services.launcher import __main__ as launcher
 from shared.service import version
-from tools import bench, credentials, demo, echo, fault, hz, observe, plot, record
+from tools import bench, credentials, echo, fault, hz, observe, plot, record
 
 
 class CommandParser(argparse.ArgumentParser):
@@ -84,11 +84,22 @@ def build_parser() -> argparse.ArgumentParser:
     launcher.add_router_arguments(router)
     router.set_defaults(run=launcher.router)
 
-    demo.add_parser(commands)
+    commands.add_parser(
+        "demo",
+        help="start a cell and drive it like motoman_driver does, then stop it",
+        fill=_demo_arguments,
+    )
     for subcommand in commands.choices.values():
         # No abbreviated options anywhere: `--port-bas` must not silently mean `--port-base`.
         subcommand.allow_abbrev = False
     return parser
+
+
+def _demo_arguments(parser: argparse.ArgumentParser) -> None:
+    # numpy and the test kit: only for `motocell demo`.
+    from tools import demo  # noqa: PLC0415
+
+    demo.add_arguments(parser)
 
 
 def main(argv: Sequence[str] | None = None) -> None:

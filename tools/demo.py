@@ -49,12 +49,9 @@ joint limit."""
 LOG_LINES = 20
 
 
-def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    demo = commands.add_parser(
-        "demo",
-        help="start a cell and drive it like motoman_driver does, then stop it",
-        description=__doc__,
-    )
+def add_arguments(demo: argparse.ArgumentParser) -> None:
+    """The options of ``motocell demo`` (``tools.cli`` names the command)."""
+    demo.description = __doc__
     demo.add_argument("--host", default="127.0.0.1", help="the running cell's address")
     demo.add_argument("--port-base", type=int, help="use a running cell at this port base")
     demo.add_argument(

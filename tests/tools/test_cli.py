@@ -57,13 +57,14 @@ def test_help_imports_neither_mcap_nor_matplotlib(tmp_path: Path) -> None:
     assert done.stdout.splitlines()[-1] == "[]"
 
 
-def test_up_imports_neither_the_benchmarks_nor_cryptography(tmp_path: Path) -> None:
+def test_up_imports_neither_numpy_nor_the_benchmarks_nor_cryptography(tmp_path: Path) -> None:
     # `motocell up` parses its arguments before it starts a single service.
     probe = (
         "import sys\n"
         "from tools import cli\n"
         "cli.build_parser().parse_args(['up', '--port-base', '51240'])\n"
-        "print(sorted({name.split('.')[0] for name in sys.modules} & {'bench', 'cryptography'}))\n"
+        "loaded = {name.split('.')[0] for name in sys.modules}\n"
+        "print(sorted(loaded & {'bench', 'cryptography', 'numpy'}))\n"
     )
     done = subprocess.run(
         [sys.executable, "-c", probe],

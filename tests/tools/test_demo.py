@@ -17,8 +17,8 @@ LIMITS = ((-1.0, 1.0), (-1.0, 1.0), (-0.1, 0.1))
 
 def parse(*argv: str) -> argparse.Namespace:
     parser = argparse.ArgumentParser()
-    demo.add_parser(parser.add_subparsers())
-    return parser.parse_args(["demo", *argv])
+    demo.add_arguments(parser)
+    return parser.parse_args(argv)
 
 
 def test_byte_order_is_an_option() -> None:
