@@ -37,7 +37,7 @@ from shared.bus.schemas import (
     IncrementBatch,
     encode,
 )
-from shared.bus.session import ENCODING, answer, call, command_of, publisher
+from shared.bus.session import ENCODING, answer, call, publisher
 from shared.config import Cell
 from shared.metrics import Window
 from shared.motion.kinematics import AxisMap
@@ -126,7 +126,6 @@ class Executor:
             session, keys.alive("controller", "0"), ask_every=self.ticks_per_second
         )
         self.stop_queries = session.declare_queryable(keys.executor_cmd("stop"), _channel())
-        self.count_queries = session.declare_queryable(keys.executor_cmd("queue_count"), _channel())
         self.missed = 0
         self.lateness = Window(self.ticks_per_second)
         self.metrics_pub = publisher(session, keys.metrics("executor"), latest=True)
@@ -164,8 +163,6 @@ class Executor:
             core.clear_all()
             self._publish_queues(force=True)
             answer(query, CommandReply(Result.SUCCESS))
-        while (query := self.count_queries.try_recv()) is not None:
-            answer(query, core.queue_count_reply(command_of(query).group))
 
     def _increment_path_broken(self, group: int, reason: str, alarm: int = 0) -> None:
         """Stop everything and have the controller raise the IncMove error (NOT_READY 5012

@@ -373,15 +373,6 @@ class ExecutorCore:
             for g, ring in enumerate(self.rings)
         ]
 
-    def queue_count(self, group: int) -> int:
-        return len(self.rings[group].entries)
-
-    def queue_count_reply(self, group: int) -> CommandReply:
-        """The answer to a queue-count query; FAILURE -1 for a group the cell lacks."""
-        if 0 <= group < len(self.rings):
-            return CommandReply(Result.SUCCESS, self.queue_count(group))
-        return CommandReply(Result.FAILURE, -1)
-
     def queue_updates(self, force: bool = False) -> list[tuple[int, QueueState]]:
         """The queue states to publish now: each that changed (every tick while moving), and
         all of them at the heartbeat or when ``force``d, so idle interpolators and gateways

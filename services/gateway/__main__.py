@@ -39,7 +39,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         # Sync ids start from the clock so they differ from a previous gateway's.
         motion = MotionHandler(cell, cell_port, io, sync_seed=time.time_ns() // 1000)
         stats = GatewayStats(len(cell.groups))
-        moving = cell_port.state.moving
+        moving = cell_port.moving
         motion_server = RequestServer(
             name="motion",
             server=listen(host, port_base),

@@ -1,22 +1,38 @@
-"""The gateway's ``CellPort`` over Zenoh: subscriptions that keep ``CellState`` current, and the
+"""The gateway's ``CellPort`` over Zenoh: the subscriptions ``CellState`` is read from, and the
 few things the gateway asks of other services.
 
-Callbacks only decode a sample and hand it to ``CellState`` under one lock, whose condition
-wakes whoever waits on the cell (``wait_for``); the handlers decide from the state. A watchdog
-thread ages that state every heartbeat (``CellState.expire``) and subscribes again to a stream
-that stopped arriving, so the gateway recovers without waiting for some other event.
+The high-rate streams are read on demand, not as they arrive: each group's queue state (every
+tick while its ring changes) and slot wait in Zenoh latest-value channels (``RingChannel(1)``),
+and whoever decides on the state first drains them (``current``). Delivering each sample to a
+Python callback woke the gateway thousands of times a second, every wake-up competing for the
+GIL with the motion port's thread, for state read a few hundred times a second at most. The
+newest sample is all a reader needs: a queue state replaces the last, and a slot's ``taken_id``
+only grows within an interpolator instance (``GroupCredit.on_slot``).
+
+The controller status keeps its callback: it is rare (on change and 10 Hz) and every one
+counts, since a not-ready blip between two requests must still end the trajectory
+(``CellState.on_status``); a latest-value channel would lose it.
+
+One lock (a condition) covers every change of the state and every decision on it: the status
+callback, a drain and the decision after it, and the watchdog, which drains and ages the state
+every heartbeat (``CellState.expire``) and subscribes again to a stream that stopped arriving,
+so freshness holds even while no request comes.
 """
 
 from __future__ import annotations
 
+import logging
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import Any
 
+import msgspec
 import zenoh
 
-from services.gateway.core.cell_state import STATUS_STREAM, CellState
-from shared.bus.keys import CellKeys, group_of
+from services.gateway.core.cell_state import STATUS_STREAM, CellState, queue_stream
+from shared.bus.keys import CellKeys
 from shared.bus.liveness import HEARTBEAT_S
 from shared.bus.schemas import (
     CommandReply,
@@ -31,34 +47,52 @@ from shared.bus.schemas import (
 from shared.bus.session import Liveness, call, publisher
 from shared.config import Cell
 
+log = logging.getLogger("gateway")
+
 STATUS_WAIT_S = 0.5
 """The controller publishes its status before it replies; this only bounds a lost sample."""
+WAIT_POLL_S = 0.001
+"""How often ``wait_for`` reads the channels again: nothing notifies a waiter of a queue state
+or a slot (no callback runs for them), so a condition on them is polled. Waits are rare
+(START_TRAJ_MODE, STOP_MOTION), and 1 ms is short next to what they wait for."""
 
 _status_decoder = Decoder(ControllerStatus)
 _queue_decoder = Decoder(QueueState)
 _slot_decoder = Decoder(Slot)
+
+Channel = zenoh.Subscriber[zenoh.handlers.Handler[zenoh.Sample]]
+
+
+def _latest(session: zenoh.Session, key: str) -> Channel:
+    return session.declare_subscriber(key, zenoh.handlers.RingChannel(1))
+
+
+def _read(channel: Channel, decoder: Decoder[Any]) -> Any:
+    """The channel's newest sample decoded; None when nothing new (or undecodable) came."""
+    sample = channel.try_recv()
+    if sample is None:
+        return None
+    try:
+        return decoder.decode(sample.payload.to_bytes())
+    except msgspec.DecodeError:
+        log.warning("undecodable sample on %s ignored", sample.key_expr)
+        return None
 
 
 class ZenohCell:
     def __init__(self, cell: Cell, keys: CellKeys, session: zenoh.Session) -> None:
         self.keys = keys
         self.session = session
+        groups = range(len(cell.groups))
         self.state = CellState(len(cell.groups))
         self._changed = threading.Condition()
         self._controller_key = keys.alive("controller", "0")
         self._alive = Liveness(session, self._controller_key)
-        self._point_pubs = [
-            publisher(session, keys.group_point(g), realtime=True) for g in range(len(cell.groups))
-        ]
-        self._streams: dict[str, tuple[str, Callable[[zenoh.Sample], None]]] = {
-            "status": (keys.controller_status, self._on_status),
-            "queue": (keys.group_queue_all, self._on_queue),
-            "slot": (keys.group_slot_all, self._on_slot),
-        }
-        self._subscribers = {
-            name: session.declare_subscriber(key, callback)
-            for name, (key, callback) in self._streams.items()
-        }
+        self._point_pubs = [publisher(session, keys.group_point(g), realtime=True) for g in groups]
+        self._queues = [_latest(session, keys.group_queue(g)) for g in groups]
+        self._slots = [_latest(session, keys.group_slot(g)) for g in groups]
+        self._queue_groups = {queue_stream(g): g for g in groups}
+        self._status = session.declare_subscriber(keys.controller_status, self._on_status)
         self._stop = threading.Event()
         self._watchdog = threading.Thread(target=self._watch, name="gateway-ages", daemon=True)
 
@@ -69,41 +103,62 @@ class ZenohCell:
         self._stop.set()
         self._watchdog.join(timeout=1.0)
 
+    @contextmanager
+    def current(self) -> Iterator[CellState]:
+        with self._changed:
+            self._drain()
+            yield self.state
+
+    def moving(self) -> bool:
+        """Whether a newcomer on a port must be refused (``CellState.moving``), read now."""
+        with self.current() as state:
+            return state.moving()
+
+    def _drain(self) -> None:
+        """Apply each group's newest queue state and slot; with the lock held."""
+        for group, (queue_channel, slot_channel) in enumerate(
+            zip(self._queues, self._slots, strict=True)
+        ):
+            queue = _read(queue_channel, _queue_decoder)
+            if queue is not None:
+                self.state.on_queue(group, queue)
+            slot = _read(slot_channel, _slot_decoder)
+            if slot is not None:
+                self.state.on_slot(group, slot)
+
     def _watch(self) -> None:
-        """Every heartbeat: forget what stopped arriving, and subscribe again to its stream."""
+        """Every heartbeat: read what arrived, forget what stopped arriving, and subscribe again
+        to its stream."""
         while not self._stop.wait(HEARTBEAT_S):
             with self._changed:
-                stopped = self.state.expire(time.monotonic())
+                self._drain()
+                stopped = set(self.state.expire(time.monotonic()))
+                for stream in stopped & self._queue_groups.keys():
+                    self._subscribe_queue_again(self._queue_groups[stream])
                 if stopped:
                     self._changed.notify_all()
-            for name in sorted({"status" if s == STATUS_STREAM else "queue" for s in stopped}):
-                self._subscribe_again(name)
+            if STATUS_STREAM in stopped:
+                # Outside the lock: undeclaring waits for a callback that may wait for it.
+                self._subscribe_status_again()
 
-    def _subscribe_again(self, name: str) -> None:
-        """The new subscriber first, so no sample falls between the two."""
-        key, callback = self._streams[name]
-        old = self._subscribers[name]
-        self._subscribers[name] = self.session.declare_subscriber(key, callback)
+    def _subscribe_queue_again(self, group: int) -> None:
+        """The new subscriber first, so no sample falls between the two; with the lock held."""
+        old = self._queues[group]
+        self._queues[group] = _latest(self.session, self.keys.group_queue(group))
+        queue = _read(old, _queue_decoder)
+        if queue is not None:
+            self.state.on_queue(group, queue)
+        old.undeclare()
+
+    def _subscribe_status_again(self) -> None:
+        old = self._status
+        self._status = self.session.declare_subscriber(self.keys.controller_status, self._on_status)
         old.undeclare()
 
     def _on_status(self, sample: zenoh.Sample) -> None:
         status = _status_decoder.decode(sample.payload.to_bytes())
         with self._changed:
             self.state.on_status(status)
-            self._changed.notify_all()
-
-    def _on_queue(self, sample: zenoh.Sample) -> None:
-        group = group_of(str(sample.key_expr))
-        queue = _queue_decoder.decode(sample.payload.to_bytes())
-        with self._changed:
-            self.state.on_queue(group, queue)
-            self._changed.notify_all()
-
-    def _on_slot(self, sample: zenoh.Sample) -> None:
-        group = group_of(str(sample.key_expr))
-        slot = _slot_decoder.decode(sample.payload.to_bytes())
-        with self._changed:
-            self.state.on_slot(group, slot)
             self._changed.notify_all()
 
     def controller_alive(self) -> bool:
@@ -113,8 +168,18 @@ class ZenohCell:
         self._point_pubs[group].put(encode(point))
 
     def wait_for(self, condition: Callable[[], bool], timeout: float) -> bool:
+        """A status wakes the wait at once; queue states and slots are read every
+        WAIT_POLL_S."""
+        deadline = time.monotonic() + timeout
         with self._changed:
-            return self._changed.wait_for(condition, timeout)
+            while True:
+                self._drain()
+                if condition():
+                    return True
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    return False
+                self._changed.wait(min(left, WAIT_POLL_S))
 
     def controller(
         self, verb: str, request: CommandRequest | None = None, timeout: float = 2.0

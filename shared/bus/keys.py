@@ -17,7 +17,6 @@ class CellKeys:
         self.controller_status = f"{self.prefix}/controller/status"
         self.executor_tick = f"{self.prefix}/executor/tick"
         self.state = f"{self.prefix}/state"
-        self.group_queue_all = f"{self.prefix}/group/*/queue"
         self.group_slot_all = f"{self.prefix}/group/*/slot"
         self.alive_all = f"{ALIVE_ROOT}/{cell}/alive/*/*"
 
@@ -60,11 +59,6 @@ class CellKeys:
 
     def alive(self, service: str, instance: str) -> str:
         return f"{ALIVE_ROOT}/{self.cell}/alive/{service}/{instance}"
-
-
-def group_of(key: str) -> int:
-    """The group number in ``motocell/<cell>/group/<g>/...``."""
-    return int(key.split("/")[3])
 
 
 def service_of_alive(key: str) -> str:

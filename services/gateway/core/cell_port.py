@@ -5,6 +5,7 @@ the unit tests drive the handlers with a fake."""
 from __future__ import annotations
 
 from collections.abc import Callable
+from contextlib import AbstractContextManager
 from typing import Protocol
 
 from services.gateway.core.cell_state import CellState
@@ -14,7 +15,13 @@ from shared.bus.schemas import CommandReply, CommandRequest, Point
 class CellPort(Protocol):
     @property
     def state(self) -> CellState:
-        """Kept current by the port as samples arrive; read by the handlers."""
+        """What the port last read of the cell; a decision reads it inside ``current``."""
+        ...
+
+    def current(self) -> AbstractContextManager[CellState]:
+        """``state`` brought up to date with the latest samples and held still while the
+        caller decides on it (a point, a command's check). Never held across a query or a
+        wait: other readers (the watchdog, the other ports) wait for it meanwhile."""
         ...
 
     def controller_alive(self) -> bool: ...
@@ -43,5 +50,6 @@ class CellPort(Protocol):
 
 
 def readiness(cell: CellPort) -> tuple[bool, int]:
-    """Motion-ready and the NOT_READY subcode, as CHECK_MOTION_READY and every point see it."""
+    """Motion-ready and the NOT_READY subcode, as CHECK_MOTION_READY and every point see it
+    (inside ``current``)."""
     return cell.state.readiness(cell.controller_alive())

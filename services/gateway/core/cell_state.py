@@ -1,7 +1,7 @@
-"""What the gateway knows of the rest of the cell. Pure: the cell adapter feeds it each sample
-as it arrives (controller status, the executor's ring per group, each interpolator's slot), and
-the handlers answer from it without a round trip (ARCHITECTURE "The reply path"). Republished
-state that stops arriving is forgotten (``expire``)."""
+"""What the gateway knows of the rest of the cell. Pure: the cell adapter feeds it the samples
+(controller status, the executor's ring per group, each interpolator's slot), and the handlers
+answer from it without a round trip (ARCHITECTURE "The reply path"). Republished state that
+stops arriving is forgotten (``expire``)."""
 
 from __future__ import annotations
 
@@ -80,6 +80,22 @@ class CellState:
             # An interpolator not heard from yet: its points could not be numbered.
             return False, int(NotReadySubcode.INC_MOVE_ERROR)
         return status.motion_ready, status.not_ready_subcode
+
+    def queue_count(self, group: int) -> int | None:
+        """CHECK_QUEUE_CNT (motoros1 §2.3): the increment entries in the group's ring, not
+        points, nor the pending ones, as the executor last published them (at most a tick old
+        while they change). None for a group the cell lacks or a ring not known (no executor
+        heard)."""
+        if not 0 <= group < len(self.groups):
+            return None
+        queue = self.groups[group].queue
+        return None if queue is None else queue.depth
+
+    def idle(self) -> bool:
+        """Every ring known and empty, every slot free: STOP_TRAJ_MODE may end the mode."""
+        return self.slots_free() and all(
+            self.queue_count(group) == 0 for group in range(len(self.groups))
+        )
 
     def slots_free(self) -> bool:
         return all(group.free for group in self.groups)

@@ -102,9 +102,11 @@ class MotionHandler:
         body = request.body
         match body:
             case JointTrajPtFull():
-                return motion_reply(request, *self.trajectories.point(body))
+                with self.port.current():
+                    return motion_reply(request, *self.trajectories.point(body))
             case JointTrajPtFullEx():
-                return self.trajectories.point_ex(request, body)
+                with self.port.current():
+                    return self.trajectories.point_ex(request, body)
             case MotoMotionCtrl():
                 return self.command(request, body)
             case SelectTool():
@@ -135,15 +137,19 @@ class MotionHandler:
             return motion_reply(request, Result.INVALID, InvalidSubcode.COMMAND)
         match command:
             case Command.CHECK_MOTION_READY:
-                ready, subcode = readiness(self.port)
+                with self.port.current():
+                    ready, subcode = readiness(self.port)
                 if ready:
                     return motion_reply(request, Result.TRUE, 0)
                 return motion_reply(request, Result.FALSE, subcode)
             case Command.CHECK_QUEUE_CNT:
-                reply = self.port.executor("queue_count", CommandRequest(group=body.group_no))
-                if reply is None or reply.result != Result.SUCCESS:
+                # From the executor's last published queue state, as fresh as a query to it
+                # would be: the executor answers queries only at its next tick (up to 4 ms).
+                with self.port.current() as state:
+                    count = state.queue_count(body.group_no)
+                if count is None:
                     return motion_reply(request, Result.FAILURE, -1)
-                return motion_reply(request, Result.SUCCESS, reply.subcode)
+                return motion_reply(request, Result.SUCCESS, count)
             case Command.STOP_MOTION:
                 return motion_reply(
                     request, Result.SUCCESS if self.stop_motion() else Result.FAILURE, 0
@@ -184,7 +190,8 @@ class MotionHandler:
         if result == Result.SUCCESS and not self.port.wait_for(state.rings_ready, SLOTS_WAIT_S):
             result = int(Result.FAILURE)
         if result == Result.FAILURE:
-            result, subcode = int(Result.NOT_READY), readiness(self.port)[1]
+            with self.port.current():
+                result, subcode = int(Result.NOT_READY), readiness(self.port)[1]
         return result, subcode
 
     def stop_motion(self) -> bool:
@@ -196,14 +203,11 @@ class MotionHandler:
         return self.port.wait_for(self.port.state.slots_free, STOP_WAIT_S) and cleared
 
     def stop_traj_mode(self) -> bool:
-        """motoros1 §2.3: refuse while anything is queued; else STOP_MOTION and release the job."""
-        for group in range(self.groups):
-            reply = self.port.executor("queue_count", CommandRequest(group=group))
-            if reply is None or reply.result != Result.SUCCESS or reply.subcode != 0:
-                return False
-        if not self.port.state.slots_free():
-            return False
-        if not self.stop_motion():
+        """motoros1 §2.3: refuse while anything is queued (a ring, as CHECK_QUEUE_CNT sees it,
+        or a pending point); else STOP_MOTION and release the job."""
+        with self.port.current() as state:
+            idle = state.idle()
+        if not idle or not self.stop_motion():
             return False
         return self._controller("stop_traj_mode")[0] == Result.SUCCESS
 

@@ -66,7 +66,7 @@ def applied(core: ExecutorCore, group: int = 0) -> list[int]:
     """Axis-0 increment of each tick until the ring is empty (and one more, empty, tick)."""
     moves = []
     while True:
-        depth = core.queue_count(group)
+        depth = core.queue_state(group).depth
         core.step()
         moves.append(core.last_increment[group][0])
         if depth == 0:
@@ -104,7 +104,7 @@ def test_queue_state_numbers_follow_accepts_and_steps() -> None:
         tick=2,
         ready=True,
     )
-    assert core.queue_count(0) == 6
+    assert core.queue_state(0).depth == 6
     assert core.queue_state(1) == QueueState(101, 0, 0, 200, START[1], 2, ready=True)
     # The state is a snapshot: changing it does not move the robot.
     state.command_pulses[0] = 999
@@ -122,7 +122,7 @@ def test_batches_are_accepted_only_in_order() -> None:
     assert core.accept(0, batch(100, 1, [unit(2), unit(3)])) is BatchOutcome.DUPLICATE
     assert core.accept(0, batch(100, 4, [unit(5)])) is BatchOutcome.GAP
     assert core.queue_state(0).received == 3
-    assert core.queue_count(0) == 3
+    assert core.queue_state(0).depth == 3
     assert core.accept(0, batch(100, 3, [unit(4)])) is BatchOutcome.ACCEPTED
     assert core.accept(0, batch(100, 4, [unit(5)])) is BatchOutcome.ACCEPTED
     assert applied(core) == [1, 2, 3, 4, 5, 0]
@@ -153,10 +153,10 @@ def test_ring_holds_exactly_200_entries() -> None:
     core = ready_core()
     for i in range(4):
         assert core.accept(0, batch(100, 50 * i, [unit(1)] * 50)) is BatchOutcome.ACCEPTED
-    assert core.queue_count(0) == 200
+    assert core.queue_state(0).depth == 200
     assert core.accept(0, batch(100, 200, [unit(1)])) is BatchOutcome.OVERFLOW
     assert core.queue_state(0).received == 200
-    assert core.queue_count(0) == 200
+    assert core.queue_state(0).depth == 200
     core.step()
     assert core.accept(0, batch(100, 200, [unit(1)] * 2)) is BatchOutcome.OVERFLOW
     assert core.accept(0, batch(100, 200, [unit(1)])) is BatchOutcome.ACCEPTED
@@ -199,7 +199,7 @@ def test_clear_all_renews_every_epoch_and_empties_the_rings() -> None:
     core.clear_all()
     assert [core.queue_state(g).epoch for g in (0, 1)] == [102, 103]
     assert [core.queue_state(g).received for g in (0, 1)] == [0, 0]
-    assert [core.queue_count(g) for g in (0, 1)] == [0, 0]
+    assert [core.queue_state(g).depth for g in (0, 1)] == [0, 0]
     assert core.command[0][0] == 11  # what was applied stays applied
     assert core.ready is True
     assert core.accept(0, batch(100, 3, [unit(1)])) is BatchOutcome.STALE
@@ -214,7 +214,7 @@ def test_set_ready_false_clears_every_ring() -> None:
     core.accept(1, batch(101, 0, [unit(1)] * 2))
     core.set_ready(False)
     assert core.ready is False
-    assert [core.queue_count(g) for g in (0, 1)] == [0, 0]
+    assert [core.queue_state(g).depth for g in (0, 1)] == [0, 0]
     assert [core.queue_state(g).epoch for g in (0, 1)] == [102, 103]
     # Already not ready: no further renewal.
     core.set_ready(False)
@@ -317,7 +317,7 @@ def test_nothing_is_applied_while_not_ready() -> None:
     core.step()
     assert core.command[0][0] == 15
     assert core.last_increment[0] == (0,) * 8
-    assert core.queue_count(0) == 0
+    assert core.queue_state(0).depth == 0
 
 
 @pytest.mark.parametrize("rows", [1, 37, 200])
@@ -327,7 +327,7 @@ def test_every_accepted_pulse_is_applied_exactly_once(rows: int) -> None:
     partial = [i for i in range(rows) if i % 5 == 2]
     assert core.accept(0, batch(100, 0, increments, partial)) is BatchOutcome.ACCEPTED
     ticks = 0
-    while core.queue_count(0):
+    while core.queue_state(0).depth:
         core.step()
         ticks += 1
     assert ticks == rows - sum(1 for i in partial if i < rows - 1)
@@ -355,7 +355,7 @@ def test_malformed_batches_are_refused_not_crashed_on(change: dict[str, object])
     good = batch(FIRST_EPOCH, 0, [unit(1), unit(2)])
     bad = msgspec.structs.replace(good, **change)
     assert core.accept(0, bad) is BatchOutcome.MALFORMED
-    assert core.queue_count(0) == 0
+    assert core.queue_state(0).depth == 0
     assert core.accept(0, good) is BatchOutcome.ACCEPTED
 
 
@@ -474,7 +474,7 @@ def test_the_controller_going_away_clears_the_rings() -> None:
     assert core.accept(0, batch(FIRST_EPOCH, 0, [unit(1)])) is BatchOutcome.ACCEPTED
     core.controller_present = False
     core.update_ready()
-    assert core.queue_count(0) == 0
+    assert core.queue_state(0).depth == 0
     assert core.rings[0].epoch != FIRST_EPOCH
 
 
@@ -487,17 +487,11 @@ def test_only_lost_or_unusable_entries_break_the_increment_path(outcome: BatchOu
     assert outcome.breaks_increment_path is (outcome in breaking)
 
 
-def test_queue_count_reply() -> None:
+def test_the_queue_state_counts_the_entries_in_the_ring() -> None:
+    # What CHECK_QUEUE_CNT answers, from the gateway's copy (motoros1 §2.3).
     core = ready_core()
     core.accept(1, batch(core.rings[1].epoch, 0, [unit(1), unit(1), unit(1)]))
-    assert core.queue_count_reply(1) == CommandReply(Result.SUCCESS, 3)
-
-
-@pytest.mark.parametrize("group", [-1, 2])
-def test_queue_count_of_a_group_the_cell_lacks_fails(group: int) -> None:
-    assert ExecutorCore(START, FIRST_EPOCH).queue_count_reply(group) == CommandReply(
-        Result.FAILURE, -1
-    )
+    assert [core.queue_state(g).depth for g in (0, 1)] == [0, 3]
 
 
 def test_every_queue_is_published_first() -> None:

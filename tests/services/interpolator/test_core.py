@@ -308,7 +308,7 @@ def stream(
     to_core: deque[tuple[int, IncrementBatch]] = deque()
     to_feeder: deque[tuple[int, QueueState]] = deque([(0, core.queue_state(0))])
     tick = 0
-    while pending or feeder.segment is not None or to_core or core.queue_count(0):
+    while pending or feeder.segment is not None or to_core or core.queue_state(0).depth:
         while to_feeder and to_feeder[0][0] <= tick:
             feeder.on_queue(to_feeder.popleft()[1])
         feeder.progress(pending)

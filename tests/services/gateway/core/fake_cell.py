@@ -3,7 +3,8 @@ the other services' replies, and reads what the gateway sent and asked."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 from services.gateway.core.answer import Answer
@@ -95,6 +96,11 @@ class FakeCell:
         self.while_waiting: list[Callable[[], None]] = []
         """Changes the cell goes through while the gateway waits on it, then they are gone."""
         self.waits: list[float] = []
+
+    @contextmanager
+    def current(self) -> Iterator[CellState]:
+        """The test feeds ``state`` directly: it is always current."""
+        yield self.state
 
     def controller_alive(self) -> bool:
         return self.alive

@@ -7,7 +7,7 @@ import msgspec
 import pytest
 
 from services.gateway.core.motion import SLOTS_WAIT_S, START_TRAJ_MODE_TIMEOUT_S, STOP_WAIT_S
-from shared.bus.schemas import CommandReply, CommandRequest
+from shared.bus.schemas import CommandReply, CommandRequest, QueueState
 from shared.protocol.constants import (
     TOOL_NUMBERS,
     Command,
@@ -88,19 +88,32 @@ def test_check_motion_ready_waits_for_every_interpolator() -> None:
     assert verdict_of(reply) == (int(Result.FALSE), int(NotReadySubcode.INC_MOVE_ERROR))
 
 
-def test_check_queue_cnt_asks_the_executor_for_the_group() -> None:
+def test_check_queue_cnt_counts_the_entries_in_the_groups_ring_without_asking() -> None:
     handler, cell = gateway(two_groups())
-    cell.replies["executor/queue_count"] = CommandReply(int(Result.SUCCESS), 17)
+    cell.state.on_queue(1, queue(depth=17))
     reply = exchange(handler, command(Command.CHECK_QUEUE_CNT, group=1)).reply
     assert verdict_of(reply) == (int(Result.SUCCESS), 17)
-    [call] = cell.calls
-    assert (call.service, call.verb, call.request) == ("executor", "queue_count", CommandRequest(1))
+    assert reply_of(reply).group_no == 1
+    assert cell.calls == []
 
 
-@pytest.mark.parametrize("answer", [None, CommandReply(int(Result.FAILURE))])
-def test_check_queue_cnt_fails_with_minus_1(answer: CommandReply | None) -> None:
+def test_check_queue_cnt_does_not_count_pending_points() -> None:
     handler, cell = gateway()
-    cell.replies["executor/queue_count"] = answer
+    with_points_outstanding(cell)
+    reply = exchange(handler, command(Command.CHECK_QUEUE_CNT)).reply
+    assert verdict_of(reply) == (int(Result.SUCCESS), 0)
+
+
+@pytest.mark.parametrize("group", [-1, 2, 4])
+def test_check_queue_cnt_of_a_group_the_cell_lacks_fails_with_minus_1(group: int) -> None:
+    handler, _ = gateway(two_groups())
+    reply = exchange(handler, command(Command.CHECK_QUEUE_CNT, group=group)).reply
+    assert verdict_of(reply) == (int(Result.FAILURE), -1)
+
+
+def test_check_queue_cnt_without_a_known_ring_fails_with_minus_1() -> None:
+    handler, cell = gateway()
+    cell.state.on_status(status(ready=False, missing=["executor/0"]))
     reply = exchange(handler, command(Command.CHECK_QUEUE_CNT)).reply
     assert verdict_of(reply) == (int(Result.FAILURE), -1)
 
@@ -210,20 +223,15 @@ def test_stop_traj_mode_stops_motion_and_releases_the_job() -> None:
     handler, cell = gateway(two_groups())
     assert verdict_of(exchange(handler, command(Command.STOP_TRAJ_MODE)).reply) == SUCCESS
     assert [(c.service, c.verb) for c in cell.calls] == [
-        ("executor", "queue_count"),
-        ("executor", "queue_count"),
         ("executor", "stop"),
         ("controller", "stop_traj_mode"),
     ]
-    assert [c.request for c in cell.calls[:2]] == [CommandRequest(0), CommandRequest(1)]
 
 
-@pytest.mark.parametrize(
-    "count", [CommandReply(int(Result.SUCCESS), 3), CommandReply(int(Result.FAILURE)), None]
-)
-def test_stop_traj_mode_refuses_while_anything_is_queued(count: CommandReply | None) -> None:
-    handler, cell = gateway()
-    cell.replies["executor/queue_count"] = count
+@pytest.mark.parametrize("queued", [queue(depth=3), None])
+def test_stop_traj_mode_refuses_while_a_ring_is_not_known_empty(queued: QueueState | None) -> None:
+    handler, cell = gateway(two_groups())
+    cell.state.groups[1].queue = queued
     assert verdict_of(exchange(handler, command(Command.STOP_TRAJ_MODE)).reply) == FAILURE
     assert cell.verbs("controller") == []
     assert "stop" not in cell.verbs("executor")
@@ -253,7 +261,6 @@ def test_disconnect_closes_without_a_reply() -> None:
 def test_disconnect_that_cannot_stop_replies_failure_and_keeps_the_connection() -> None:
     handler, cell = gateway()
     cell.state.on_queue(0, queue(depth=4))
-    cell.replies["executor/queue_count"] = CommandReply(int(Result.SUCCESS), 4)
     answer = exchange(handler, command(Command.DISCONNECT))
     assert not answer.close
     assert verdict_of(answer.reply) == FAILURE
