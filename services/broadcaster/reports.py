@@ -12,7 +12,8 @@ from shared.bus.session import publisher
 from shared.metrics import Window
 
 REFRESH_S = 1.0
-"""Also this often: a restarted controller has to learn the clients again."""
+"""Also this often: a restarted controller has to learn the clients again, and a notice that
+was dropped is made good."""
 NOT_SERVED = -1
 """In a ``connections`` notice, a port this process does not serve (motion and I/O are the
 gateway's): the controller keeps what the gateway said about them."""
@@ -22,7 +23,9 @@ AGE_WINDOW = 1024
 
 class Reports:
     def __init__(self, session: zenoh.Session, keys: CellKeys) -> None:
-        self._connections = publisher(session, keys.controller_cmd("connections"))
+        # Dropped rather than blocking under congestion: this runs on the state loop, and the
+        # next second's notice makes a lost one good.
+        self._connections = publisher(session, keys.controller_cmd("connections"), latest=True)
         self._metrics = publisher(session, keys.metrics("broadcaster"), latest=True)
         self._ages = Window(AGE_WINDOW)
         self._reported_clients: int | None = None
