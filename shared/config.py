@@ -31,6 +31,14 @@ jitter on a shared 2-core machine: SCHED_FIFO ticks were seen 12.8 ms late once 
 run, and without SCHED_FIFO 8-15 ms under load (zenoh-facts §5), either of which a 3-period
 bound turned into a false alarm."""
 
+MAX_PENDING_POINTS = 32
+"""The deepest pending-point FIFO a cell file may ask for (``pending_points``): ample for a
+client that streams a few points ahead (32 points 4 ms apart are 128 ms of motion), and a bound
+on what each interpolator holds."""
+LOOK_AHEAD_POINTS = 3
+"""Points the gateway may have outstanding per group, whatever ``pending_points`` says, while
+their segments all fit the executor's ring together (``GroupCredit.pending_fits``)."""
+
 
 EXIT_CONFIG = 2
 """The exit status of a process that cannot start as configured (a bad file or option, refused
@@ -118,6 +126,10 @@ class CellFile(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
     max_lateness_periods: int = DEFAULT_MAX_LATENESS_PERIODS
     """How late (in interpolation periods) the executor may apply an increment; a longer stall
     stops motion and raises an alarm (docs/behaviour.md, "Stalls")."""
+    pending_points: int = 1
+    """How many accepted points a group may hold waiting for its interpolator: 1 is MotoROS's
+    single pending point (motoros1 §3.1); more is motocell's deeper pending-point FIFO
+    (docs/behaviour.md, "Pending points")."""
     host: str = "127.0.0.1"
     port_base: int = 50240
     groups: list[GroupConfig] = msgspec.field(default_factory=lambda: [GroupConfig()])
@@ -153,6 +165,14 @@ class Cell:
     groups: tuple[Group, ...]
     zenoh: ZenohConfig
     max_lateness_periods: int = DEFAULT_MAX_LATENESS_PERIODS
+    pending_points: int = 1
+    """The pending-point FIFO's depth per group (``CellFile.pending_points``)."""
+
+    @property
+    def points_outstanding(self) -> int:
+        """The most points a group may have published and not yet taken by its interpolator:
+        the pending-point FIFO, or the gateway's look-ahead when that allows more."""
+        return max(self.pending_points, LOOK_AHEAD_POINTS)
 
     @property
     def period_s(self) -> float:
@@ -338,6 +358,8 @@ def resolve(
         )
     if not 1 <= cell_file.max_lateness_periods <= 1000:
         raise ConfigError(f"{where}: max_lateness_periods: must be 1 to 1000")
+    if not 1 <= cell_file.pending_points <= MAX_PENDING_POINTS:
+        raise ConfigError(f"{where}: pending_points: must be 1 to {MAX_PENDING_POINTS}")
     if not 1 <= cell_file.port_base <= 65533:
         raise ConfigError(f"{where}: port_base: must be 1 to 65533")
     groups = []
@@ -372,4 +394,5 @@ def resolve(
         groups=tuple(groups),
         zenoh=cell_file.zenoh,
         max_lateness_periods=cell_file.max_lateness_periods,
+        pending_points=cell_file.pending_points,
     )

@@ -84,7 +84,7 @@ class ZenohCell:
         self.keys = keys
         self.session = session
         groups = range(len(cell.groups))
-        self.state = CellState(len(cell.groups))
+        self.state = CellState(len(cell.groups), cell.pending_points)
         self._changed = threading.Condition()
         self._controller_key = keys.alive("controller", "0")
         self._alive = Liveness(session, self._controller_key)

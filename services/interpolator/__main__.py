@@ -3,7 +3,8 @@
 Takes the points the gateway accepted, turns each segment into per-period pulse increments and
 sends them to the executor only as far as the executor's ring has room, so nothing overflows
 and nothing is dropped. The pending-point slot is free again (``Slot.taken_id``) once a point's
-whole segment is in the ring, which is what makes the gateway answer BUSY meanwhile.
+whole segment is in the ring, which is what makes the gateway answer BUSY meanwhile; the slot
+is published in the same pass that took the point (``inputs`` for how the pass is woken).
 """
 
 from __future__ import annotations
@@ -13,83 +14,45 @@ from collections import deque
 from collections.abc import Sequence
 
 from services.interpolator.core import Feeder, queue_point
-from shared.bus.schemas import (
-    ControllerStatus,
-    Decoder,
-    InterpolatorMetrics,
-    Point,
-    QueueState,
-    encode,
-)
-from shared.bus.session import Inbox, payload_of, publisher
+from services.interpolator.inputs import Inputs
+from services.interpolator.reports import SLOT_REFRESH_S, Reports
+from shared.bus.schemas import Point, encode
+from shared.bus.session import publisher
 from shared.service import ServiceContext, argument_parser, running_service
-
-SLOT_REFRESH_S = 0.5
-"""Also publish the slot periodically, so a gateway that (re)starts learns it."""
-METRICS_S = 1.0
 
 
 def run(ctx: ServiceContext, group_index: int) -> None:
     cell = ctx.cell
-    group = cell.groups[group_index]
-    keys = ctx.keys
-    session = ctx.session
-    inbox = Inbox()
-    increments_pub = publisher(session, keys.group_increments(group_index), realtime=True)
-    slot_pub = publisher(session, keys.group_slot(group_index), realtime=True)
+    increments_pub = publisher(ctx.session, ctx.keys.group_increments(group_index), realtime=True)
     feeder = Feeder(
-        group,
+        cell.groups[group_index],
         cell.period_ns,
         send=lambda batch: increments_pub.put(encode(batch)),
         instance=time.time_ns(),
     )
-    subscribers = [
-        session.declare_subscriber(
-            keys.group_point(group_index), inbox.feed("point", payload_of(Decoder(Point)))
-        ),
-        session.declare_subscriber(
-            keys.group_queue(group_index), inbox.feed("queue", payload_of(Decoder(QueueState)))
-        ),
-        session.declare_subscriber(
-            keys.controller_status, inbox.feed("status", payload_of(Decoder(ControllerStatus)))
-        ),
-    ]
-    metrics_pub = publisher(session, keys.group_metrics(group_index), latest=True)
+    reports = Reports(ctx, group_index, feeder)
+    inputs = Inputs(ctx, group_index, wake_s=SLOT_REFRESH_S)
     points: deque[Point] = deque()
-    published_slot = None
-    next_refresh = 0.0
-    next_metrics = time.monotonic() + METRICS_S
-    busy_s = 0.0
-    last = time.monotonic()
-    while not ctx.stop.is_set():
-        item = inbox.get(timeout=0.1)
-        while item is not None:
-            tag, payload = item
-            if tag == "queue":
-                feeder.on_queue(payload)
-            elif tag == "point":
-                queue_point(points, payload)
-            elif tag == "status":
-                feeder.on_status(payload)
-            item = inbox.get_nowait()
-        now = time.monotonic()
-        if feeder.segment is not None:
-            busy_s += now - last  # the slot was full since the last pass
-        last = now
-        feeder.progress(points)
-        slot = feeder.slot()
-        if now >= next_metrics:
-            metrics = InterpolatorMetrics(
-                feeder.points_accepted, feeder.increments_sent, busy_s, feeder.busy_episodes
-            )
-            metrics_pub.put(encode(metrics))
-            next_metrics = now + METRICS_S
-        if slot != published_slot or now >= next_refresh:
-            slot_pub.put(encode(slot))
-            published_slot = slot
-            next_refresh = now + SLOT_REFRESH_S
-    for subscriber in subscribers:
-        subscriber.undeclare()
+    try:
+        while not ctx.stop.is_set():
+            # Something only the executor's ring can unblock: a segment waiting for room, or a
+            # point waiting for its epoch (or for the first queue state).
+            inputs.wait(for_ring=feeder.segment is not None or bool(points))
+            status = inputs.status()
+            if status is not None:
+                feeder.on_status(status)
+            queue = inputs.queue()
+            if queue is not None:
+                # Before the points: a cleared ring ends the trajectory they might extend.
+                feeder.on_queue(queue)
+            for point in inputs.points():
+                queue_point(points, point, cell.points_outstanding)
+            reports.before_progress()
+            feeder.progress(points)
+            reports.after_progress()
+    finally:
+        ctx.stop.set()  # on an error too: it ends the doorbell
+        inputs.close()
 
 
 def main(argv: Sequence[str] | None = None) -> None:

@@ -19,12 +19,14 @@ log = logging.getLogger("interpolator")
 
 MAX_BATCH = 50
 """Entries per message: 200 ms of motion at 4 ms, about 1.7 kB."""
-MAX_PENDING_POINTS = 64
 
 
-def queue_point(points: deque[Point], point: Point) -> bool:
-    """Keep ``point`` for the feeder; False (dropped) when MAX_PENDING_POINTS already wait."""
-    if len(points) >= MAX_PENDING_POINTS:
+def queue_point(points: deque[Point], point: Point, limit: int) -> bool:
+    """Keep ``point`` for the feeder; False (dropped) when ``limit`` points already wait. The
+    gateway lets no more be outstanding (``Cell.points_outstanding``) but for type-14
+    sequence-0 points, which never get BUSY (motoros1 §2.4): only a client sending several in a
+    row while a segment waits for room reaches the limit."""
+    if len(points) >= limit:
         log.error("more than %d points pending; dropping %s", len(points), point)
         return False
     points.append(point)

@@ -13,6 +13,8 @@ from pathlib import Path
 import pytest
 
 from shared.config import (
+    LOOK_AHEAD_POINTS,
+    MAX_PENDING_POINTS,
     PROFILES,
     Cell,
     ConfigError,
@@ -202,6 +204,14 @@ def test_the_lateness_bound_is_three_periods_unless_set(tmp_path: Path) -> None:
     assert cell.max_lateness_periods == 10
 
 
+def test_one_pending_point_as_motoros_unless_set(tmp_path: Path) -> None:
+    default = load_cell()
+    assert default.pending_points == 1
+    assert default.points_outstanding == LOOK_AHEAD_POINTS
+    deepest = load_cell(write_cell(tmp_path, f"pending_points = {MAX_PENDING_POINTS}\n"))
+    assert deepest.pending_points == deepest.points_outstanding == MAX_PENDING_POINTS
+
+
 # --- the catalogue ------------------------------------------------------------------------
 
 
@@ -387,6 +397,14 @@ BAD_FILES: dict[str, tuple[str, tuple[str, ...]]] = {
     "no lateness allowed": (
         "max_lateness_periods = 0\n",
         ("max_lateness_periods", "must be 1 to 1000"),
+    ),
+    "no pending point": (
+        "pending_points = 0\n",
+        ("pending_points", f"must be 1 to {MAX_PENDING_POINTS}"),
+    ),
+    "too many pending points": (
+        f"pending_points = {MAX_PENDING_POINTS + 1}\n",
+        ("pending_points", f"must be 1 to {MAX_PENDING_POINTS}"),
     ),
     "bad cell name": ('name = "a/b"\n', ("name", "'a/b'", "letters, digits, - or _")),
     "empty cell name": ('name = ""\n', ("name", "''", "letters, digits, - or _")),

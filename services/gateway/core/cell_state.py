@@ -20,11 +20,11 @@ def queue_stream(group: int) -> str:
 
 
 class CellState:
-    def __init__(self, groups: int) -> None:
+    def __init__(self, groups: int, pending_points: int = 1) -> None:
         self.status: ControllerStatus | None = None
         self.not_ready_count = 0
         """Counts not-ready statuses seen; a trajectory started before a change is over."""
-        self.groups = [GroupCredit() for _ in range(groups)]
+        self.groups = [GroupCredit(pending_points=pending_points) for _ in range(groups)]
         self.freshness = Freshness()
 
     def on_status(self, status: ControllerStatus) -> None:

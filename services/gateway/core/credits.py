@@ -1,9 +1,9 @@
-"""One group's pending-slot credit: MotoROS's ``hasDataToProcess`` flag (motoros1 §2.4
-step 6), held across two processes. Pure.
+"""One group's pending-point credit: MotoROS's ``hasDataToProcess`` flag (motoros1 §2.4
+step 6), held across two processes, and motocell's deeper pending-point FIFO. Pure.
 
 The gateway numbers every point it publishes to a group (``Point.point_id``); the group's
-interpolator reports the highest number it has taken (``Slot.taken_id``); the slot is free when
-the two agree. The executor's ring state (``QueueState``) says whether outstanding points fit.
+interpolator reports the highest number it has taken (``Slot.taken_id``); the points between
+are outstanding. ``accepts_point`` is the one rule for whether another may join them.
 """
 
 from __future__ import annotations
@@ -14,9 +14,7 @@ from dataclasses import dataclass, field
 import msgspec
 
 from shared.bus.schemas import Point, QueueState, Slot
-
-MAX_AHEAD = 3
-"""Points a group may have outstanding when they all fit its ring (see ``pending_fits``)."""
+from shared.config import LOOK_AHEAD_POINTS
 
 
 @dataclass
@@ -32,6 +30,8 @@ class GroupCredit:
     outstanding: deque[tuple[int, int]] = field(default_factory=deque)
     """(point id, ring entries of its segment) of every point published and not yet taken;
     bounded by what the interpolator has not taken yet."""
+    pending_points: int = 1
+    """The pending-point FIFO's depth (the cell file's ``pending_points``; 1 as MotoROS)."""
 
     def on_slot(self, slot: Slot) -> None:
         if slot.instance != self.instance:
@@ -73,18 +73,25 @@ class GroupCredit:
         """Something is queued for the robot in this group, or on its way to the ring."""
         return (self.queue is not None and self.queue.depth > 0) or not self.free
 
+    def accepts_point(self) -> bool:
+        """Whether another point (sequence > 0) may be accepted now, or BUSY: fewer than
+        ``pending_points`` are outstanding (with 1, MotoROS's free slot), or the look-ahead
+        allows it (``pending_fits``). Either way the interpolator holds at most
+        ``Cell.points_outstanding`` of them."""
+        return self.published - self.taken < self.pending_points or self.pending_fits()
+
     def pending_fits(self) -> bool:
         """Every outstanding point's segment fits the executor's ring together: the
         interpolator takes each the moment it arrives, so the slot is as good as free.
         Accepting the next point then skips a Zenoh round trip that would otherwise turn most
         points of a fast stream into BUSY plus a 5 ms retry. A wrong guess (the ring state is
         a tick old) only keeps a point waiting in the interpolator, which checks room itself:
-        nothing can overflow. At most MAX_AHEAD points are ever outstanding."""
+        nothing can overflow. At most LOOK_AHEAD_POINTS points are outstanding this way."""
         queue = self.queue
         ahead = self.outstanding
         return (
             queue is not None
-            and len(ahead) < MAX_AHEAD
+            and len(ahead) < LOOK_AHEAD_POINTS
             and len(ahead) == self.published - self.taken
             and queue.depth + sum(entries for _, entries in ahead) <= queue.capacity
         )

@@ -200,10 +200,8 @@ class Trajectories:
         return None
 
     def _slot_free(self, group: int) -> bool:
-        """The pending slot is free, or as good as free: the outstanding points' segments fit
-        the ring, so only the interpolator's acknowledgement is missing (see GroupCredit)."""
-        credit = self.port.state.groups[group]
-        return credit.free or credit.pending_fits()
+        """The group's pending-point FIFO takes another point (``GroupCredit.accepts_point``)."""
+        return self.port.state.groups[group].accepts_point()
 
     def _check_point(self, data: PointData, sequence: int) -> Verdict:
         """The data checks after the slot check (motoros1 §2.4 steps 5-7, motoros1 §2.5

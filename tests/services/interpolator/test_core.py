@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from services.executor.core import BatchOutcome, ExecutorCore
-from services.interpolator.core import MAX_BATCH, MAX_PENDING_POINTS, Feeder, queue_point
+from services.interpolator.core import MAX_BATCH, Feeder, queue_point
 from shared.bus.schemas import ControllerStatus, IncrementBatch, Point, QueueState, Slot
 from shared.config import Group, load_cell, parse_cell
 from shared.motion.kinematics import IntArray
@@ -283,13 +283,14 @@ def test_a_status_without_the_groups_tool_means_tool_0() -> None:
     assert h.feeder.tool == 0
 
 
-def test_points_beyond_the_pending_limit_are_dropped() -> None:
+@pytest.mark.parametrize("limit", [3, 32])
+def test_points_beyond_the_pending_limit_are_dropped(limit: int) -> None:
     points: deque[Point] = deque()
-    for n in range(MAX_PENDING_POINTS):
-        assert queue_point(points, point(n + 1, n, n * 0.1))
-    assert not queue_point(points, point(99, 99, 9.9))
-    assert len(points) == MAX_PENDING_POINTS
-    assert points[-1].point_id == MAX_PENDING_POINTS
+    for n in range(limit):
+        assert queue_point(points, point(n + 1, n, n * 0.1), limit)
+    assert not queue_point(points, point(99, 99, 9.9), limit)
+    assert len(points) == limit
+    assert points[-1].point_id == limit
 
 
 # -- streaming against a real ExecutorCore ----------------------------------------------------

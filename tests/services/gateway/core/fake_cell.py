@@ -84,8 +84,8 @@ class Call:
 
 
 class FakeCell:
-    def __init__(self, groups: int) -> None:
-        self.state = CellState(groups)
+    def __init__(self, groups: int, pending_points: int = 1) -> None:
+        self.state = CellState(groups, pending_points)
         self.alive = True
         self.sent: list[tuple[int, Point]] = []
         self.calls: list[Call] = []
@@ -156,7 +156,7 @@ class FakeCell:
 def gateway(cell: Cell | None = None) -> tuple[MotionHandler, FakeCell]:
     """A motion handler on a ready fake cell."""
     cell = cell or one_group()
-    fake = FakeCell(len(cell.groups)).ready()
+    fake = FakeCell(len(cell.groups), cell.pending_points).ready()
     return MotionHandler(cell, fake, IoHandler(fake), SYNC_SEED), fake
 
 

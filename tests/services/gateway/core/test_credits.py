@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from services.gateway.core.cell_state import CellState
-from services.gateway.core.credits import MAX_AHEAD, GroupCredit
+from services.gateway.core.credits import GroupCredit
 from shared.bus.schemas import Point
-from shared.config import parse_cell
+from shared.config import LOOK_AHEAD_POINTS, parse_cell
 from shared.motion.interpolation import Knot, Trajectory, max_segment_entries
 from shared.motion.kinematics import AxisMap
 from shared.protocol.constants import NotReadySubcode
@@ -90,11 +90,55 @@ def test_taken_points_are_forgotten_even_when_nobody_asks_whether_they_fit() -> 
 
 def test_at_most_max_ahead_points_are_outstanding_even_when_they_fit() -> None:
     group = credit()
-    for _ in range(MAX_AHEAD - 1):
+    for _ in range(LOOK_AHEAD_POINTS - 1):
         group.number(POINT, 1)
     assert group.pending_fits()
     group.number(POINT, 1)
     assert not group.pending_fits()
+
+
+def outstanding_accepted(group: GroupCredit) -> int:
+    """How many points (of 5 entries) the group accepts in a row, none taken."""
+    count = 0
+    while group.accepts_point() and count < 100:
+        group.number(POINT, 5)
+        count += 1
+    return count
+
+
+def test_one_pending_point_accepts_while_the_slot_is_free_or_the_look_ahead_fits() -> None:
+    assert outstanding_accepted(credit(depth=CAPACITY)) == 1
+    assert outstanding_accepted(credit()) == LOOK_AHEAD_POINTS
+
+
+@pytest.mark.parametrize("pending_points", [2, 4, 32])
+def test_a_deeper_fifo_accepts_that_many_points_whatever_the_ring_holds(
+    pending_points: int,
+) -> None:
+    full = credit(depth=CAPACITY)
+    full.pending_points = pending_points
+    assert outstanding_accepted(full) == pending_points
+    empty = credit()
+    empty.pending_points = pending_points
+    assert outstanding_accepted(empty) == max(pending_points, LOOK_AHEAD_POINTS)
+
+
+def test_a_deeper_fifo_accepts_again_as_the_interpolator_takes_points() -> None:
+    group = credit(depth=CAPACITY)
+    group.pending_points = 4
+    outstanding_accepted(group)
+    group.on_slot(slot(taken=1))
+    assert group.accepts_point()
+    group.number(POINT, 5)
+    assert not group.accepts_point()
+
+
+def test_a_deeper_fifo_counts_from_what_a_restarted_interpolator_has_taken() -> None:
+    group = credit(depth=CAPACITY)
+    group.pending_points = 2
+    outstanding_accepted(group)
+    group.on_slot(slot(taken=0, instance=INSTANCE + 1))
+    assert outstanding_accepted(group) == 2
 
 
 def test_pending_fits_needs_the_ring_state() -> None:

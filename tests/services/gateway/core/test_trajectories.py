@@ -7,8 +7,7 @@ from __future__ import annotations
 import msgspec
 import pytest
 
-from services.gateway.core.credits import MAX_AHEAD
-from shared.config import parse_cell
+from shared.config import LOOK_AHEAD_POINTS, parse_cell
 from shared.protocol.constants import InvalidSubcode, NotReadySubcode, Result
 from shared.protocol.messages import JointTrajPtExGroup, Message
 from shared.protocol.replies import ex_group, traj_point, traj_point_ex
@@ -148,19 +147,19 @@ def test_a_time_that_does_not_increase_is_refused() -> None:
     assert verdict_of(exchange(handler, point(1, 0.4)).reply) == invalid(InvalidSubcode.DATA_TIME)
 
 
-def test_busy_once_max_ahead_points_are_outstanding() -> None:
+def test_busy_once_the_look_ahead_points_are_outstanding() -> None:
     handler, cell = gateway()
-    for sequence in range(MAX_AHEAD):
+    for sequence in range(LOOK_AHEAD_POINTS):
         assert verdict_of(exchange(handler, point(sequence, 0.1 * sequence)).reply) == OK
-    busy = exchange(handler, point(MAX_AHEAD, 0.1 * MAX_AHEAD))
+    busy = exchange(handler, point(LOOK_AHEAD_POINTS, 0.1 * LOOK_AHEAD_POINTS))
     assert verdict_of(busy.reply) == BUSY
     assert reply_of(busy.reply).group_no == 0
-    assert len(cell.sent) == MAX_AHEAD
+    assert len(cell.sent) == LOOK_AHEAD_POINTS
 
 
 def test_busy_ends_when_the_interpolator_takes_the_points() -> None:
     handler, cell = gateway()
-    for sequence in range(MAX_AHEAD):
+    for sequence in range(LOOK_AHEAD_POINTS):
         exchange(handler, point(sequence, 0.1 * sequence))
     cell.take_all()
     assert verdict_of(exchange(handler, point(3, 0.3)).reply) == OK
@@ -178,9 +177,37 @@ def test_busy_when_the_outstanding_segments_do_not_fit_the_ring() -> None:
     assert verdict_of(exchange(handler, point(2, 0.2)).reply) == OK
 
 
+def test_pending_points_4_accepts_four_points_the_ring_has_no_room_for() -> None:
+    handler, cell = gateway(parse_cell({"pending_points": 4}))
+    cell.state.on_queue(0, queue(depth=CAPACITY))
+    exchange(handler, point(0, 0.0))
+    cell.take_all()
+    for sequence in range(1, 5):
+        assert verdict_of(exchange(handler, point(sequence, 0.1 * sequence)).reply) == OK
+    assert verdict_of(exchange(handler, point(5, 0.5)).reply) == BUSY
+    cell.state.on_slot(0, slot(taken=2, trajectory_id=1))
+    assert verdict_of(exchange(handler, point(5, 0.5)).reply) == OK
+
+
+def test_pending_points_4_holds_every_group_of_a_2016_to_it() -> None:
+    handler, cell = gateway(
+        parse_cell({"groups": [{"name": "R1"}, {"name": "R2"}], "pending_points": 4})
+    )
+    for group in (0, 1):
+        cell.state.on_queue(group, queue(depth=CAPACITY))
+    exchange(handler, ex(0, *both(0.0)))
+    cell.take_all(0)
+    cell.take_all(1)
+    for sequence in range(1, 5):
+        assert verdict_of(exchange(handler, ex(sequence, *both(0.1 * sequence))).reply) == OK
+    busy = exchange(handler, ex(5, *both(0.5))).reply
+    assert verdict_of(busy) == BUSY
+    assert reply_of(busy).group_no == 0
+
+
 def test_sequence_0_waits_in_line_instead_of_busy() -> None:
     handler, cell = gateway()
-    for sequence in range(MAX_AHEAD):
+    for sequence in range(LOOK_AHEAD_POINTS):
         exchange(handler, point(sequence, 0.1 * sequence))
     assert verdict_of(exchange(handler, point(0, 0.0)).reply) == OK
     assert cell.sent[-1][1].sequence == 0
@@ -199,9 +226,9 @@ def test_a_resent_point_is_answered_success_without_publishing_it_again() -> Non
 
 def test_a_resend_is_recognised_even_while_the_slot_is_busy() -> None:
     handler, _ = gateway()
-    for sequence in range(MAX_AHEAD):
+    for sequence in range(LOOK_AHEAD_POINTS):
         exchange(handler, point(sequence, 0.1 * sequence))
-    assert verdict_of(exchange(handler, point(MAX_AHEAD - 1, 0.2)).reply) == OK
+    assert verdict_of(exchange(handler, point(LOOK_AHEAD_POINTS - 1, 0.2)).reply) == OK
 
 
 def test_a_trajectory_is_over_once_motion_ready_dropped() -> None:
@@ -305,10 +332,10 @@ def test_a_failing_start_check_in_a_later_group_publishes_nothing() -> None:
 def test_2016_busy_names_the_busy_group_and_publishes_nothing() -> None:
     handler, cell = gateway(two_groups())
     exchange(handler, ex(0, *both(0.0)))
-    for sequence in range(1, MAX_AHEAD):
+    for sequence in range(1, LOOK_AHEAD_POINTS):
         exchange(handler, point(sequence, 0.1 * sequence, group=1))
     sent = len(cell.sent)
-    reply = exchange(handler, ex(MAX_AHEAD, *both(0.1 * MAX_AHEAD))).reply
+    reply = exchange(handler, ex(LOOK_AHEAD_POINTS, *both(0.1 * LOOK_AHEAD_POINTS))).reply
     assert verdict_of(reply) == BUSY
     assert reply_of(reply).group_no == 1
     assert len(cell.sent) == sent
