@@ -162,7 +162,11 @@ def test_a_groups_interpolator_on_another_host_through_a_router(repo: Path) -> N
             return process
 
         maps = [AxisMap(group) for group in cell.cell.groups]
-        wait_until(lambda: connectable(cell.host, cell.port_base + 1), 30.0, "the gateway")
+        wait_until(
+            lambda: all(connectable(cell.host, cell.port_base + i) for i in (0, 1)),
+            30.0,
+            "the motion port (gateway) and the state port (broadcaster)",
+        )
         with cell.motion() as motion, cell.state() as state:
             state.wait_for(lambda f: f.status is not None and f.status.drives_powered != -1, 30)
             reply = motion.command(Command.START_TRAJ_MODE)
