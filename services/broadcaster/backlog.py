@@ -4,11 +4,16 @@ A real controller sends its current state at its period; a client that cannot ke
 states, it does not get old ones later. So a client's backlog is at most two cycles: the rest
 of the cycle already begun (finished first, so frames never interleave and a cycle stays whole
 up to its ROBOT_STATUS) and the newest cycle not begun, which a newer one replaces.
+
+Each message goes out in its own ``send``, as MotoROS writes each with its own ``mpSend`` on a
+TCP_NODELAY socket: clients that read one message per ``recv`` (the ``moto`` Python client
+reads ``recv(1024)`` per message) then find message boundaries where they expect them.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections import deque
+from collections.abc import Callable, Sequence
 
 STUCK_S = 2.0
 """A client that takes no byte of its backlog for this long is closed: it is gone or stopped,
@@ -17,11 +22,15 @@ and its slot is one of only four (motoros1 §6)."""
 Send = Callable[[memoryview], int]
 """``socket.send`` of a non-blocking socket: the bytes taken; BlockingIOError when full."""
 
+Cycle = Sequence[bytes]
+"""One state cycle: its messages, each encoded whole, in the order they are sent."""
+
 
 class Backlog:
     def __init__(self) -> None:
-        self._rest = memoryview(b"")
-        self._newest: bytes | None = None
+        self._rest: deque[memoryview] = deque()
+        """What is left of the cycle begun: its unsent messages, the first maybe in part."""
+        self._newest: Cycle | None = None
         self._stuck_since: float | None = None
         self.replaced = 0
         """Cycles this client never got because a newer one came before it could take them."""
@@ -30,7 +39,7 @@ class Backlog:
     def pending(self) -> bool:
         return bool(self._rest) or self._newest is not None
 
-    def offer(self, cycle: bytes) -> None:
+    def offer(self, cycle: Cycle) -> None:
         """The newest cycle, to go after the one begun, instead of any older one not begun."""
         if self._newest is not None:
             self.replaced += 1
@@ -43,15 +52,18 @@ class Backlog:
         while self.pending:
             if not self._rest:
                 assert self._newest is not None
-                self._rest, self._newest = memoryview(self._newest), None
+                self._rest.extend(memoryview(message) for message in self._newest)
+                self._newest = None
+            message = self._rest[0]
             try:
-                sent = send(self._rest)
+                sent = send(message)
             except BlockingIOError:
                 sent = 0
-            self._rest = self._rest[sent:]
             progressed = progressed or sent > 0
-            if self._rest:
+            if sent < len(message):
+                self._rest[0] = message[sent:]
                 break  # the socket is full: the rest waits for the next cycle
+            self._rest.popleft()
         if progressed or not self.pending:
             self._stuck_since = now if self.pending else None
             return True

@@ -1,5 +1,6 @@
 """One state cycle as Simple Message frames, the way MotoROS's state server sends it
-(motoros1 §6). Pure: a ``State`` in, bytes out, built once per cycle for every client."""
+(motoros1 §6). Pure: a ``State`` in, its messages' bytes out, built once per cycle for every
+client."""
 
 from __future__ import annotations
 
@@ -19,9 +20,10 @@ def _joints(values: list[float]) -> tuple[float, ...]:
     return (*values, *([0.0] * (MAX_JOINTS - len(values))))
 
 
-def state_frames(state: State, byte_order: ByteOrder) -> bytes:
+def state_frames(state: State, byte_order: ByteOrder) -> tuple[bytes, ...]:
     """JOINT_FEEDBACK per group, then JOINT_FEEDBACK_EX when there are 2+ groups (always 4
-    slots), then ROBOT_STATUS, which ends the cycle for a client."""
+    slots), then ROBOT_STATUS, which ends the cycle for a client: one frame per message,
+    since each is written on its own (``backlog``)."""
     feedback = [
         JointFeedback(
             g.group_no, FEEDBACK_FIELDS, 0.0, _joints(g.positions), _joints(g.velocities), _ZEROS
@@ -50,4 +52,4 @@ def state_frames(state: State, byte_order: ByteOrder) -> bytes:
             ),
         )
     )
-    return b"".join(encode(m, byte_order, Role.CONTROLLER) for m in messages)
+    return tuple(encode(m, byte_order, Role.CONTROLLER) for m in messages)

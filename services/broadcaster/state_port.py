@@ -13,7 +13,7 @@ import contextlib
 import logging
 import socket
 
-from services.broadcaster.backlog import STUCK_S, Backlog
+from services.broadcaster.backlog import STUCK_S, Backlog, Cycle
 from services.broadcaster.core import Admission, admission
 
 log = logging.getLogger("broadcaster")
@@ -84,7 +84,7 @@ class StatePort:
             self.clients.append(StateClient(sock, peer))
             log.info("state: client %s:%d connected", *peer)
 
-    def send(self, cycle: bytes, now: float) -> None:
+    def send(self, cycle: Cycle, now: float) -> None:
         """One cycle's frames to every client, as far as each takes them now."""
         for client in list(self.clients):
             client.backlog.offer(cycle)

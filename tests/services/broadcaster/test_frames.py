@@ -61,14 +61,14 @@ ROBOT_STATUS = RobotStatus(1, 0, 4321, 1, 1, 2, 0)
 
 def test_one_group_sends_its_feedback_and_the_robot_status() -> None:
     arm = group(0)
-    messages = read_back(state_frames(state(arm), ByteOrder.LITTLE))
+    messages = read_back(b"".join(state_frames(state(arm), ByteOrder.LITTLE)))
     assert [m.msg_type for m in messages] == [MsgType.JOINT_FEEDBACK, MsgType.ROBOT_STATUS]
     assert messages[0].body == feedback(arm)
     assert messages[1].body == ROBOT_STATUS
 
 
 def test_feedback_carries_positions_and_velocities() -> None:
-    messages = read_back(state_frames(state(group(0)), ByteOrder.LITTLE))
+    messages = read_back(b"".join(state_frames(state(group(0)), ByteOrder.LITTLE)))
     body = messages[0].body
     assert isinstance(body, JointFeedback)
     assert body.valid_fields == 6
@@ -76,14 +76,14 @@ def test_feedback_carries_positions_and_velocities() -> None:
 
 
 def test_every_message_is_a_topic() -> None:
-    messages = read_back(state_frames(state(group(0), group(1)), ByteOrder.LITTLE))
+    messages = read_back(b"".join(state_frames(state(group(0), group(1)), ByteOrder.LITTLE)))
     assert {(m.comm_type, m.reply_type) for m in messages} == {(CommType.TOPIC, ReplyType.INVALID)}
 
 
 @pytest.mark.parametrize("count", [2, 3, 4])
 def test_several_groups_add_the_combined_feedback(count: int) -> None:
     groups = [group(index, axes=6 if index % 2 == 0 else 1) for index in range(count)]
-    messages = read_back(state_frames(state(*groups), ByteOrder.LITTLE))
+    messages = read_back(b"".join(state_frames(state(*groups), ByteOrder.LITTLE)))
     assert [m.msg_type for m in messages] == [
         *[MsgType.JOINT_FEEDBACK] * count,
         MsgType.MOTO_JOINT_FEEDBACK_EX,
@@ -99,7 +99,13 @@ def test_several_groups_add_the_combined_feedback(count: int) -> None:
 
 def test_big_endian_frames_read_back_the_same() -> None:
     two = state(group(0), group(1))
-    little = read_back(state_frames(two, ByteOrder.LITTLE))
+    little = read_back(b"".join(state_frames(two, ByteOrder.LITTLE)))
     big_bytes = state_frames(two, ByteOrder.BIG)
     assert big_bytes != state_frames(two, ByteOrder.LITTLE)
-    assert read_back(big_bytes, ByteOrder.BIG) == little
+    assert read_back(b"".join(big_bytes), ByteOrder.BIG) == little
+
+
+def test_every_frame_is_one_whole_message() -> None:
+    """Each is written on its own, so each must decode alone (one message per ``recv``)."""
+    frames = state_frames(state(group(0), group(1)), ByteOrder.LITTLE)
+    assert [len(read_back(frame)) for frame in frames] == [1, 1, 1, 1]

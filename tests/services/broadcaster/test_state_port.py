@@ -70,8 +70,8 @@ def connect(port: StatePort, clients: list[Client], count: int, queued: bool = F
 
 def test_every_client_gets_each_cycle(port: StatePort, clients: list[Client]) -> None:
     connect(port, clients, MAX_STATE_CLIENTS)
-    port.send(b"cycle one;", 0.0)
-    port.send(b"cycle two;", 0.0)
+    port.send((b"cycle one;",), 0.0)
+    port.send((b"cycle two;",), 0.0)
     for client in clients:
         assert client.read(20) == b"cycle one;cycle two;"
 
@@ -83,7 +83,7 @@ def test_a_fifth_client_replaces_the_first_while_nothing_is_queued(
     connect(port, clients, 1, queued=False)
     assert clients[0].closed_by_server()
     assert len(port.clients) == MAX_STATE_CLIENTS
-    port.send(b"still here", 0.0)
+    port.send((b"still here",), 0.0)
     for client in clients[1:]:
         assert client.read(10) == b"still here"
 
@@ -94,7 +94,7 @@ def test_a_fifth_client_is_refused_while_motion_is_queued(
     connect(port, clients, MAX_STATE_CLIENTS)
     connect(port, clients, 1, queued=True)
     assert clients[-1].closed_by_server()
-    port.send(b"still here", 0.0)
+    port.send((b"still here",), 0.0)
     for client in clients[:-1]:
         assert client.read(10) == b"still here"
 
@@ -105,7 +105,7 @@ def fill(port: StatePort, size: int, now: float, reader: Client | None = None) -
     number = 0
     while not port.clients[0].backlog.pending:
         number += 1
-        port.send(bytes([number]) * size, now)
+        port.send((bytes([number]) * size,), now)
         if reader is not None:
             assert reader.read(size) == bytes([number]) * size
     return number
@@ -118,7 +118,7 @@ def test_a_slow_client_gets_whole_cycles_and_then_the_newest(
     begun = fill(port, CYCLE_BYTES, 0.0)
     newest = begun + 10  # far more than the client's buffers hold while it does not read
     for newer in range(begun + 1, newest + 1):
-        port.send(bytes([newer]) * CYCLE_BYTES, 0.0)
+        port.send((bytes([newer]) * CYCLE_BYTES,), 0.0)
     received = bytearray()
     while len(received) % CYCLE_BYTES or not received or received[-1] != newest:
         received += clients[0].sock.recv(1 << 20)
@@ -143,7 +143,7 @@ def test_a_client_that_takes_nothing_for_the_bound_is_closed(
     assert len(port.clients) == 1
     assert port.closed_stuck == 1
     assert clients[0].closed_by_server()
-    port.send(b"on", 10.0 + STUCK_S)
+    port.send((b"on",), 10.0 + STUCK_S)
     assert clients[1].read(2) == b"on"
 
 
@@ -152,7 +152,7 @@ def test_a_client_that_hung_up_is_dropped(port: StatePort, clients: list[Client]
     clients[0].close()
 
     def dropped() -> bool:
-        port.send(b"x", 0.0)  # the first send after a hang-up can still succeed
+        port.send((b"x",), 0.0)  # the first send after a hang-up can still succeed
         return len(port.clients) == 1
 
     wait_until(dropped, 5.0, "the drop")
