@@ -43,9 +43,13 @@ class PointData:
     velocities: Sequence[float]
 
 
+_REQUIRED_FIELDS = int(REQUIRED_POINT_FIELDS)
+"""As a plain int: masking with the flag would build an enum member on every point."""
+
+
 def check_fields(point: PointData) -> Verdict | None:
     """motoros1 §2.4 step 3: time, position and velocity must all be present (3015)."""
-    if point.valid_fields & REQUIRED_POINT_FIELDS != REQUIRED_POINT_FIELDS:
+    if point.valid_fields & _REQUIRED_FIELDS != _REQUIRED_FIELDS:
         return invalid(InvalidSubcode.DATA_INSUFFICIENT)
     return None
 
@@ -57,14 +61,21 @@ def check_time_limit(point: PointData) -> Verdict | None:
     return None
 
 
-def check_positions(point: PointData, axis_map: AxisMap) -> Verdict | None:
-    """Positions must be finite and convertible to pulses (3012). MotoROS does not check; a
-    huge value would overflow the pulse arithmetic (and dodge the start check) instead."""
-    positions = point.positions[: axis_map.axes]
-    if not all(math.isfinite(p) for p in positions):
-        return invalid(InvalidSubcode.DATA_POSITION)
-    pulses = np.abs(np.array(positions, dtype=np.float64)[axis_map.ros_index_of_moto])
-    if np.any(pulses * axis_map.pulses_per_unit_moto >= MAX_ABS_PULSES):
+def position_bounds(axis_map: AxisMap) -> tuple[float, ...]:
+    """Per axis (ROS order), the size of a position whose pulses reach MAX_ABS_PULSES: worked
+    out once per group, so checking a point takes no array arithmetic (it is on every reply)."""
+    bounds = [0.0] * axis_map.axes
+    for moto, ros in enumerate(axis_map.ros_index_of_moto.tolist()):
+        bounds[ros] = MAX_ABS_PULSES / float(axis_map.pulses_per_unit_moto[moto])
+    return tuple(bounds)
+
+
+def check_positions(point: PointData, bounds: Sequence[float]) -> Verdict | None:
+    """Positions must be finite and convertible to pulses (3012, ``position_bounds``). MotoROS
+    does not check; a huge value would overflow the pulse arithmetic (and dodge the start
+    check) instead. NaN fails the comparison too."""
+    positions = point.positions[: len(bounds)]
+    if not all(abs(p) < bound for p, bound in zip(positions, bounds, strict=True)):
         return invalid(InvalidSubcode.DATA_POSITION)
     return None
 

@@ -17,6 +17,7 @@ from services.gateway.core.points import (
     check_start,
     check_time_limit,
     invalid,
+    position_bounds,
 )
 from shared.bus.schemas import Point
 from shared.config import Cell
@@ -52,6 +53,7 @@ class Trajectories:
     def __init__(self, cell: Cell, port: CellPort, sync_seed: int) -> None:
         self.port = port
         self.maps = [AxisMap(group) for group in cell.groups]
+        self.position_bounds = [position_bounds(axis_map) for axis_map in self.maps]
         self.tracks = [GroupTrajectory() for _ in cell.groups]
         self.period_ns = cell.period_ns
         self.sync_id = sync_seed
@@ -210,7 +212,7 @@ class Trajectories:
         axis_map = self.maps[group]
         if sequence < 0:
             return invalid(InvalidSubcode.SEQUENCE)
-        verdict = check_positions(data, axis_map)
+        verdict = check_positions(data, self.position_bounds[group])
         if verdict is not None:
             return verdict
         if sequence == 0:

@@ -9,6 +9,7 @@ from collections.abc import Sequence
 import pytest
 
 from services.gateway.core.points import (
+    MAX_ABS_PULSES,
     MAX_TRAJECTORY_TIME_S,
     OK,
     START_TOLERANCE_PULSES,
@@ -20,6 +21,7 @@ from services.gateway.core.points import (
     check_start,
     check_time_limit,
     invalid,
+    position_bounds,
 )
 from shared.config import parse_cell
 from shared.motion.kinematics import AxisMap
@@ -34,7 +36,7 @@ INVALID = 3
 
 def check_values(point: PointData, axis_map: AxisMap) -> Verdict | None:
     """Positions, then speeds: the data checks of a point after the first."""
-    return check_positions(point, axis_map) or check_speeds(point, axis_map)
+    return check_positions(point, position_bounds(axis_map)) or check_speeds(point, axis_map)
 
 
 def data(
@@ -183,9 +185,21 @@ def test_check_start_ignores_command_slots_beyond_the_group_axes() -> None:
 
 def test_positions_beyond_the_pulse_range_are_refused() -> None:
     # 1e15 rad would overflow the pulse arithmetic and slip past the start check.
-    assert check_positions(data(positions=[1e15, 0, 0, 0, 0, 0]), ARM6) == (INVALID, 3012)
-    assert check_positions(data(positions=[20000.0, 0, 0, 0, 0, 0]), ARM6) == (INVALID, 3012)
-    assert check_positions(data(positions=[1000.0, 0, 0, 0, 0, 0]), ARM6) is None
+    assert check_positions(data(positions=[1e15, 0, 0, 0, 0, 0]), position_bounds(ARM6)) == (
+        INVALID,
+        3012,
+    )
+    assert check_positions(data(positions=[20000.0, 0, 0, 0, 0, 0]), position_bounds(ARM6)) == (
+        INVALID,
+        3012,
+    )
+    assert check_positions(data(positions=[1000.0, 0, 0, 0, 0, 0]), position_bounds(ARM6)) is None
+
+
+@pytest.mark.parametrize("axis_map", [ARM6, ARM7, TRACK])
+def test_position_bounds_are_each_axis_own_in_ros_order(axis_map: AxisMap) -> None:
+    pulses_per_unit = axis_map.pulses_per_unit_moto[axis_map.moto_index_of_ros]
+    assert position_bounds(axis_map) == pytest.approx(tuple(MAX_ABS_PULSES / pulses_per_unit))
 
 
 def test_start_check_goes_axis_by_axis_like_motoros() -> None:
