@@ -142,7 +142,12 @@ ROUTES: tuple[Route, ...] = (
         "executor/tick", Op.PUT, Tick, _roles(EXECUTOR), _roles(CONTROLLER, BROADCASTER) | WATCHERS
     ),
     Route(
-        "executor/cmd/*", Op.QUERY, CommandRequest, _roles(GATEWAY), _roles(EXECUTOR), CommandReply
+        "executor/cmd/stop",
+        Op.QUERY,
+        CommandRequest,
+        _roles(GATEWAY),
+        _roles(EXECUTOR),
+        CommandReply,
     ),
     Route("executor/metrics", Op.PUT, ExecutorMetrics, _roles(EXECUTOR), WATCHERS),
     Route("gateway/metrics", Op.PUT, GatewayMetrics, _roles(GATEWAY), WATCHERS),
