@@ -10,8 +10,12 @@ from shared.bus.schemas import InterpolatorMetrics, Slot, encode
 from shared.bus.session import publisher
 from shared.service import ServiceContext
 
-SLOT_REFRESH_S = 0.5
-"""Also publish the slot periodically, so a gateway that (re)starts learns it."""
+SLOT_REFRESH_S = 0.1
+"""Also publish the slot periodically, so a gateway that (re)starts learns it, and one that
+forgot it learns it again: at start-up the controller's statuses can still list this
+interpolator as missing after its first slot went out, and the gateway forgets a missing
+interpolator's slot. At 0.5 s that wait made up a quarter of a cell's start-up (motion-ready
+1.2 s instead of 0.9 s); ten small samples a second cost nothing measurable."""
 METRICS_S = 1.0
 
 
