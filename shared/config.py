@@ -35,6 +35,9 @@ MAX_PENDING_POINTS = 32
 """The deepest pending-point FIFO a cell file may ask for (``pending_points``): ample for a
 client that streams a few points ahead (32 points 4 ms apart are 128 ms of motion), and a bound
 on what each interpolator holds."""
+MAX_START_BUFFER_PERIODS = 50
+"""The longest start buffer a cell file may ask for (``start_buffer_periods``): 200 ms at 4 ms,
+far beyond any latency a client's stream should have to absorb."""
 LOOK_AHEAD_POINTS = 3
 """Points the gateway may have outstanding per group, whatever ``pending_points`` says, while
 their segments all fit the executor's ring together (``GroupCredit.pending_fits``)."""
@@ -130,6 +133,11 @@ class CellFile(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
     """How many accepted points a group may hold waiting for its interpolator: 1 is MotoROS's
     single pending point (motoros1 §3.1); more is motocell's deeper pending-point FIFO
     (docs/behaviour.md, "Pending points")."""
+    start_buffer_periods: int = 0
+    """How many periods a new trajectory waits in the ring before it moves: 0 is MotoROS (the
+    first increment goes out at the next tick); more is motocell's start buffer, a margin
+    against late points for clients that stream without lookahead (docs/behaviour.md,
+    "Start buffer")."""
     host: str = "127.0.0.1"
     port_base: int = 50240
     groups: list[GroupConfig] = msgspec.field(default_factory=lambda: [GroupConfig()])
@@ -167,6 +175,8 @@ class Cell:
     max_lateness_periods: int = DEFAULT_MAX_LATENESS_PERIODS
     pending_points: int = 1
     """The pending-point FIFO's depth per group (``CellFile.pending_points``)."""
+    start_buffer_periods: int = 0
+    """Hold entries before a trajectory's first segment (``CellFile.start_buffer_periods``)."""
 
     @property
     def points_outstanding(self) -> int:
@@ -360,6 +370,8 @@ def resolve(
         raise ConfigError(f"{where}: max_lateness_periods: must be 1 to 1000")
     if not 1 <= cell_file.pending_points <= MAX_PENDING_POINTS:
         raise ConfigError(f"{where}: pending_points: must be 1 to {MAX_PENDING_POINTS}")
+    if not 0 <= cell_file.start_buffer_periods <= MAX_START_BUFFER_PERIODS:
+        raise ConfigError(f"{where}: start_buffer_periods: must be 0 to {MAX_START_BUFFER_PERIODS}")
     if not 1 <= cell_file.port_base <= 65533:
         raise ConfigError(f"{where}: port_base: must be 1 to 65533")
     groups = []
@@ -395,4 +407,5 @@ def resolve(
         zenoh=cell_file.zenoh,
         max_lateness_periods=cell_file.max_lateness_periods,
         pending_points=cell_file.pending_points,
+        start_buffer_periods=cell_file.start_buffer_periods,
     )

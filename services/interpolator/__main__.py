@@ -29,6 +29,7 @@ def run(ctx: ServiceContext, group_index: int) -> None:
         cell.period_ns,
         send=lambda batch: increments_pub.put(encode(batch)),
         instance=time.time_ns(),
+        start_buffer_periods=cell.start_buffer_periods,
     )
     reports = Reports(ctx, group_index, feeder)
     inputs = Inputs(ctx, group_index, wake_s=SLOT_REFRESH_S)

@@ -40,8 +40,15 @@ class Feeder:
         period_ns: int,
         send: Callable[[IncrementBatch], None],
         instance: int = 0,
+        start_buffer_periods: int = 0,
     ) -> None:
         self.instance = instance
+        self.start_buffer_periods = start_buffer_periods
+        self.hold = 0
+        """Hold entries (no motion) still to send before the current segment's own: a new
+        trajectory's start buffer (``Cell.start_buffer_periods``)."""
+        self.trajectory_starting = False
+        """A sequence-0 point was taken and its trajectory's first segment not yet."""
         self.group_index = group.index
         self.axis_map = AxisMap(group)
         self.period_ns = period_ns
@@ -80,10 +87,16 @@ class Feeder:
             self.trajectory = None
             self.trajectory_id = 0
             self.segment = None
+            self.hold = 0
             self.sync = None
             self.sent = 0
             self.taken_id = self.received_id
         self.queue = state
+
+    def _ring_idle(self) -> bool:
+        """Nothing queued or on its way: the robot is at rest."""
+        queue = self.queue
+        return queue is not None and queue.depth == 0 and self.sent == queue.received
 
     def room(self) -> int:
         queue = self.queue
@@ -100,14 +113,14 @@ class Feeder:
                 # Wait for room for a whole batch (or the rest of the segment): with a full
                 # ring draining one entry a tick, sending whatever fits would mean a message
                 # per entry.
-                if room < min(MAX_BATCH, self.segment.remaining):
+                if room < min(MAX_BATCH, self.hold + self.segment.remaining):
                     if not self.waiting_for_room:
                         self.waiting_for_room = True
                         self.busy_episodes += 1
                     return
                 self.waiting_for_room = False
-                self._send(self.segment.take(min(room, MAX_BATCH)))
-                if self.segment.remaining == 0:
+                self._send(self._next_entries(self.segment, min(room, MAX_BATCH)))
+                if self.hold == 0 and self.segment.remaining == 0:
                     self.segment = None
                     self.taken_id = self.segment_point_id
                 continue
@@ -128,6 +141,7 @@ class Feeder:
         if point.sequence == 0:
             self.trajectory = Trajectory(self.axis_map, self.period_ns, knot, self._start_pulses())
             self.trajectory_id = point.point_id
+            self.trajectory_starting = True
             self.sync = None
             self.taken_id = point.point_id
             self.points_accepted += 1
@@ -147,12 +161,39 @@ class Feeder:
             self.taken_id = point.point_id
             return
         self.segment_point_id = point.point_id
+        if self.trajectory_starting and self._ring_idle():
+            # A trajectory that starts from rest: it moves after the start buffer, so every
+            # later point has that much more time to arrive before the ring runs dry.
+            self.hold = self.start_buffer_periods
+        self.trajectory_starting = False
         # The first segment of a 2016 trajectory starts in step with its partner groups.
         self.sync = (point.sync_id, point.sync_groups) if point.sync_groups else None
         # The tool is captured when a segment is interpolated, never changed mid-segment
         # (motoros1 §2.7, SELECT_TOOL).
         self.segment_tool = self.tool
         self.points_accepted += 1
+
+    def _next_entries(self, segment: Segment, limit: int) -> Entries:
+        """Up to ``limit`` entries: hold entries first (zero increments, at the trajectory's
+        start time), then the segment's own."""
+        held = min(limit, self.hold)
+        if held == 0:
+            return segment.take(limit)
+        self.hold -= held
+        assert self.trajectory is not None
+        hold = Entries(
+            times_ns=np.full(held, self.trajectory.anchor_ns, dtype=np.int64),
+            increments=np.zeros((held, self.axis_map.axes), dtype=np.int32),
+            partial=np.zeros(held, dtype=np.bool_),
+        )
+        if held == limit:
+            return hold
+        rest = segment.take(limit - held)
+        return Entries(
+            times_ns=np.concatenate((hold.times_ns, rest.times_ns)),
+            increments=np.concatenate((hold.increments, rest.increments)),
+            partial=np.concatenate((hold.partial, rest.partial)),
+        )
 
     def _start_pulses(self) -> IntArray:
         """The base of the new trajectory's increments: where the commanded position will be

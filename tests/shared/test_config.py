@@ -15,6 +15,7 @@ import pytest
 from shared.config import (
     LOOK_AHEAD_POINTS,
     MAX_PENDING_POINTS,
+    MAX_START_BUFFER_PERIODS,
     PROFILES,
     Cell,
     ConfigError,
@@ -212,6 +213,12 @@ def test_one_pending_point_as_motoros_unless_set(tmp_path: Path) -> None:
     assert deepest.pending_points == deepest.points_outstanding == MAX_PENDING_POINTS
 
 
+def test_no_start_buffer_as_motoros_unless_set(tmp_path: Path) -> None:
+    assert load_cell().start_buffer_periods == 0
+    cell = load_cell(write_cell(tmp_path, "start_buffer_periods = 3\n"))
+    assert cell.start_buffer_periods == 3
+
+
 # --- the catalogue ------------------------------------------------------------------------
 
 
@@ -405,6 +412,14 @@ BAD_FILES: dict[str, tuple[str, tuple[str, ...]]] = {
     "too many pending points": (
         f"pending_points = {MAX_PENDING_POINTS + 1}\n",
         ("pending_points", f"must be 1 to {MAX_PENDING_POINTS}"),
+    ),
+    "negative start buffer": (
+        "start_buffer_periods = -1\n",
+        ("start_buffer_periods", f"must be 0 to {MAX_START_BUFFER_PERIODS}"),
+    ),
+    "start buffer too long": (
+        f"start_buffer_periods = {MAX_START_BUFFER_PERIODS + 1}\n",
+        ("start_buffer_periods", f"must be 0 to {MAX_START_BUFFER_PERIODS}"),
     ),
     "bad cell name": ('name = "a/b"\n', ("name", "'a/b'", "letters, digits, - or _")),
     "empty cell name": ('name = ""\n', ("name", "''", "letters, digits, - or _")),

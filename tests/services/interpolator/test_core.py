@@ -62,9 +62,11 @@ def total(batches: Sequence[IncrementBatch]) -> list[int]:
 
 
 class Harness:
-    def __init__(self, group: Group = ARM6) -> None:
+    def __init__(self, group: Group = ARM6, start_buffer_periods: int = 0) -> None:
         self.sent: list[IncrementBatch] = []
-        self.feeder = Feeder(group, PERIOD, send=self.sent.append)
+        self.feeder = Feeder(
+            group, PERIOD, send=self.sent.append, start_buffer_periods=start_buffer_periods
+        )
         self.points: deque[Point] = deque()
 
     def feed(self, *points: Point) -> None:
@@ -105,6 +107,41 @@ def test_sequence_0_is_taken_at_once_and_bases_on_the_command_pulses() -> None:
     assert rows(batch)[:, 6:].tolist() == [[0, 0]] * 25
     assert total(h.sent) == [p - c for p, c in zip(pulses(X), command, strict=True)]
     assert h.feeder.slot() == Slot(2, 7, 2, 25, trajectory_id=1)
+
+
+def test_a_trajectory_from_rest_starts_after_the_start_buffer() -> None:
+    h = Harness(start_buffer_periods=3)
+    h.queue(state(epoch=7))
+    h.feed(point(1, 0, 0.0), point(2, 1, 0.1, X, [0.2] * 6))
+    batch = h.sent[0]
+    assert (batch.first_seq, batch.count) == (0, 28)
+    assert rows(batch)[:3].tolist() == [[0] * 8] * 3  # held still for 3 periods
+    assert rows(batch)[3].any()
+    assert batch.times_ns[:4] == [0, 0, 0, PERIOD]
+    assert total(h.sent) == pulses(X)  # the motion itself is unchanged
+    h.feed(point(3, 1, 0.2, Y))
+    assert h.sent[1].count == 25  # later segments are not held
+
+
+def test_a_start_buffer_as_long_as_a_batch_fills_it_alone() -> None:
+    h = Harness(start_buffer_periods=MAX_BATCH)
+    h.queue(state())
+    h.feed(point(1, 0, 0.0), point(2, 1, 0.4, X))  # 100 entries of motion
+    assert [b.count for b in h.sent] == [MAX_BATCH, MAX_BATCH, MAX_BATCH]
+    assert not rows(h.sent[0]).any()
+    assert rows(h.sent[1])[0].any()
+    assert total(h.sent) == pulses(X)
+
+
+def test_a_trajectory_chained_onto_queued_motion_is_not_held() -> None:
+    h = Harness(start_buffer_periods=3)
+    h.queue(state(command=[0] * 8))
+    h.feed(point(1, 0, 0.0), point(2, 1, 0.1, X))
+    assert h.sent[0].count == 28
+    # Its entries are still queued when the next trajectory starts: no pause between them.
+    h.feed(point(3, 0, 5.0, X), point(4, 1, 5.1, Y))
+    assert h.sent[1].count == 25
+    assert total(h.sent) == pulses(Y)
 
 
 def test_off_grid_waypoint_is_flagged_partial() -> None:
