@@ -17,7 +17,10 @@ every executed period moves every axis) from a motion client in its own process
   Goals: 0 empty-queue periods and slot turnaround p99 <= 2 ms;
 - paced 4 ms with ``pending_points = 4`` (a cell of its own; motocell's deeper pending-point
   FIFO, a cell-file setting). Goal: 0 empty-queue periods. Reported as not measured in a tree
-  whose cell files do not have the setting.
+  whose cell files do not have the setting;
+- the two paced goals again with ``start_buffer_periods = 3`` (motocell's start buffer: a
+  trajectory from rest waits 3 periods in the ring, a margin against late points for a client
+  without look-ahead, which no pending-point depth gives), each on a cell of its own.
 
 From the ``executor/tick`` stream (``analyse``):
 
@@ -46,11 +49,12 @@ import numpy as np
 
 from bench.clients import StateClientProcess, StreamClientProcess, StreamRecord, stream_bound_s
 from bench.harness import (
+    Extensions,
     Observer,
     bench_cell,
+    extensions_known,
     figure_result,
     gc_paused,
-    pending_points_known,
     percentiles,
     positions_of,
     ramps,
@@ -82,20 +86,45 @@ class Variant:
     points: int
     paced: bool = False
     busy_retry_s: float = BUSY_RETRY_S
-    pending_points: int = 1
+    extensions: Extensions = ()
+    """motocell's opt-in cell-file settings; variants that share them share a cell."""
     empty_goal: bool = False
     finish_goal: bool = False
     turnaround: bool = False
     """Report the slot turnaround (with its goal)."""
 
 
+PENDING_4 = (("pending_points", 4),)
+START_BUFFER = (("start_buffer_periods", 3),)
 VARIANTS = (
     Variant("motoman_driver", 0.004, 2000, empty_goal=True, finish_goal=True),
     Variant("paced 4 ms", 0.004, 2000, paced=True),
     Variant("BUSY retry 1 ms", 0.004, 2000, busy_retry_s=0.001),
     Variant("paced 8 ms", 0.008, 1000, paced=True, empty_goal=True, turnaround=True),
     Variant(
-        "paced 4 ms, pending_points 4", 0.004, 2000, paced=True, pending_points=4, empty_goal=True
+        "paced 4 ms, pending_points 4",
+        0.004,
+        2000,
+        paced=True,
+        extensions=PENDING_4,
+        empty_goal=True,
+    ),
+    Variant(
+        "paced 8 ms, start buffer 3",
+        0.008,
+        1000,
+        paced=True,
+        extensions=START_BUFFER,
+        empty_goal=True,
+        turnaround=True,
+    ),
+    Variant(
+        "paced 4 ms, pending_points 4, start buffer 3",
+        0.004,
+        2000,
+        paced=True,
+        extensions=PENDING_4 + START_BUFFER,
+        empty_goal=True,
     ),
 )
 
@@ -208,13 +237,13 @@ def _stream_once(
     return result
 
 
-def _measure(pending: int, variants: Sequence[Variant], quick: bool, rows: Rows) -> None:
-    """Every run of ``variants`` on one cell with ``pending`` pending points."""
+def _measure(
+    index: int, extensions: Extensions, variants: Sequence[Variant], quick: bool, rows: Rows
+) -> None:
+    """Every run of ``variants`` on one cell with these ``extensions``."""
     with contextlib.ExitStack() as stack:
         directory = stack.enter_context(workdir())
-        cell = stack.enter_context(
-            bench_cell(directory, f"bench5p{pending}", pending_points=pending)
-        )
+        cell = stack.enter_context(bench_cell(directory, f"bench5c{index}", extensions=extensions))
         observer = stack.enter_context(Observer(cell))
         observer.record_ticks()
         points = observer.record(cell.keys.group_point(0))
@@ -238,10 +267,11 @@ def _measure(pending: int, variants: Sequence[Variant], quick: bool, rows: Rows)
 
 def run(quick: bool) -> list[dict[str, Any]]:
     rows: Rows = {v.name: {} for v in VARIANTS}
-    for pending in sorted({v.pending_points for v in VARIANTS}):
-        if pending == 1 or pending_points_known():
-            variants = [v for v in VARIANTS if v.pending_points == pending]
-            _measure(pending, variants, quick, rows)
+    cells = list(dict.fromkeys(v.extensions for v in VARIANTS))
+    for index, extensions in enumerate(cells):
+        if extensions_known(extensions):
+            variants = [v for v in VARIANTS if v.extensions == extensions]
+            _measure(index, extensions, variants, quick, rows)
     results = []
     for variant in VARIANTS:
         results += _variant_results(variant, rows[variant.name], quick)
@@ -255,7 +285,7 @@ def _variant_results(
     if not r:
         return [
             figure_result(
-                FIGURE, name + "not measured: this tree's cell files have no pending_points", "", []
+                FIGURE, name + "not measured: this tree's cell files lack its settings", "", []
             )
         ]
     count = variant.points // QUICK_DIVISOR if quick else variant.points

@@ -232,23 +232,27 @@ class CpuSampler:
 
 
 # -- cells -----------------------------------------------------------------------------------
+Extensions = tuple[tuple[str, int], ...]
+"""Cell-file settings beyond MotoROS's behaviour, as (key, value) pairs."""
+
+
 def write_cell_file(
     directory: Path,
     name: str,
     state_period_ms: float = 10.0,
     models: Sequence[str] = GROUP_MODELS,
-    pending_points: int = 1,
+    extensions: Extensions = (),
 ) -> Path:
-    """``pending_points`` (motocell's deeper pending-point FIFO) is written only when it is not
-    MotoROS's 1, so the file also loads in a tree that does not know the setting."""
+    """``extensions``: motocell's opt-in cell-file settings (``pending_points``,
+    ``start_buffer_periods``), written only when a figure asks for them, so the file also loads
+    in a tree that does not know them (``extensions_known``)."""
     lines = [
         f'name = "{name}"',
         'controller = "YRC1000"',
         "interpolation_period_ms = 4",
         f"state_period_ms = {state_period_ms:g}",
     ]
-    if pending_points != 1:
-        lines.append(f"pending_points = {pending_points}")
+    lines += [f"{key} = {value}" for key, value in extensions]
     lines.append("")
     names = {"arm6": "R", "arm7": "R", "positioner2": "S", "track1": "B"}
     for index, model in enumerate(models):
@@ -276,9 +280,9 @@ def wait_for_every_slot(cell: RunningCell, timeout: float = START_TIMEOUT_S) -> 
     time.sleep(0.05)
 
 
-def pending_points_known() -> bool:
-    """This tree's cell files have the ``pending_points`` setting."""
-    return "pending_points" in CellFile.__struct_fields__
+def extensions_known(extensions: Extensions) -> bool:
+    """This tree's cell files have every one of these settings."""
+    return all(key in CellFile.__struct_fields__ for key, _ in extensions)
 
 
 @contextmanager
@@ -306,11 +310,14 @@ def workdir() -> Iterator[Path]:
 
 @contextmanager
 def bench_cell(
-    directory: Path, name: str = "bench", state_period_ms: float = 10.0, pending_points: int = 1
+    directory: Path,
+    name: str = "bench",
+    state_period_ms: float = 10.0,
+    extensions: Extensions = (),
 ) -> Iterator[RunningCell]:
     """A whole 4-group cell (``write_cell_file``), its output in ``directory/<name>.log``;
     stopped (every process reaped) on exit. A failed start is tried once more."""
-    config = write_cell_file(directory, name, state_period_ms, pending_points=pending_points)
+    config = write_cell_file(directory, name, state_period_ms, extensions=extensions)
     log = directory / f"{name}.log"
     with running_cell(config, log=log, timeout=START_TIMEOUT_S, attempts=2) as cell:
         wait_for_every_slot(cell)

@@ -12,6 +12,7 @@ from bench.bench_streaming import empty_periods, slot_turnaround_ms
 from bench.harness import ExecutorModes, oscillations, write_cell_file
 from bench.run import conditions, load_limit, load_warning, warnings
 from bench.stream_client import stream_capacity
+from shared.config import load_cell
 
 # -- empty-queue periods ---------------------------------------------------------------------
 
@@ -152,7 +153,10 @@ def test_oscillations_stay_within_their_amplitude_and_start_where_asked() -> Non
     assert np.abs(offsets).max() == pytest.approx(0.2, abs=1e-3)
 
 
-def test_the_cell_file_names_pending_points_only_when_not_motoros_one(tmp_path: Path) -> None:
+def test_the_cell_file_names_extensions_only_when_asked(tmp_path: Path) -> None:
     assert "pending_points" not in write_cell_file(tmp_path, "one").read_text()
-    text = write_cell_file(tmp_path, "four", pending_points=4).read_text()
+    extensions = (("pending_points", 4), ("start_buffer_periods", 3))
+    text = write_cell_file(tmp_path, "four", extensions=extensions).read_text()
     assert "pending_points = 4" in text
+    assert "start_buffer_periods = 3" in text
+    assert load_cell(tmp_path / "four.toml").start_buffer_periods == 3
