@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from types import FrameType
 
+import msgspec
 import zenoh
 
 from shared.bus.access import Identity
@@ -30,7 +31,7 @@ from shared.bus.claim import NameTakenError, claim_name, watch_claims
 from shared.bus.credentials import CredentialsError
 from shared.bus.credentials import load as load_credentials
 from shared.bus.keys import CellKeys
-from shared.bus.schemas import ServiceInfo, encode
+from shared.bus.schemas import Listening, ServiceInfo, encode
 from shared.bus.session import ENCODING, open_session
 from shared.config import EXIT_CONFIG, Cell, ConfigError, load_cell
 
@@ -164,12 +165,36 @@ def stop_on_signals(
             signal.signal(sig, old)
 
 
+class Description:
+    """What the service's ``service/<service>/<instance>`` queryable answers (``motocell ps``):
+    made at start, and completed with the TCP ports the service serves once it listens."""
+
+    def __init__(self, key: str, info: ServiceInfo) -> None:
+        self._key = key
+        self.info = info
+        self._reply = encode(info)
+
+    def listening(self, port_name: str, address: tuple[str, int]) -> None:
+        """The service serves ``port_name`` at ``address`` (its socket's ``getsockname()``)."""
+        port = Listening(port_name, address[0], address[1])
+        self.info = msgspec.structs.replace(self.info, listening=[*self.info.listening, port])
+        self._reply = encode(self.info)
+
+    def answer(self, query: zenoh.Query) -> None:
+        # Under its own key, not the query's: one wildcard query gets every service's reply,
+        # and replies on one key would be consolidated into one. Encoded in advance: this runs
+        # on a Zenoh thread.
+        query.reply(self._key, self._reply, encoding=ENCODING)
+        query.drop()
+
+
 @dataclass
 class ServiceContext:
     cell: Cell
     keys: CellKeys
     session: zenoh.Session
     stop: StopFlag
+    description: Description
 
 
 def die_with_launcher() -> None:
@@ -199,7 +224,9 @@ def running_service(
         die_with_launcher()
         try:
             cell = load_cell(args.config, args.name)
-            session = joined.enter_context(_service_session(service, instance, cell, args))
+            session, description = joined.enter_context(
+                _service_session(service, instance, cell, args)
+            )
         except (ConfigError, CredentialsError, ConnectionError, NameTakenError) as exc:
             print(f"motocell {name}: {exc}", file=sys.stderr)
             raise SystemExit(EXIT_CONFIG) from None
@@ -212,7 +239,7 @@ def running_service(
         keys = CellKeys(cell.name)
         joined.callback(watch_claims(session, keys, service, instance, give_way).undeclare)
         freeze_what_lives_forever()
-        yield ServiceContext(cell, keys, session, stop)
+        yield ServiceContext(cell, keys, session, stop, description)
     if clashes:
         print(f"motocell {name}: {clashes[0]}; this one stops", file=sys.stderr)
         raise SystemExit(EXIT_CONFIG)
@@ -231,7 +258,7 @@ def freeze_what_lives_forever() -> None:
 @contextmanager
 def _service_session(
     service: str, instance: str, cell: Cell, args: argparse.Namespace
-) -> Iterator[zenoh.Session]:
+) -> Iterator[tuple[zenoh.Session, Description]]:
     """The session, with the service's liveliness token and ``service_info`` queryable."""
     connect: Sequence[str] = args.zenoh_connect or cell.zenoh.connect
     credentials = None
@@ -251,19 +278,15 @@ def _service_session(
         started_unix_ns=time.time_ns(),
         version=version(),
     )
-
-    def describe(query: zenoh.Query) -> None:
-        # Under its own key, not the query's: one wildcard query gets every service's reply,
-        # and replies on one key would be consolidated into one.
-        query.reply(keys.service_info(service, instance), encode(info), encoding=ENCODING)
-        query.drop()
-
+    description = Description(keys.service_info(service, instance), info)
     try:
         claim = claim_name(session, keys, service, instance)
-        queryable = session.declare_queryable(keys.service_info(service, instance), describe)
+        queryable = session.declare_queryable(
+            keys.service_info(service, instance), description.answer
+        )
         token = session.liveliness().declare_token(keys.alive(service, instance))
         logging.getLogger(service).info("up: cell %s at %s", cell.name, ", ".join(connect))
-        yield session
+        yield session, description
         token.undeclare()
         queryable.undeclare()
         claim.undeclare()

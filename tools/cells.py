@@ -22,6 +22,7 @@ from shared import registry
 from shared.bus.access import Identity
 from shared.bus.credentials import CredentialsError, load
 from shared.bus.keys import ALIVE_ROOT
+from shared.bus.session import NoRouterError as NothingListens
 from shared.bus.session import open_session
 
 ANY_CELL = "*"
@@ -50,6 +51,10 @@ class JoinError(CellsError):
     """A cell's bus cannot be joined: the message says why and what to do."""
 
 
+class NoRouterError(JoinError):
+    """Nothing listens at the target's endpoint (yet): a command that can wait for it may."""
+
+
 @dataclass(frozen=True)
 class Target:
     """One router to join, the cells to act on there, and where the credentials are."""
@@ -59,6 +64,10 @@ class Target:
     """Empty: every cell the router carries (an open bus only: credentials are per cell)."""
     credentials: Path | None = None
     """The cell's credentials directory; None for an open bus."""
+    launcher: int = 0
+    """The pid of the launcher that registered the cell; 0 for a router named outright. A
+    cell started again under its name is another bus (new credentials) though nothing
+    else of its target differs."""
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -130,6 +139,7 @@ def targets(args: argparse.Namespace) -> list[Target]:
                 entry.zenoh_endpoint,
                 (entry.name,),
                 Path(entry.credentials) if entry.credentials else None,
+                entry.pid,
             )
             for entry in entries
         ]
@@ -175,6 +185,8 @@ def join(target: Target, identity: Identity) -> zenoh.Session:
             raise JoinError(target.explain(exc)) from None
     try:
         return open_session("client", [target.endpoint], wait=False, credentials=credentials)
+    except NothingListens as exc:
+        raise NoRouterError(target.explain(exc)) from None
     except ConnectionError as exc:
         raise JoinError(target.explain(exc)) from None
 

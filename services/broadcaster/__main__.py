@@ -30,7 +30,9 @@ def main(argv: Sequence[str] | None = None) -> None:
         host = args.host or ctx.cell.host
         port = args.port_base + 1 if args.port_base else ctx.cell.state_port
         byte_order = ByteOrder(args.byte_order or ctx.cell.byte_order)
-        state_port = StatePort(listen(host, port))
+        state_socket = listen(host, port)
+        ctx.description.listening("state", state_socket.getsockname())
+        state_port = StatePort(state_socket)
         watch = ControllerWatch(ctx.session, ctx.keys)
         broadcaster = Broadcaster(ctx.cell, watch)
         state_pub = publisher(ctx.session, ctx.keys.state, realtime=True, latest=True)

@@ -40,9 +40,12 @@ def main(argv: Sequence[str] | None = None) -> None:
         motion = MotionHandler(cell, cell_port, io, sync_seed=time.time_ns() // 1000)
         stats = GatewayStats(len(cell.groups))
         moving = cell_port.moving
+        motion_socket, io_socket = listen(host, port_base), listen(host, port_base + 2)
+        ctx.description.listening("motion", motion_socket.getsockname())
+        ctx.description.listening("io", io_socket.getsockname())
         motion_server = RequestServer(
             name="motion",
-            server=listen(host, port_base),
+            server=motion_socket,
             byte_order=byte_order,
             respond=motion.handle,
             error_reply=motion.error_reply,
@@ -52,7 +55,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         )
         io_server = RequestServer(
             name="io",
-            server=listen(host, port_base + 2),
+            server=io_socket,
             byte_order=byte_order,
             respond=io.answer,
             error_reply=io.error_reply,

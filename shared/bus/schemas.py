@@ -192,6 +192,16 @@ class CommandReply(msgspec.Struct, array_like=True, frozen=True):
     command's effect; the gateway waits for it so its next answer cannot be stale."""
 
 
+class Listening(msgspec.Struct, array_like=True, frozen=True):
+    """A TCP port a service serves, as it bound it."""
+
+    port_name: str
+    """``motion``, ``state`` or ``io``."""
+    host: str
+    """The address it listens on (``0.0.0.0``: every address of ``ServiceInfo.host``)."""
+    port: int
+
+
 class ServiceInfo(msgspec.Struct, array_like=True, frozen=True):
     """Reply of the ``service/<service>/<instance>`` queryable every process declares."""
 
@@ -202,6 +212,9 @@ class ServiceInfo(msgspec.Struct, array_like=True, frozen=True):
     pid: int
     started_unix_ns: int
     version: str
+    listening: list[Listening] = msgspec.field(default_factory=list)
+    """The TCP ports it serves, once it listens on them: the gateway's motion and I/O ports,
+    the broadcaster's state port."""
 
 
 class Percentiles(msgspec.Struct, array_like=True, frozen=True):

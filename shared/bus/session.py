@@ -93,6 +93,11 @@ def _insert_credentials(config: zenoh.Config, credentials: Credentials) -> None:
             config.insert_json5(f"transport/link/tls/{field}", json.dumps(value))
 
 
+class NoRouterError(ConnectionError):
+    """Nothing listens at the endpoints: no router there (yet), as opposed to one that
+    refused the session."""
+
+
 def open_session(
     mode: str = "client",
     connect: Sequence[str] = (),
@@ -101,7 +106,8 @@ def open_session(
     wait: bool = True,
     credentials: Credentials | None = None,
 ) -> zenoh.Session:
-    """A session; ConnectionError with one line saying what to do when it cannot join.
+    """A session; ConnectionError with one line saying what to do when it cannot join
+    (NoRouterError when nothing listens there).
 
     ``wait``: keep trying for CONNECT_WAIT_S while nothing listens at ``connect`` (a router
     starting alongside, as under compose). A router that is there but refuses us is answered
@@ -124,7 +130,8 @@ def open_session(
             else:
                 waited, limit = now - started, CONNECT_WAIT_S
             if not wait or waited >= limit:
-                raise ConnectionError(_why_not(connect, listening, credentials)) from None
+                error = ConnectionError if listening else NoRouterError
+                raise error(_why_not(connect, listening, credentials)) from None
             time.sleep(CONNECT_RETRY_S)
 
 

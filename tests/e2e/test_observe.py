@@ -1,25 +1,32 @@
 """Observing a running cell through Zenoh: a subscriber of one's own with the cell's observer
-credentials, `motocell ps` and `motocell watch` (which find the cell with no flags)."""
+credentials, `motocell ps` and `motocell watch` (which find the cell with no flags, and wait
+for a router that is not there yet)."""
 
 from __future__ import annotations
 
+import signal
 import subprocess
+import sys
 import threading
 from collections.abc import Callable
+from typing import IO
 
 import pytest
 import zenoh
 
 from shared.bus import catalog
 from shared.bus.catalog import ROUTES, Op, Role
+from shared.bus.schemas import Decoder, QueueState
 from shared.ports import free_port
 from shared.protocol.constants import Command, Result
 from shared.registry import ENV as RUNTIME_DIR_ENV
-from testkit.cell import RunningCell
-from testkit.client import MotionClient, StateListener, smooth_move, stream
+from testkit.cell import RunningCell, running_cell, zenoh_router
+from testkit.client import MotionClient, StateListener, point_messages, smooth_move, stream
 from testkit.processes import cmdline, wait_until
 
 pytestmark = pytest.mark.cell
+
+WHOLE_CELL = ("broadcaster/0", "controller/0", "executor/0", "gateway/0", "interpolator/0")
 
 Motocell = Callable[..., subprocess.CompletedProcess[str]]
 
@@ -104,18 +111,20 @@ def test_ps_lists_every_live_service_with_its_details(
         assert int(row[4]) in cell.children()
         assert row[6] == "0.1.0"
         assert row[7] == ("yes" if service == "executor" else "-")  # the tests run as root
+    host, base = cell.host, cell.port_base
     assert buses == (
-        f"cell {cell.cell.name}: Zenoh {cell.zenoh_endpoint}, credentials {cell.credentials}\n"
+        f"cell {cell.cell.name}: Zenoh {cell.zenoh_endpoint}, credentials {cell.credentials}; "
+        f"TCP motion {host}:{base}, state {host}:{base + 1}, io {host}:{base + 2}\n"
     )
 
 
-def test_ps_and_watch_fail_clearly_without_a_router(motocell: Motocell) -> None:
+def test_ps_fails_clearly_without_a_router(motocell: Motocell) -> None:
+    """``watch`` waits for one instead (below, and tests/tools/test_watch.py)."""
     nowhere = f"tcp/127.0.0.1:{free_port()}"
-    for command in ("ps", "watch"):
-        result = motocell(command, "--zenoh-connect", nowhere, timeout=10)
-        assert result.returncode == 1
-        assert result.stderr.startswith(f"motocell {command}: no Zenoh router answers at {nowhere}")
-        assert result.stderr.count("\n") == 1, result.stderr
+    result = motocell("ps", "--zenoh-connect", nowhere, timeout=10)
+    assert result.returncode == 1
+    assert result.stderr.startswith(f"motocell ps: no Zenoh router answers at {nowhere}")
+    assert result.stderr.count("\n") == 1, result.stderr
 
 
 def test_watch_shows_status_groups_lateness_clients_and_services(
@@ -128,9 +137,122 @@ def test_watch_shows_status_groups_lateness_clients_and_services(
     frame = result.stdout.split("motocell watch")[-1]
     assert f"cell {cell.cell.name}" in frame
     assert "motion-ready YES" in frame
-    assert "lateness p50" in frame and "SCHED_FIFO" in frame
+    assert "lateness (last second) p50" in frame and "SCHED_FIFO" in frame
     assert "clients: motion 1  state 1" in frame
     assert "services alive: broadcaster/0 controller/0 executor/0 gateway/0 interpolator/0" in frame
     position_line = next(line for line in frame.splitlines() if "position rad" in line)
     shown = [float(v) for v in position_line.split("rad")[1].split()]
     assert shown == pytest.approx(latest.groups[0].positions[:6], abs=1e-4)
+    assert frame.splitlines()[2].startswith(f"cell {cell.cell.name}   last heard ")
+
+
+def test_every_one_shot_snapshot_has_heard_the_whole_cell(
+    cell: RunningCell, motion: MotionClient, state: StateListener, motocell: Motocell
+) -> None:
+    """It printed ``0 cell(s)`` 4 times in 5 when it rendered before anything had arrived."""
+    assert motion.command(Command.START_TRAJ_MODE).result == Result.SUCCESS
+    state.wait_still()
+    for _ in range(3):
+        result = motocell("watch", "--count", "1")
+        assert result.returncode == 0, result.stderr
+        lines = result.stdout.splitlines()
+        assert lines[0].endswith("1 cell(s)")
+        assert lines[2].startswith(f"cell {cell.cell.name}   last heard")
+        assert "  motion-ready YES" in result.stdout
+        assert "  executor: tick " in result.stdout and "lateness (last second)" in result.stdout
+        assert "  clients: motion 1  state 1  io 0" in result.stdout
+        assert "  group 0  queue 0/200" in lines
+        assert "position rad" in result.stdout and "?" not in result.stdout
+
+
+def test_a_snapshot_while_the_arm_moves_shows_its_queue_filled(
+    cell: RunningCell, motion: MotionClient, state: StateListener, motocell: Motocell
+) -> None:
+    """The queue depth is the executor's latest: it showed 0 while the arm moved when it came
+    from the metrics of the last second."""
+    assert motion.command(Command.START_TRAJ_MODE).result == Result.SUCCESS
+    start = state.wait_still().groups[0].positions[:6]
+    # 1 s segments: each fills the executor's 200-entry ring, which stays full until the end.
+    points = point_messages(0, smooth_move(start, [p + 0.3 for p in start], 20.0, 21))
+    depths: list[int] = []
+    bus = cell.session(Role.OBSERVER)
+    queue = Decoder(QueueState)
+    subscriber = bus.declare_subscriber(
+        cell.keys.group_queue(0), lambda s: depths.append(queue.decode(s.payload.to_bytes()).depth)
+    )
+    done = threading.Event()
+
+    def drive() -> None:
+        for point in points:
+            while not done.is_set() and motion.motion(point).result == Result.BUSY:
+                done.wait(0.005)
+        motion.command(Command.STOP_TRAJ_MODE)
+
+    driver = threading.Thread(target=drive)
+    driver.start()
+    try:
+        wait_until(lambda: bool(depths) and depths[-1] > 100, 10.0, "the ring to fill")
+        result = motocell("watch", "--count", "1")
+        depth_after = depths[-1]
+    finally:
+        done.set()
+        driver.join()
+        subscriber.undeclare()
+        bus.close()
+    assert result.returncode == 0, result.stderr
+    assert depth_after > 0, "the move ended before the snapshot did: nothing shown"
+    shown = next(line for line in result.stdout.splitlines() if line.startswith("  group 0"))
+    assert int(shown.split("queue ")[1].split("/")[0]) > 0, shown
+
+
+class Output:
+    """Lines a process writes to a pipe, read by a thread of their own as they come."""
+
+    def __init__(self, pipe: IO[str]) -> None:
+        self.lines: list[str] = []
+        self._thread = threading.Thread(target=self._read, args=(pipe,))
+        self._thread.start()
+
+    def _read(self, pipe: IO[str]) -> None:
+        for line in pipe:
+            self.lines.append(line.rstrip("\n"))
+
+    def last_frame(self) -> list[str]:
+        lines = list(self.lines)
+        starts = [i for i, line in enumerate(lines) if line.startswith("motocell watch ")]
+        return lines[starts[-1] :] if starts else []
+
+    def join(self) -> None:
+        self._thread.join()
+
+
+def test_watch_waits_for_a_router_then_follows_its_cell_until_it_stops() -> None:
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    command = [sys.executable, "-m", "tools.cli", "watch", "--zenoh-connect", endpoint]
+    watch = subprocess.Popen(
+        [*command, "--interval", "0.2"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    assert watch.stdout is not None and watch.stderr is not None
+    out, err = Output(watch.stdout), Output(watch.stderr)
+    try:
+        said = f"motocell watch: waiting for a Zenoh router at {endpoint} ..."
+        wait_until(lambda: said in err.lines, 10.0, "watch to say it waits")
+        with zenoh_router(endpoint), running_cell(router=endpoint) as other:
+            whole = f"  services alive: {' '.join(WHOLE_CELL)}"
+            wait_until(lambda: whole in out.last_frame(), 30.0, "the cell in a frame")
+            assert out.last_frame()[2].startswith(f"cell {other.cell.name}   last heard")
+            other.stop()
+            wait_until(
+                lambda: "STOPPED: no service alive" in " ".join(out.last_frame()),
+                30.0,
+                "the cell shown stopped",
+            )
+    finally:
+        watch.send_signal(signal.SIGINT)
+        status = watch.wait(timeout=10)
+        out.join()
+        err.join()
+        watch.stdout.close()
+        watch.stderr.close()
+    assert status == 0
+    assert err.lines == [said]

@@ -73,7 +73,7 @@ def test_a_named_cell_is_found_with_its_router_and_credentials() -> None:
     register("arm", "tcp/127.0.0.1:7500", "/run/arm")
     register("other", "tcp/127.0.0.1:7501")
     found = cells.targets(build_parser().parse_args(["ps", "--cell", "arm"]))
-    assert found == [Target("tcp/127.0.0.1:7500", ("arm",), Path("/run/arm"))]
+    assert found == [Target("tcp/127.0.0.1:7500", ("arm",), Path("/run/arm"), os.getpid())]
 
 
 def test_without_a_name_every_running_cell_is_a_target_of_its_own() -> None:
@@ -81,8 +81,8 @@ def test_without_a_name_every_running_cell_is_a_target_of_its_own() -> None:
     register("a", "tcp/127.0.0.1:7500", "/run/a")
     found = cells.targets(build_parser().parse_args(["watch"]))
     assert found == [
-        Target("tcp/127.0.0.1:7500", ("a",), Path("/run/a")),
-        Target("tcp/127.0.0.1:7501", ("b",), None),
+        Target("tcp/127.0.0.1:7500", ("a",), Path("/run/a"), os.getpid()),
+        Target("tcp/127.0.0.1:7501", ("b",), None, os.getpid()),
     ]
 
 
@@ -134,9 +134,10 @@ def test_fault_without_a_name_refuses_to_choose_between_two_cells(
 def test_with_nothing_running_ps_says_so_and_the_others_fail(
     capsys: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:
+    """``watch`` waits for a cell instead (tests/tools/test_watch.py)."""
     assert motocell("ps") == 0
     assert capsys.readouterr().out == cells.NOTHING_RUNNING + "\n"
-    for argv in (["watch"], ["fault", "hold", "on"], ["record", str(tmp_path / "x.mcap")]):
+    for argv in (["fault", "hold", "on"], ["record", str(tmp_path / "x.mcap")]):
         assert motocell(*argv) == 2
         assert capsys.readouterr().err == f"motocell {argv[0]}: {cells.NOTHING_RUNNING}\n"
     assert not (tmp_path / "x.mcap").exists()
@@ -239,7 +240,10 @@ def test_ps_finds_a_secured_cell_and_joins_it_as_the_observer(
     assert motocell("ps") == 0
     out = capsys.readouterr().out.splitlines()
     assert out[1].split()[:5] == [CELL, "executor", "-", "here", "4242"]
-    assert out[-1] == f"cell {CELL}: Zenoh {bus.endpoint}, credentials {bus.credentials}"
+    assert out[-1] == (
+        f"cell {CELL}: Zenoh {bus.endpoint}, credentials {bus.credentials}; "
+        "TCP motion ?, state ?, io ?"
+    )
 
 
 def test_fault_reaches_the_controller_as_the_operator(
