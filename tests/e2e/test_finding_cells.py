@@ -86,7 +86,11 @@ def test_ps_covers_every_cell_running_here(
     assert cells_shown == {cell.cell.name, BESIDE}
     for name in (cell.cell.name, BESIDE):
         entry = registry.find(name)
-        line = f"cell {name}: Zenoh {entry.zenoh_endpoint}, credentials {entry.credentials}"
+        host, base = entry.host, entry.port_base
+        line = (
+            f"cell {name}: Zenoh {entry.zenoh_endpoint}, credentials {entry.credentials}; "
+            f"TCP motion {host}:{base}, state {host}:{base + 1}, io {host}:{base + 2}"
+        )
         assert line in buses.splitlines()
     assert registry.find(BESIDE).zenoh_endpoint != cell.zenoh_endpoint
 
