@@ -31,12 +31,13 @@ class Reporter:
         motion: RequestServer,
         io: RequestServer,
     ) -> None:
-        self.session = session
-        self.keys = keys
         self.stats = stats
         self.motion = motion
         self.io = io
         self._metrics = publisher(session, keys.metrics("gateway"), latest=True)
+        # Called from the port threads on every change and from this one each second: a lost
+        # notice is made good within a second, so it never blocks a port thread.
+        self._connections = publisher(session, keys.controller_cmd("connections"), latest=True)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="gateway-reports", daemon=True)
 
@@ -50,7 +51,7 @@ class Reporter:
     def report_connections(self) -> None:
         motion, io = self.connections()
         request = CommandRequest(args=[motion, NOT_SERVED, io])
-        self.session.put(self.keys.controller_cmd("connections"), encode(request))
+        self._connections.put(encode(request))
 
     def _run(self) -> None:
         while True:
