@@ -17,6 +17,7 @@ import time
 import msgspec
 import zenoh
 
+from shared.bus.channels import Doorbell, is_doorbell
 from shared.bus.keys import CellKeys
 from shared.bus.schemas import Decoder, Tick
 from shared.service import StopFlag
@@ -37,9 +38,7 @@ class TickSource:
         self._subscriber = session.declare_subscriber(
             keys.executor_tick, zenoh.handlers.RingChannel(CHANNEL_SIZE)
         )
-        self._doorbell = session.declare_publisher(
-            keys.executor_tick, allowed_destination=zenoh.Locality.SESSION_LOCAL
-        )
+        self._doorbell = Doorbell(session, keys.executor_tick)
         self._silence_s = silence_s
         self._stop = stop
         self._last_tick_at = time.monotonic()
@@ -51,9 +50,8 @@ class TickSource:
         newest: bytes | None = None
         sample: zenoh.Sample | None = self._subscriber.recv()
         while sample is not None:
-            payload = sample.payload.to_bytes()
-            if payload:  # the doorbell's are empty
-                newest = payload
+            if not is_doorbell(sample):
+                newest = sample.payload.to_bytes()
             sample = self._subscriber.try_recv()
         if newest is None:
             return None
@@ -69,15 +67,15 @@ class TickSource:
         while not self._stop.wait(wait):
             quiet = time.monotonic() - self._last_tick_at
             if quiet >= self._silence_s:
-                self._doorbell.put(b"")
+                self._doorbell.ring()
                 wait = self._silence_s
             else:
                 wait = self._silence_s - quiet
-        self._doorbell.put(b"")
+        self._doorbell.ring()
 
     def close(self) -> None:
         """Stops the watch thread too: it waits on the service's stop flag."""
         self._stop.set()
         self._watch.join()
-        self._doorbell.undeclare()
+        self._doorbell.close()
         self._subscriber.undeclare()

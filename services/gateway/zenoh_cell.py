@@ -21,17 +21,15 @@ so freshness holds even while no request comes.
 
 from __future__ import annotations
 
-import logging
 import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from typing import Any
 
-import msgspec
 import zenoh
 
 from services.gateway.core.cell_state import STATUS_STREAM, CellState, queue_stream
+from shared.bus.channels import Channel, newest
 from shared.bus.keys import CellKeys
 from shared.bus.liveness import HEARTBEAT_S
 from shared.bus.schemas import (
@@ -47,8 +45,6 @@ from shared.bus.schemas import (
 from shared.bus.session import Liveness, call, publisher
 from shared.config import Cell
 
-log = logging.getLogger("gateway")
-
 STATUS_WAIT_S = 0.5
 """The controller publishes its status before it replies; this only bounds a lost sample."""
 WAIT_POLL_S = 0.001
@@ -60,23 +56,9 @@ _status_decoder = Decoder(ControllerStatus)
 _queue_decoder = Decoder(QueueState)
 _slot_decoder = Decoder(Slot)
 
-Channel = zenoh.Subscriber[zenoh.handlers.Handler[zenoh.Sample]]
-
 
 def _latest(session: zenoh.Session, key: str) -> Channel:
     return session.declare_subscriber(key, zenoh.handlers.RingChannel(1))
-
-
-def _read(channel: Channel, decoder: Decoder[Any]) -> Any:
-    """The channel's newest sample decoded; None when nothing new (or undecodable) came."""
-    sample = channel.try_recv()
-    if sample is None:
-        return None
-    try:
-        return decoder.decode(sample.payload.to_bytes())
-    except msgspec.DecodeError:
-        log.warning("undecodable sample on %s ignored", sample.key_expr)
-        return None
 
 
 class ZenohCell:
@@ -119,10 +101,10 @@ class ZenohCell:
         for group, (queue_channel, slot_channel) in enumerate(
             zip(self._queues, self._slots, strict=True)
         ):
-            queue = _read(queue_channel, _queue_decoder)
+            queue = newest(queue_channel, _queue_decoder)
             if queue is not None:
                 self.state.on_queue(group, queue)
-            slot = _read(slot_channel, _slot_decoder)
+            slot = newest(slot_channel, _slot_decoder)
             if slot is not None:
                 self.state.on_slot(group, slot)
 
@@ -145,7 +127,7 @@ class ZenohCell:
         """The new subscriber first, so no sample falls between the two; with the lock held."""
         old = self._queues[group]
         self._queues[group] = _latest(self.session, self.keys.group_queue(group))
-        queue = _read(old, _queue_decoder)
+        queue = newest(old, _queue_decoder)
         if queue is not None:
             self.state.on_queue(group, queue)
         old.undeclare()

@@ -21,18 +21,14 @@ do not block on points:
 
 from __future__ import annotations
 
-import logging
 import threading
 from collections.abc import Iterator
-from typing import Any
 
-import msgspec
 import zenoh
 
+from shared.bus.channels import Doorbell, decoded, newest
 from shared.bus.schemas import ControllerStatus, Decoder, Point, QueueState
 from shared.service import ServiceContext
-
-log = logging.getLogger("interpolator")
 
 POINT_CHANNEL_SIZE = 1024
 """Points (and doorbells) held in Zenoh until read. Far above what the gateway lets a group
@@ -42,16 +38,6 @@ counts is ``queue_point``'s."""
 _point_decoder = Decoder(Point)
 _queue_decoder = Decoder(QueueState)
 _status_decoder = Decoder(ControllerStatus)
-
-
-def _decoded(sample: zenoh.Sample | None, decoder: Decoder[Any]) -> Any:
-    if sample is None:
-        return None
-    try:
-        return decoder.decode(sample.payload.to_bytes())
-    except msgspec.DecodeError:
-        log.warning("undecodable sample on %s ignored", sample.key_expr)
-        return None
 
 
 class Inputs:
@@ -66,9 +52,7 @@ class Inputs:
         self._statuses = session.declare_subscriber(
             keys.controller_status, zenoh.handlers.RingChannel(1)
         )
-        self._doorbell = session.declare_publisher(
-            keys.group_point(group), allowed_destination=zenoh.Locality.SESSION_LOCAL
-        )
+        self._doorbell = Doorbell(session, keys.group_point(group))
         self._period_s = ctx.cell.period_s
         self._wake_s = wake_s
         self._stop = ctx.stop
@@ -78,12 +62,13 @@ class Inputs:
 
     def _ring(self) -> None:
         while not self._stop.wait(self._wake_s):
-            self._doorbell.put(b"")
-        self._doorbell.put(b"")
+            self._doorbell.ring()
+        self._doorbell.ring()
 
     def close(self) -> None:
         """Call once stopped (the doorbell thread ends with the stop flag)."""
         self._ringer.join()
+        self._doorbell.close()
         for subscriber in (self._points, self._queues, self._statuses):
             subscriber.undeclare()
 
@@ -97,13 +82,11 @@ class Inputs:
 
     def status(self) -> ControllerStatus | None:
         """The controller's newest status since the last call, if any."""
-        status: ControllerStatus | None = _decoded(self._statuses.try_recv(), _status_decoder)
-        return status
+        return newest(self._statuses, _status_decoder)
 
     def queue(self) -> QueueState | None:
         """The executor's newest queue state of the group since the last call, if any."""
-        queue: QueueState | None = _decoded(self._queues.try_recv(), _queue_decoder)
-        return queue
+        return newest(self._queues, _queue_decoder)
 
     def points(self) -> Iterator[Point]:
         """The points that arrived, in order; doorbells (empty samples) are skipped."""
@@ -111,8 +94,7 @@ class Inputs:
         if sample is None:
             sample = self._points.try_recv()
         while sample is not None:
-            if sample.payload.to_bytes():
-                point: Point | None = _decoded(sample, _point_decoder)
-                if point is not None:
-                    yield point
+            point = decoded(sample, _point_decoder)
+            if point is not None:
+                yield point
             sample = self._points.try_recv()
