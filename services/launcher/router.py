@@ -16,6 +16,7 @@ import zenoh
 from services.launcher.core import WELL_KNOWN_ENDPOINT, WELL_KNOWN_PORT, router_endpoints
 from shared.bus.access import cell_identities
 from shared.bus.router import router_settings, zenoh_config
+from shared.bus.session import zenoh_problem
 from shared.config import Cell
 from shared.ports import free_port, port_free
 from shared.service import StopFlag
@@ -41,10 +42,10 @@ def open_cell_router(
     )
     try:
         return zenoh.open(zenoh_config(settings))
-    except zenoh.ZError:
+    except zenoh.ZError as exc:
         raise ConnectionError(
-            f"cannot run the cell's Zenoh router on {', '.join(listen)}: is the port taken? "
-            "(choose another with --zenoh-listen tcp/127.0.0.1:PORT)"
+            f"the cell's Zenoh router cannot listen on {', '.join(listen)}: "
+            f"{zenoh_problem(exc)} (--zenoh-listen tcp/HOST:PORT says where)"
         ) from None
 
 
@@ -59,10 +60,9 @@ def serve_router(
     try:
         config = zenoh.Config.from_file(config_file) if config_file else zenoh_config(settings)
         session = zenoh.open(config)
-    except zenoh.ZError:
+    except zenoh.ZError as exc:
         raise ConnectionError(
-            f"cannot run a Zenoh router from {where}: is the file readable and valid, "
-            "and its listening port free?"
+            f"cannot run a Zenoh router from {where}: {zenoh_problem(exc)}"
         ) from None
     log.info("Zenoh router running (%s)", where)
     stop.wait()

@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import logging
 import queue
+import re
 import socket
 import threading
 import time
@@ -115,13 +116,20 @@ def open_session(
     that is still starting accepts TCP before it accepts sessions, so a waiting service gives
     a refusal REFUSED_GRACE_S before believing it.
     """
-    config = bus_config(mode, connect, listen, credentials=credentials)
+    try:
+        config = bus_config(mode, connect, listen, credentials=credentials)
+    except zenoh.ZError as exc:
+        raise ConnectionError(zenoh_problem(exc)) from None
     started = time.monotonic()
     refused_since: float | None = None
     while True:
         try:
             return zenoh.open(config)
-        except zenoh.ZError:
+        except zenoh.ZError as exc:
+            advice = _advice(exc)
+            if advice is not None:
+                # Not a router that is missing or refuses us: waiting would not help.
+                raise ConnectionError(advice) from None
             now = time.monotonic()
             listening = [endpoint for endpoint in connect if _accepts(endpoint)]
             if listening:
@@ -133,6 +141,61 @@ def open_session(
                 error = ConnectionError if listening else NoRouterError
                 raise error(_why_not(connect, listening, credentials)) from None
             time.sleep(CONNECT_RETRY_S)
+
+
+_RUST_SOURCE = re.compile(r"\s*\bat /\S+\.rs:\d+\.?")
+"""Where in Zenoh's Rust source an error was made (` at /root/.cargo/git/checkouts/...
+/orchestrator.rs:447.`): of use to Zenoh's developers, noise to a user."""
+_JSON5_MESSAGE = re.compile(r'Json5Err\(Message \{ msg: "(.*)", location')
+_EXPLANATIONS = (
+    (
+        re.compile(r"Endpoints must be of the form .*: (\S+)$"),
+        "{0} is not a Zenoh endpoint: write tcp/HOST:PORT (tls/HOST:PORT on a TLS cell)",
+    ),
+    (re.compile(r"Address already in use"), "the port is taken by another process"),
+    (
+        re.compile(r"Cannot assign requested address"),
+        "that address is not one of this machine's: use 127.0.0.1, 0.0.0.0 or an address of "
+        "this host",
+    ),
+    (re.compile(r"invalid port value"), "a port is a number from 1 to 65535: tcp/HOST:PORT"),
+    (re.compile(r"invalid socket address"), "write an endpoint as tcp/HOST:PORT"),
+    (
+        re.compile(r"Unicast not supported for (\S+) protocol"),
+        "Zenoh has no protocol {0}: write tcp/HOST:PORT (tls/HOST:PORT on a TLS cell)",
+    ),
+    (
+        re.compile(r"failed to lookup address"),
+        "the host name does not resolve: check it, or give an IP address",
+    ),
+    (
+        re.compile(r"--> (\d+):(\d+).*= (.*)", re.DOTALL),
+        "not valid JSON5 at line {0}, column {1}: {2}",
+    ),
+)
+"""What a user should do about the Zenoh errors a mistyped or taken endpoint gives."""
+
+
+def zenoh_problem(error: zenoh.ZError) -> str:
+    """One line for the user about ``error``: what to do when the cause is a known one (a
+    taken port, a malformed endpoint), else Zenoh's own words without its source locations."""
+    return _advice(error) or zenoh_reason(error)
+
+
+def zenoh_reason(error: zenoh.ZError) -> str:
+    """Zenoh's words for ``error``, without Rust source locations and parser wrappers."""
+    text = _RUST_SOURCE.sub("", str(error)).strip()
+    wrapped = _JSON5_MESSAGE.search(text)
+    return wrapped.group(1) if wrapped else text
+
+
+def _advice(error: zenoh.ZError) -> str | None:
+    reason = zenoh_reason(error)
+    for pattern, advice in _EXPLANATIONS:
+        found = pattern.search(reason)
+        if found:
+            return advice.format(*found.groups())
+    return None
 
 
 def _accepts(endpoint: str) -> bool:
