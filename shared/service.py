@@ -32,22 +32,33 @@ from shared.bus.credentials import CredentialsError
 from shared.bus.credentials import load as load_credentials
 from shared.bus.keys import CellKeys
 from shared.bus.schemas import Listening, ServiceInfo, encode
-from shared.bus.session import ENCODING, open_session
+from shared.bus.session import ENCODING, StoppedWaiting, open_session
 from shared.config import EXIT_CONFIG, Cell, ConfigError, load_cell
+from shared.service_names import (
+    PER_GROUP,
+    SERVICES,
+    ServiceName,
+    UnknownServiceError,
+    cell_services,
+    parse_service,
+)
 
 PARENT_PID_ENV = "MOTOCELL_PARENT_PID"
 """Set by ``motocell up`` for its children: they stop when that process goes away."""
 PR_SET_PDEATHSIG = 1
 
-REQUIRED_SERVICES = ("controller", "executor", "broadcaster", "gateway")
+REQUIRED_SERVICES = tuple(service for service in SERVICES if service != PER_GROUP)
 """Services a cell needs besides one interpolator per group; see ``required_alive_keys``."""
 
 
 def required_alive_keys(cell: Cell) -> list[str]:
     keys = CellKeys(cell.name)
-    names = [keys.alive(service, "0") for service in REQUIRED_SERVICES]
-    names += [keys.alive("interpolator", str(group.index)) for group in cell.groups]
-    return names
+    return [keys.alive(name.service, name.instance) for name in cell_services(cell)]
+
+
+class StartError(Exception):
+    """The service cannot run as configured, found once it runs (a port it must serve is
+    taken): ``running_service`` prints the message as one line and exits with EXIT_CONFIG."""
 
 
 def version() -> str:
@@ -63,7 +74,7 @@ def version() -> str:
 
 def argument_parser(service: str, description: str) -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
-        prog=f"python -m services.{service}", description=description, allow_abbrev=False
+        prog=f"motocell service {service}", description=description, allow_abbrev=False
     )
     add_cell_arguments(parser)
     add_bus_arguments(parser)
@@ -158,6 +169,10 @@ def stop_on_signals(
         stop.set()
 
     previous = {sig: signal.signal(sig, handler) for sig in signals}
+    # Whoever started this process may have blocked them (``motocell service``), so that one
+    # arriving during start-up waits for this handler instead of interrupting the imports
+    # with a traceback: it is delivered now.
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, signals)
     try:
         yield stop
     finally:
@@ -213,35 +228,49 @@ def running_service(
     service: str, instance: str, args: argparse.Namespace
 ) -> Iterator[ServiceContext]:
     """Load the cell, open the session, claim the name, declare the liveliness token; undo
-    all on exit. A start that cannot work as configured (bad cell file, credentials refused,
-    no router, the name taken) prints one line and exits with EXIT_CONFIG, which the launcher
-    takes as "do not restart"."""
-    name = service if instance == "0" else f"{service}/{instance}"
-    setup_logging(name, args.log_level)
+    all on exit. A start that cannot work as configured (bad cell file, no such service in
+    the cell, credentials refused, no router, the name taken, a StartError from the body)
+    prints one line and exits with EXIT_CONFIG, which the launcher takes as "do not
+    restart". What can be checked without Zenoh is checked before joining it."""
+    name = ServiceName(service, instance)
+    setup_logging(str(name), args.log_level)
     with stop_on_signals() as stop, ExitStack() as joined:
         # `kill -USR1 <pid>` prints every thread's stack: how to see where a service is stuck.
         faulthandler.register(signal.SIGUSR1, all_threads=True)
         die_with_launcher()
         try:
             cell = load_cell(args.config, args.name)
+            parse_service(str(name), cell)  # an interpolator of a group the cell lacks
             session, description = joined.enter_context(
-                _service_session(service, instance, cell, args)
+                _service_session(service, instance, cell, args, stop)
             )
-        except (ConfigError, CredentialsError, ConnectionError, NameTakenError) as exc:
+        except StoppedWaiting:
+            raise SystemExit(0) from None  # stopped before the router came
+        except (
+            ConfigError,
+            UnknownServiceError,
+            CredentialsError,
+            ConnectionError,
+            NameTakenError,
+        ) as exc:
             print(f"motocell {name}: {exc}", file=sys.stderr)
             raise SystemExit(EXIT_CONFIG) from None
-        clashes: list[str] = []
+        # Why it cannot go on as configured: another process took its name, or a StartError.
+        failed: list[str] = []
 
         def give_way(why: str) -> None:
-            clashes.append(why)
+            failed.append(f"{why}; this one stops")
             stop.set()
 
         keys = CellKeys(cell.name)
         joined.callback(watch_claims(session, keys, service, instance, give_way).undeclare)
         freeze_what_lives_forever()
-        yield ServiceContext(cell, keys, session, stop, description)
-    if clashes:
-        print(f"motocell {name}: {clashes[0]}; this one stops", file=sys.stderr)
+        try:
+            yield ServiceContext(cell, keys, session, stop, description)
+        except StartError as exc:
+            failed.append(str(exc))
+    if failed:
+        print(f"motocell {name}: {failed[0]}", file=sys.stderr)
         raise SystemExit(EXIT_CONFIG)
 
 
@@ -257,7 +286,7 @@ def freeze_what_lives_forever() -> None:
 
 @contextmanager
 def _service_session(
-    service: str, instance: str, cell: Cell, args: argparse.Namespace
+    service: str, instance: str, cell: Cell, args: argparse.Namespace, stop: StopFlag
 ) -> Iterator[tuple[zenoh.Session, Description]]:
     """The session, with the service's liveliness token and ``service_info`` queryable."""
     connect: Sequence[str] = args.zenoh_connect or cell.zenoh.connect
@@ -265,7 +294,7 @@ def _service_session(
     if args.credentials:
         identity = Identity(Role(service), instance)
         credentials = load_credentials(Path(args.credentials), cell.name, identity)
-    session = open_session("client", connect, credentials=credentials)
+    session = open_session("client", connect, credentials=credentials, stop=stop.wait)
     keys = CellKeys(cell.name)
     # Made here, not when first asked: looking up the version on a Zenoh thread would hold the
     # GIL for milliseconds, long enough to delay the executor's clock thread by a period.

@@ -11,7 +11,7 @@ from typing import Any, cast
 
 from services.launcher import __main__ as launcher
 from shared.service import version
-from tools import bench, credentials, echo, fault, hz, observe, plot, record
+from tools import bench, credentials, echo, fault, hz, observe, plot, record, service
 
 
 class CommandParser(argparse.ArgumentParser):
@@ -77,6 +77,8 @@ def build_parser() -> argparse.ArgumentParser:
     plot.add_parser(commands)
     bench.add_parser(commands)
     credentials.add_parser(commands)
+
+    service.add_parser(commands)
 
     router = commands.add_parser(
         "router", help="a Zenoh router (a stand-in for zenohd where its image is not available)"

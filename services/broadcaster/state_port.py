@@ -15,6 +15,7 @@ import socket
 
 from services.broadcaster.backlog import STUCK_S, Backlog, Cycle
 from services.broadcaster.core import Admission, admission
+from shared.service import StartError
 
 log = logging.getLogger("broadcaster")
 
@@ -28,11 +29,11 @@ def listen(host: str, port: int) -> socket.socket:
     server.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
     try:
         server.bind((host, port))
-    except OSError as exc:
+    except (OSError, OverflowError) as exc:
         server.close()
-        raise SystemExit(
-            f"motocell broadcaster: cannot listen on {host}:{port}: {exc.strerror}"
-        ) from exc
+        # Not restarted by the launcher (EXIT_CONFIG): it would fail the same way.
+        reason = exc.strerror if isinstance(exc, OSError) else "a port is 1 to 65535"
+        raise StartError(f"cannot listen on {host}:{port}: {reason}") from exc
     server.listen(socket.SOMAXCONN)
     server.setblocking(False)
     return server

@@ -19,6 +19,7 @@ from services.gateway.core.answer import Answer
 from shared.protocol.codec import CLOSED, NEED_DATA, ByteOrder, Role, SimpleMessageCodec
 from shared.protocol.errors import PeerProtocolError
 from shared.protocol.messages import Message, UnknownMessage
+from shared.service import StartError
 
 log = logging.getLogger("gateway")
 
@@ -38,11 +39,11 @@ def listen(host: str, port: int) -> socket.socket:
     server.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
     try:
         server.bind((host, port))
-    except OSError as exc:
+    except (OSError, OverflowError) as exc:
         server.close()
-        raise SystemExit(
-            f"motocell-gateway: cannot listen on {host}:{port}: {exc.strerror}"
-        ) from exc
+        # Not restarted by the launcher (EXIT_CONFIG): it would fail the same way.
+        reason = exc.strerror if isinstance(exc, OSError) else "a port is 1 to 65535"
+        raise StartError(f"cannot listen on {host}:{port}: {reason}") from exc
     server.listen(socket.SOMAXCONN)
     return server
 

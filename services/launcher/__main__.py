@@ -9,7 +9,9 @@ well-known port 7447, a later one a free port; observers find each through the r
 ``--open-bus`` runs without credentials or access control (and links a later cell's router to
 7447, as before). A child that dies is logged and restarted; meanwhile the controller sees its
 liveliness token gone and the cell answers NOT_READY. A child that cannot start as configured
-(EXIT_CONFIG) stops the cell instead.
+(EXIT_CONFIG) stops the cell instead, with the same status; what can be checked before any
+child starts (the ports, the names ``--skip`` gives) is, so a user's mistake costs one line.
+Once the cell is whole and its ports listen, one INFO line says so (``readiness``).
 
 ``core`` decides (children, router endpoints, restarts); ``children`` and ``router`` do the
 I/O; this module wires them. ``tools.cli`` builds its ``up`` and ``router`` subcommands from
@@ -31,12 +33,17 @@ import zenoh
 
 from services.launcher.children import Child, stop_children, supervise
 from services.launcher.core import (
+    EXECUTOR,
     WELL_KNOWN_ENDPOINT,
     RestartPolicy,
-    UnknownServiceError,
     UpOptions,
     child_specs,
+    port_base_problem,
+    services_here,
+    tcp_ports,
 )
+from services.launcher.ports import PortError, check_router_endpoints, check_tcp_ports
+from services.launcher.readiness import ReadyNotice
 from services.launcher.realtime import RealtimeNotice
 from services.launcher.router import cell_router_endpoints, open_cell_router, serve_router
 from shared import registry
@@ -45,20 +52,31 @@ from shared.bus.catalog import Role
 from shared.bus.credentials import CredentialsError, write_passwords
 from shared.bus.credentials import load as load_credentials
 from shared.bus.keys import CellKeys
-from shared.bus.session import open_session
+from shared.bus.session import StoppedWaiting, open_session
 from shared.config import EXIT_CONFIG, Cell, ConfigError, load_cell
 from shared.registry import CellEntry, CellNameTakenError
-from shared.service import StopFlag, add_bus_arguments, add_cell_arguments, stop_on_signals
+from shared.service import StopFlag, add_cell_arguments, stop_on_signals
+from shared.service_names import UnknownServiceError, cell_services
 
 log = logging.getLogger("motocell")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The options of ``motocell up`` and ``python -m services.launcher``."""
+    parser.description = (
+        "Run a whole cell in the foreground until Ctrl-C (or SIGTERM): its Zenoh router and "
+        "every service as a process of its own. One line, `cell NAME ready: ...` with its "
+        "ports and Zenoh endpoint, says when clients can connect."
+    )
     add_cell_arguments(parser)
-    parser.add_argument("--host", help="address the TCP ports listen on (default 127.0.0.1)")
     parser.add_argument(
-        "--port-base", type=int, help="motion port (default 50240); state +1, I/O +2"
+        "--host", help="address the TCP ports listen on (default: the cell file's, 127.0.0.1)"
+    )
+    parser.add_argument(
+        "--port-base",
+        type=int,
+        metavar="N",
+        help="motion port N, state N+1, I/O N+2 (default: the cell file's, 50240)",
     )
     parser.add_argument(
         "--byte-order",
@@ -68,19 +86,34 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--skip",
         action="append",
+        default=[],
         metavar="SERVICE",
-        help="do not start this service here, e.g. interpolator/1 when group 1's interpolator "
-        "runs on another host (repeatable); the cell is NOT_READY until it joins",
+        help="do not start this service here, to run it elsewhere with `motocell service "
+        "SERVICE`: gateway (or gateway/0), interpolator/1, ... as logs and `motocell watch` "
+        "name them (repeatable); the cell is NOT_READY until it joins",
     )
     parser.add_argument(
         "--zenoh-listen",
         action="append",
         default=[],
         metavar="ENDPOINT",
-        help=f"where the cell's own router listens (default {WELL_KNOWN_ENDPOINT}, or a free "
-        "port when that is taken)",
+        help=f"where the cell's own router listens (repeatable; default {WELL_KNOWN_ENDPOINT} "
+        "when that port is free, else a free port: the ready line and `motocell ps` show it)",
     )
-    add_bus_arguments(parser)
+    parser.add_argument(
+        "--zenoh-connect",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="join this Zenoh router, which runs already (compose, another host), instead of "
+        "running the cell's own (repeatable)",
+    )
+    parser.add_argument(
+        "--credentials",
+        metavar="DIR",
+        help="with --zenoh-connect to a secured router: the cell's credentials directory "
+        "(`motocell credentials`); without --zenoh-connect the cell writes its own",
+    )
     parser.add_argument(
         "--open-bus",
         action="store_true",
@@ -91,14 +124,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def add_router_arguments(parser: argparse.ArgumentParser) -> None:
     """The options of ``motocell router``."""
+    parser.description = "A Zenoh router in the foreground until Ctrl-C (or SIGTERM)."
     parser.add_argument(
         "--listen",
         action="append",
         default=[],
         metavar="ENDPOINT",
-        help=f"default {WELL_KNOWN_ENDPOINT}",
+        help=f"where it listens (repeatable; default {WELL_KNOWN_ENDPOINT})",
     )
-    parser.add_argument("--connect", action="append", default=[], metavar="ENDPOINT")
+    parser.add_argument(
+        "--connect",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="another router to link to (repeatable; default: none)",
+    )
     parser.add_argument(
         "--config",
         metavar="FILE",
@@ -109,20 +149,47 @@ def add_router_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the cell until SIGINT or SIGTERM; the exit status (EXIT_CONFIG: it cannot run as
-    configured, one line on stderr says why)."""
+    configured, one line on stderr says why). Checked before anything starts: the names
+    ``--skip`` gives, and that every port the cell will listen on is in range and free."""
     try:
         cell = load_cell(args.config, args.name)
-        with stop_on_signals() as stop, _cell_bus(cell, args) as bus:
-            return run_children(cell, args, bus, stop)
+        this_host = ThisHost(cell, args)
+        with stop_on_signals() as stop, _cell_bus(cell, args, this_host, stop) as bus:
+            return run_children(cell, args, this_host, bus, stop)
+    except StoppedWaiting:
+        return 0  # stopped before the router it joins came
     except (
         ConfigError,
         CellNameTakenError,
         ConnectionError,
         CredentialsError,
         UnknownServiceError,
+        PortError,
     ) as exc:
         print(f"motocell up: {_hint(exc, args)}", file=sys.stderr)
         return EXIT_CONFIG
+
+
+class ThisHost:
+    """What this launcher runs of the cell, and where its TCP ports are; PortError or
+    UnknownServiceError for what cannot be."""
+
+    def __init__(self, cell: Cell, args: argparse.Namespace) -> None:
+        self.services = services_here(cell, args.skip or ())
+        self.host: str = args.host or cell.host
+        self.port_base: int = args.port_base or cell.port_base
+        problem = port_base_problem(self.port_base)
+        if problem is not None:
+            raise PortError(problem)
+        self.ports = tcp_ports(self.port_base, self.services)
+
+    def check_ports(self) -> None:
+        """PortError unless every TCP port this launcher's services need is free."""
+        check_tcp_ports(self.host, self.ports)
+
+    def describe(self) -> str:
+        base = self.port_base
+        return f"motion {self.host}:{base}, state {base + 1}, I/O {base + 2}"
 
 
 def _hint(exc: Exception, args: argparse.Namespace) -> str:
@@ -141,9 +208,11 @@ class CellBus:
 
 
 @contextmanager
-def _cell_bus(cell: Cell, args: argparse.Namespace) -> Iterator[CellBus]:
-    """Claim the cell's name on this machine, then its bus: its own router (secured unless
-    --open-bus) or, with --zenoh-connect, a router that already runs."""
+def _cell_bus(
+    cell: Cell, args: argparse.Namespace, this_host: ThisHost, stop: StopFlag
+) -> Iterator[CellBus]:
+    """Claim the cell's name on this machine, check its ports, then its bus: its own router
+    (secured unless --open-bus) or, with --zenoh-connect, a router that already runs."""
     secured = not args.open_bus
     if args.zenoh_connect:
         listen, connect = list(args.zenoh_connect), list[str]()
@@ -154,19 +223,20 @@ def _cell_bus(cell: Cell, args: argparse.Namespace) -> Iterator[CellBus]:
     entry = CellEntry(
         name=cell.name,
         pid=os.getpid(),
-        host=args.host or cell.host,
-        port_base=args.port_base or cell.port_base,
+        host=this_host.host,
+        port_base=this_host.port_base,
         zenoh_endpoint=listen[0],
         credentials=str(credentials or ""),
     )
+    # The name first: a second start of a running cell is told that, not that its ports
+    # are taken.
     registry.register(entry)
     try:
+        this_host.check_ports()
         if args.zenoh_connect:
-            observer = None
-            if credentials is not None:
-                observer = load_credentials(credentials, cell.name, Identity(Role.OBSERVER))
-            session = open_session("client", listen, credentials=observer)
+            session = _join(cell, listen, credentials, stop)
         else:
+            check_router_endpoints(listen)
             if credentials is not None:
                 write_passwords(credentials, cell.name, cell_identities(len(cell.groups)))
             session = open_cell_router(cell, listen, connect, credentials)
@@ -178,7 +248,19 @@ def _cell_bus(cell: Cell, args: argparse.Namespace) -> Iterator[CellBus]:
         registry.unregister(cell.name, os.getpid())
 
 
-def run_children(cell: Cell, args: argparse.Namespace, bus: CellBus, stop: StopFlag) -> int:
+def _join(
+    cell: Cell, endpoints: list[str], credentials: Path | None, stop: StopFlag
+) -> zenoh.Session:
+    """An observer's session on a router that runs already (or is starting)."""
+    observer = None
+    if credentials is not None:
+        observer = load_credentials(credentials, cell.name, Identity(Role.OBSERVER))
+    return open_session("client", endpoints, credentials=observer, stop=stop.wait)
+
+
+def run_children(
+    cell: Cell, args: argparse.Namespace, this_host: ThisHost, bus: CellBus, stop: StopFlag
+) -> int:
     options = UpOptions(
         config=args.config,
         name=args.name,
@@ -186,24 +268,39 @@ def run_children(cell: Cell, args: argparse.Namespace, bus: CellBus, stop: StopF
         host=args.host,
         port_base=args.port_base,
         byte_order=args.byte_order,
-        skip=tuple(args.skip or ()),
     )
-    specs = child_specs(cell, options, bus.endpoint, [sys.executable, "-m"])
-    port = args.port_base or cell.port_base
-    log.info(
-        "cell %s: %d group(s), ports %s:%d-%d, Zenoh at %s (%s)",
-        *(cell.name, len(cell.groups), args.host or cell.host, port, port + 2, bus.endpoint),
-        "secured" if bus.credentials else "open bus",
-    )
+    specs = child_specs(this_host.services, options, bus.endpoint, [sys.executable, "-m"])
     children = [Child(spec) for spec in specs]
-    notice = RealtimeNotice(bus.session, CellKeys(cell.name), lambda: _pid(children, "executor"))
+    skipped = set(map(str, cell_services(cell))) - {spec.name for spec in specs}
+    if skipped:
+        log.info(
+            "cell %s: %s not started here; the cell is ready once they join",
+            cell.name,
+            ", ".join(sorted(skipped)),
+        )
+    keys = CellKeys(cell.name)
+    security = "secured" if bus.credentials else "open bus"
+    ready = ReadyNotice(
+        bus.session,
+        keys,
+        this_host.host,
+        this_host.ports,
+        f"cell {cell.name} ready: {this_host.describe()}; Zenoh {bus.endpoint} ({security})",
+    )
+    realtime = RealtimeNotice(bus.session, keys, lambda: _pid(children, EXECUTOR))
     try:
-        status = supervise(children, RestartPolicy(), stop, notice.check)
+        status = supervise(children, RestartPolicy(), stop, lambda: _look(ready, realtime))
     finally:
-        notice.close()
+        ready.close()
+        realtime.close()
         stop_children(children)
         log.info("cell %s stopped", cell.name)
     return status
+
+
+def _look(ready: ReadyNotice, realtime: RealtimeNotice) -> None:
+    ready.check()
+    realtime.check()
 
 
 def _pid(children: list[Child], name: str) -> int | None:

@@ -11,7 +11,7 @@ import subprocess
 import time
 from collections.abc import Callable
 
-from services.launcher.core import ChildSpec, Restart, RestartPolicy
+from services.launcher.core import CONTROLLER, ChildSpec, Restart, RestartPolicy
 from shared.config import EXIT_CONFIG
 from shared.service import PARENT_PID_ENV, StopFlag
 
@@ -36,9 +36,12 @@ class Child:
 
     def start(self) -> None:
         # The child arranges to get SIGTERM if the launcher dies (shared.service), so no
-        # half cell outlives a killed launcher.
+        # half cell outlives a killed launcher. It runs in a process group of its own: a
+        # Ctrl-C at the terminal reaches the launcher alone, which stops the children in
+        # order (the controller first), and no child is interrupted mid start-up (a
+        # KeyboardInterrupt traceback from its imports).
         env = {**os.environ, PARENT_PID_ENV: str(os.getpid())}
-        self.process = subprocess.Popen(self.spec.argv, env=env)
+        self.process = subprocess.Popen(self.spec.argv, env=env, process_group=0)
 
     def alive(self) -> bool:
         return self.process is not None and self.process.poll() is None
@@ -50,6 +53,8 @@ def supervise(
     """Start every child at once, then restart those that die, until ``stop`` (status 0) or
     until one cannot start as configured (EXIT_CONFIG: it has said why on stderr). ``check``
     runs at every look (WATCH_S) and must not block."""
+    if stop.is_set():  # stopped while the router started: nothing to start
+        return 0
     for child in children:
         child.start()
     while not stop.wait(WATCH_S):
@@ -82,7 +87,7 @@ def stop_children(children: list[Child]) -> None:
     STOP_GRACE_S."""
     running = [c for c in children if c.alive()]
     deadline = time.monotonic() + STOP_GRACE_S
-    first = [c for c in running if c.name == "controller"]
+    first = [c for c in running if c.name == CONTROLLER]
     for child in first:
         assert child.process is not None
         child.process.send_signal(signal.SIGTERM)

@@ -8,11 +8,21 @@ from dataclasses import dataclass
 from enum import Enum
 
 from shared.config import EXIT_CONFIG, Cell
+from shared.service_names import (
+    PER_GROUP,
+    ServiceName,
+    UnknownServiceError,
+    cell_services,
+    parse_service,
+)
 
 WELL_KNOWN_PORT = 7447
 """The first cell on a machine takes it, so observers find that cell with no arguments."""
 WELL_KNOWN_ENDPOINT = f"tcp/127.0.0.1:{WELL_KNOWN_PORT}"
 RESTART_DELAY_S = 1.0
+MAX_PORT = 65535
+TCP_SERVICES = ("broadcaster", "gateway")
+"""They serve the Simple Message ports: the state port, and the motion and I/O ports."""
 
 
 @dataclass(frozen=True)
@@ -27,26 +37,37 @@ class UpOptions:
     host: str | None = None
     port_base: int | None = None
     byte_order: str | None = None
-    skip: tuple[str, ...] = ()
-    """Services another host runs, by name (``interpolator/1``)."""
 
 
 @dataclass(frozen=True)
 class ChildSpec:
-    name: str
-    """The service and, for interpolators, its group: ``controller``, ``interpolator/1``."""
+    service: ServiceName
     argv: tuple[str, ...]
 
+    @property
+    def name(self) -> str:
+        """As logs, ``motocell watch`` and ``--skip`` write it: ``gateway/0``."""
+        return str(self.service)
 
-class UnknownServiceError(ValueError):
-    """``--skip`` named a service the cell does not have."""
+
+CONTROLLER = str(ServiceName("controller", "0"))
+EXECUTOR = str(ServiceName("executor", "0"))
+
+
+def services_here(cell: Cell, skip: Sequence[str]) -> list[ServiceName]:
+    """The services of ``cell`` this host runs, in start order: all but those ``skip`` names
+    (``interpolator/1``, ``gateway``); UnknownServiceError for a name the cell lacks."""
+    try:
+        skipped = {parse_service(text, cell) for text in skip}
+    except UnknownServiceError as exc:
+        raise UnknownServiceError(f"--skip: {exc}") from None
+    return [name for name in cell_services(cell) if name not in skipped]
 
 
 def child_specs(
-    cell: Cell, options: UpOptions, endpoint: str, python: Sequence[str]
+    services: Sequence[ServiceName], options: UpOptions, endpoint: str, python: Sequence[str]
 ) -> list[ChildSpec]:
-    """The services this host runs for ``cell``, each connecting to Zenoh at ``endpoint``:
-    controller, executor, broadcaster, one interpolator per group, gateway; less the skipped.
+    """The command lines of ``services``, each connecting to Zenoh at ``endpoint``.
     ``python`` runs a module (``[sys.executable, "-m"]``)."""
     common = ["--zenoh-connect", endpoint]
     if options.config:
@@ -55,25 +76,45 @@ def child_specs(
         common += ["--name", options.name]
     if options.credentials:
         common += ["--credentials", options.credentials]
+    specs = []
+    for name in services:
+        if name.service == PER_GROUP:
+            extra = ["--group", name.instance]
+        elif name.service in TCP_SERVICES:
+            extra = _port_options(options)
+        else:
+            extra = []
+        specs.append(ChildSpec(name, (*python, f"services.{name.service}", *common, *extra)))
+    return specs
 
-    def spec(name: str, module: str, *extra: str) -> ChildSpec:
-        return ChildSpec(name, (*python, f"services.{module}", *common, *extra))
 
-    ports = _port_options(options)
-    specs = [spec(service, service) for service in ("controller", "executor")]
-    specs.append(spec("broadcaster", "broadcaster", *ports))
-    specs += [
-        spec(f"interpolator/{g.index}", "interpolator", "--group", str(g.index))
-        for g in cell.groups
-    ]
-    specs.append(spec("gateway", "gateway", *ports))
-    unknown = set(options.skip) - {s.name for s in specs}
-    if unknown:
-        raise UnknownServiceError(
-            f"--skip {', '.join(sorted(unknown))}: no such service in this cell "
-            f"(services: {', '.join(s.name for s in specs)})"
-        )
-    return [s for s in specs if s.name not in options.skip]
+@dataclass(frozen=True)
+class TcpPort:
+    use: str
+    """``motion``, ``state`` or ``I/O``."""
+    port: int
+
+
+def tcp_ports(port_base: int, services: Sequence[ServiceName]) -> list[TcpPort]:
+    """The Simple Message ports ``services`` will listen on (a skipped service's ports are
+    another host's business), in port order."""
+    kinds = {name.service for name in services}
+    ports = []
+    if "gateway" in kinds:
+        ports += [TcpPort("motion", port_base), TcpPort("I/O", port_base + 2)]
+    if "broadcaster" in kinds:
+        ports.append(TcpPort("state", port_base + 1))
+    return sorted(ports, key=lambda p: p.port)
+
+
+def port_base_problem(port_base: int) -> str | None:
+    """Why ``port_base`` cannot be a cell's (the state and I/O ports follow it), or None."""
+    if 1 <= port_base <= MAX_PORT - 2:
+        return None
+    return (
+        f"--port-base {port_base} is out of range: the motion, state and I/O ports "
+        f"({port_base}-{port_base + 2}) must lie within 1-{MAX_PORT}"
+    )
 
 
 def _port_options(options: UpOptions) -> list[str]:

@@ -99,6 +99,10 @@ class NoRouterError(ConnectionError):
     refused the session."""
 
 
+class StoppedWaiting(Exception):  # noqa: N818 (not an error: what the user asked)
+    """A stop was asked while ``open_session`` waited for its router."""
+
+
 def open_session(
     mode: str = "client",
     connect: Sequence[str] = (),
@@ -106,6 +110,7 @@ def open_session(
     *,
     wait: bool = True,
     credentials: Credentials | None = None,
+    stop: Callable[[float], bool] | None = None,
 ) -> zenoh.Session:
     """A session; ConnectionError with one line saying what to do when it cannot join
     (NoRouterError when nothing listens there).
@@ -114,7 +119,9 @@ def open_session(
     starting alongside, as under compose). A router that is there but refuses us is answered
     soon: Zenoh reports both the same way, so a plain TCP probe tells them apart. A router
     that is still starting accepts TCP before it accepts sessions, so a waiting service gives
-    a refusal REFUSED_GRACE_S before believing it.
+    a refusal REFUSED_GRACE_S before believing it. ``stop`` (``StopFlag.wait``) waits between
+    tries, True when a stop was asked meanwhile: the wait then ends with StoppedWaiting, so a
+    Ctrl-C does not wait for CONNECT_WAIT_S.
     """
     try:
         config = bus_config(mode, connect, listen, credentials=credentials)
@@ -122,6 +129,7 @@ def open_session(
         raise ConnectionError(zenoh_problem(exc)) from None
     started = time.monotonic()
     refused_since: float | None = None
+    told = False
     while True:
         try:
             return zenoh.open(config)
@@ -140,7 +148,13 @@ def open_session(
             if not wait or waited >= limit:
                 error = ConnectionError if listening else NoRouterError
                 raise error(_why_not(connect, listening, credentials)) from None
-            time.sleep(CONNECT_RETRY_S)
+            if not listening and not told:
+                told = True
+                log.info("waiting up to %.0f s for a Zenoh router at %s", limit, ", ".join(connect))
+            if stop is None:
+                time.sleep(CONNECT_RETRY_S)
+            elif stop(CONNECT_RETRY_S):
+                raise StoppedWaiting from None
 
 
 _RUST_SOURCE = re.compile(r"\s*\bat /\S+\.rs:\d+\.?")

@@ -126,6 +126,20 @@ def test_a_raised_signal_sets_the_flag_and_the_old_handlers_come_back() -> None:
     assert {sig: signal.getsignal(sig) for sig in before} == before
 
 
+HELD_DURING_START_UP = """
+import os, signal
+from shared.service import stop_on_signals
+signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})  # as `motocell service` starts it
+os.kill(os.getpid(), signal.SIGINT)  # a Ctrl-C while it loads: held
+with stop_on_signals() as stop:
+    print(stop.wait(20))
+"""
+
+
+def test_a_signal_held_during_start_up_stops_the_process_once_it_can() -> None:
+    assert finish(run_child(HELD_DURING_START_UP)) == "True\n"
+
+
 def test_off_the_main_thread_no_handler_is_set() -> None:
     before = signal.getsignal(signal.SIGTERM)
     seen: list[bool] = []

@@ -11,12 +11,16 @@ from services.launcher.core import (
     ChildSpec,
     Restart,
     RestartPolicy,
-    UnknownServiceError,
+    TcpPort,
     UpOptions,
     child_specs,
+    port_base_problem,
     router_endpoints,
+    services_here,
+    tcp_ports,
 )
 from shared.config import EXIT_CONFIG, Cell, load_cell, parse_cell
+from shared.service_names import UnknownServiceError
 
 ENDPOINT = "tcp/127.0.0.1:7500"
 PYTHON = ("py", "-m")
@@ -32,12 +36,14 @@ DUAL = parse_cell(
 )
 
 
-def specs(cell: Cell = ONE_ARM, options: UpOptions | None = None) -> dict[str, ChildSpec]:
-    chosen = child_specs(cell, options or UpOptions(), ENDPOINT, PYTHON)
+def specs(
+    cell: Cell = ONE_ARM, options: UpOptions | None = None, skip: tuple[str, ...] = ()
+) -> dict[str, ChildSpec]:
+    chosen = child_specs(services_here(cell, skip), options or UpOptions(), ENDPOINT, PYTHON)
     return {spec.name: spec for spec in chosen}
 
 
-def argv(cell: Cell = ONE_ARM, name: str = "controller") -> list[str]:
+def argv(cell: Cell = ONE_ARM, name: str = "controller/0") -> list[str]:
     return list(specs(cell)[name].argv)
 
 
@@ -45,7 +51,13 @@ def argv(cell: Cell = ONE_ARM, name: str = "controller") -> list[str]:
 
 
 def test_a_one_arm_cell_runs_five_services_in_start_order() -> None:
-    assert list(specs()) == ["controller", "executor", "broadcaster", "interpolator/0", "gateway"]
+    assert list(specs()) == [
+        "controller/0",
+        "executor/0",
+        "broadcaster/0",
+        "interpolator/0",
+        "gateway/0",
+    ]
 
 
 def test_one_interpolator_per_group() -> None:
@@ -63,21 +75,31 @@ def test_each_interpolator_is_told_its_group() -> None:
     assert command[command.index("--group") + 1] == "2"
 
 
-def test_skipped_services_are_left_out() -> None:
-    names = list(specs(DUAL, UpOptions(skip=("interpolator/1", "gateway"))))
+@pytest.mark.parametrize("gateway", ["gateway", "gateway/0"])
+def test_skipped_services_are_left_out_named_either_way(gateway: str) -> None:
+    names = list(specs(DUAL, skip=("interpolator/1", gateway)))
     assert "interpolator/1" not in names
-    assert "gateway" not in names
+    assert "gateway/0" not in names
     assert "interpolator/0" in names
 
 
+def test_the_one_interpolator_of_a_one_group_cell_needs_no_group() -> None:
+    assert "interpolator/0" not in specs(skip=("interpolator",))
+
+
+def test_an_interpolator_of_a_cell_of_several_groups_must_be_named_with_its_group() -> None:
+    with pytest.raises(UnknownServiceError, match=r"interpolator/0, interpolator/1, interp"):
+        specs(DUAL, skip=("interpolator",))
+
+
 def test_skipping_a_service_the_cell_lacks_names_what_it_has() -> None:
-    with pytest.raises(UnknownServiceError, match=r"interpolator/3.*services: controller"):
-        specs(DUAL, UpOptions(skip=("interpolator/3",)))
+    with pytest.raises(UnknownServiceError, match=r"--skip: .*interpolator/3.*controller/0"):
+        specs(DUAL, skip=("interpolator/3",))
 
 
 def test_an_unknown_skip_is_refused_even_beside_a_known_one() -> None:
     with pytest.raises(UnknownServiceError, match="bogus"):
-        specs(options=UpOptions(skip=("gateway", "bogus")))
+        specs(skip=("gateway", "bogus"))
 
 
 # -- command lines ------------------------------------------------------------------------
@@ -105,13 +127,33 @@ def test_config_name_and_credentials_go_to_every_child() -> None:
 
 def test_port_options_go_to_the_services_that_serve_tcp_only() -> None:
     chosen = specs(options=UpOptions(host="0.0.0.0", port_base=50300, byte_order="big"))
-    for name in ("gateway", "broadcaster"):
+    for name in ("gateway/0", "broadcaster/0"):
         argv = list(chosen[name].argv)
         assert argv[-6:] == ["--host", "0.0.0.0", "--port-base", "50300", "--byte-order", "big"]
     for name, spec in chosen.items():
-        if name not in ("gateway", "broadcaster"):
+        if name not in ("gateway/0", "broadcaster/0"):
             assert "--host" not in spec.argv
             assert "--port-base" not in spec.argv
+
+
+# -- TCP ports ----------------------------------------------------------------------------
+
+
+def test_the_ports_are_those_of_the_services_run_here() -> None:
+    everything = [TcpPort("motion", 50240), TcpPort("state", 50241), TcpPort("I/O", 50242)]
+    assert tcp_ports(50240, services_here(ONE_ARM, ())) == everything
+    assert tcp_ports(50240, services_here(ONE_ARM, ("gateway",))) == [everything[1]]
+    assert tcp_ports(50240, services_here(ONE_ARM, ("broadcaster",))) == everything[::2]
+
+
+@pytest.mark.parametrize("port_base", [1, 50240, 65533])
+def test_a_port_base_whose_three_ports_exist_is_fine(port_base: int) -> None:
+    assert port_base_problem(port_base) is None
+
+
+@pytest.mark.parametrize("port_base", [0, -1, 65534, 70000])
+def test_a_port_base_beyond_the_port_range_says_so(port_base: int) -> None:
+    assert f"--port-base {port_base} is out of range" in str(port_base_problem(port_base))
 
 
 # -- router endpoints ---------------------------------------------------------------------

@@ -1,0 +1,294 @@
+"""``motocell up`` as a user meets it at a terminal (issue 15): quiet when all is well, one
+line and exit status 2 for a mistake, a Ctrl-C at any moment of start-up stops everything,
+and a service left out with ``--skip`` runs by hand with ``motocell service``.
+
+Each command runs as the ``motocell`` console script does (``python -m tools``) in a session
+of its own, so a Ctrl-C is what a terminal sends: SIGINT to the whole foreground process
+group. Every process a command started carries a mark in its environment, so whatever is
+left, reparented or not, is found.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import socket
+import subprocess
+import sys
+import uuid
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+from shared import registry
+from shared.config import EXIT_CONFIG, load_cell
+from shared.ports import free_port, free_port_block
+from shared.registry import ENV as RUNTIME_DIR_ENV
+from testkit.processes import alive, connectable, wait_until
+
+pytestmark = pytest.mark.cell
+
+MOTOCELL = (sys.executable, "-m", "tools")
+"""The ``motocell`` command, by the entry its console script runs."""
+MARK_ENV = "MOTOCELL_TEST_MARK"
+DEADLINE_S = 60.0
+"""A deadline for a hang, not a performance bound: a start takes a second or two."""
+HOST = "127.0.0.1"
+CELL = load_cell(None).name
+
+
+def marked(mark: str) -> set[int]:
+    """Running processes whose environment carries ``mark`` (children of children included,
+    and those whose parent died)."""
+    found = set()
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            environ = (entry / "environ").read_bytes()
+        except OSError:
+            continue
+        if f"{MARK_ENV}={mark}".encode() in environ.split(b"\0") and alive(int(entry.name)):
+            found.add(int(entry.name))
+    return found
+
+
+@dataclass
+class Run:
+    """A ``motocell`` command running, its output (stdout and stderr) going to a file."""
+
+    process: subprocess.Popen[bytes]
+    output: Path
+    mark: str
+
+    def text(self) -> str:
+        return self.output.read_text(errors="replace")
+
+    def wait_for(self, needle: str) -> None:
+        def seen() -> bool:
+            if needle in self.text():
+                return True
+            if self.process.poll() is not None:
+                raise AssertionError(f"exited ({self.process.returncode}):\n{self.text()}")
+            return False
+
+        wait_until(seen, DEADLINE_S, f"{needle!r} in the output")
+
+    def ctrl_c(self) -> None:
+        """What a terminal sends on Ctrl-C: SIGINT to the foreground process group."""
+        os.killpg(self.process.pid, signal.SIGINT)
+
+    def finish(self) -> int:
+        """Its exit status, once every process it started is gone too."""
+        status = self.process.wait(DEADLINE_S)
+        wait_until(lambda: not marked(self.mark), DEADLINE_S, "every process it started")
+        return status
+
+
+@contextlib.contextmanager
+def motocell(tmp_path: Path, *args: str) -> Iterator[Run]:
+    """``motocell ARGS``, with this test's registry of running cells; killed, with whatever
+    it started, if the test leaves it running."""
+    mark = uuid.uuid4().hex
+    env = {
+        **os.environ,
+        RUNTIME_DIR_ENV: str(tmp_path / "run"),
+        "MOTOCELL_LOG": "INFO",
+        "PYTHONUNBUFFERED": "1",
+        MARK_ENV: mark,
+    }
+    output = tmp_path / f"{mark}.log"
+    with output.open("wb") as out:
+        process = subprocess.Popen(
+            [*MOTOCELL, *args],
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            env=env,
+            start_new_session=True,
+        )
+    try:
+        yield Run(process, output, mark)
+    finally:
+        for pid in marked(mark) | ({process.pid} if process.poll() is None else set()):
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, signal.SIGKILL)
+        process.wait()
+
+
+def run_to_the_end(tmp_path: Path, *args: str) -> tuple[int, str]:
+    with motocell(tmp_path, *args) as run:
+        return run.finish(), run.text()
+
+
+def up_options() -> list[str]:
+    """Free ports for a cell: its TCP ports and its router's."""
+    port_base = free_port_block(3, HOST)
+    zenoh_port = free_port(HOST)
+    while port_base <= zenoh_port < port_base + 3:
+        zenoh_port = free_port(HOST)
+    return ["--port-base", str(port_base), "--zenoh-listen", f"tcp/{HOST}:{zenoh_port}"]
+
+
+def holding(port: int) -> socket.socket:
+    """A socket that listens on ``port``, as another program's would."""
+    taken = socket.socket()
+    taken.bind((HOST, port))
+    taken.listen()
+    return taken
+
+
+def clean(output: str) -> bool:
+    return "Traceback" not in output and "KeyboardInterrupt" not in output
+
+
+# -- quiet when all is well ----------------------------------------------------------------
+
+
+def test_a_normal_start_and_stop_says_ready_once_and_warns_of_nothing(tmp_path: Path) -> None:
+    options = up_options()
+    port_base, endpoint = int(options[1]), options[3]
+    with motocell(tmp_path, "up", *options) as up:
+        up.wait_for(" ready: ")
+        # Ready means a client can connect now.
+        assert connectable(HOST, port_base)
+        assert connectable(HOST, port_base + 1)
+        up.process.send_signal(signal.SIGTERM)
+        assert up.finish() == 0
+        output = up.text()
+    ready = [line for line in output.splitlines() if " ready: " in line]
+    assert len(ready) == 1, output
+    assert " INFO " in ready[0]
+    for part in (CELL, f"{HOST}:{port_base}", str(port_base + 1), str(port_base + 2), endpoint):
+        assert part in ready[0]
+    noisy = [line for line in output.splitlines() if " WARNING " in line or " ERROR " in line]
+    assert noisy == [], output
+    assert clean(output), output
+
+
+# -- a user's mistake: one line, status 2, nothing started -------------------------------------
+
+
+@pytest.mark.parametrize("offset", [0, 1, 2])
+def test_a_taken_tcp_port_is_one_line_and_status_2(tmp_path: Path, offset: int) -> None:
+    options = up_options()
+    port = int(options[1]) + offset
+    with holding(port):
+        status, output = run_to_the_end(tmp_path, "up", *options)
+    assert status == EXIT_CONFIG, output
+    assert output.splitlines() == [output.strip()], output
+    assert f"{HOST}:{port}" in output
+    assert "taken by another process" in output
+
+
+def test_a_port_base_beyond_the_port_range_is_one_line_and_status_2(tmp_path: Path) -> None:
+    status, output = run_to_the_end(tmp_path, "up", *up_options()[2:], "--port-base", "70000")
+    assert status == EXIT_CONFIG, output
+    assert output.strip() == (
+        "motocell up: --port-base 70000 is out of range: the motion, state and I/O ports "
+        "(70000-70002) must lie within 1-65535"
+    )
+
+
+def test_a_taken_zenoh_listen_port_is_one_line_and_status_2(tmp_path: Path) -> None:
+    options = up_options()
+    zenoh_port = int(options[3].rsplit(":", 1)[1])
+    with holding(zenoh_port):
+        status, output = run_to_the_end(tmp_path, "up", *options)
+    assert status == EXIT_CONFIG, output
+    assert output.splitlines() == [output.strip()], output
+    assert options[3] in output
+    assert "taken by another process" in output
+
+
+def test_a_malformed_zenoh_endpoint_is_said_without_zenohs_source_paths(tmp_path: Path) -> None:
+    options = up_options()
+    status, output = run_to_the_end(tmp_path, "up", *options[:2], "--zenoh-listen", "1.2.3.4")
+    assert status == EXIT_CONFIG, output
+    assert "1.2.3.4 is not a Zenoh endpoint: write tcp/HOST:PORT" in output
+    assert ".rs" not in output
+    assert output.splitlines() == [output.strip()], output
+
+
+# -- Ctrl-C at any moment --------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("moment", ["at once", "router up", "services starting", "ready"])
+def test_ctrl_c_at_any_moment_of_a_start_stops_everything_quietly(
+    tmp_path: Path, moment: str
+) -> None:
+    options = up_options()
+    zenoh_port = int(options[3].rsplit(":", 1)[1])
+    with motocell(tmp_path, "up", *options) as up:
+        if moment == "router up":
+            wait_until(lambda: connectable(HOST, zenoh_port), DEADLINE_S, "the router")
+        elif moment == "services starting":
+            wait_until(lambda: len(marked(up.mark)) > 1, DEADLINE_S, "a service process")
+        elif moment == "ready":
+            up.wait_for(" ready: ")
+        up.ctrl_c()
+        status = up.finish()
+        output = up.text()
+    assert status in (0, 130, -signal.SIGINT), output
+    assert clean(output), output
+
+
+@pytest.mark.parametrize("command", ["up", "service"])
+def test_ctrl_c_while_waiting_for_a_router_stops_at_once(tmp_path: Path, command: str) -> None:
+    nowhere = f"tcp/{HOST}:{free_port(HOST)}"
+    if command == "up":
+        args = ["up", "--port-base", str(free_port_block(3, HOST))]
+    else:
+        args = ["service", "controller"]
+    with motocell(tmp_path, *args, "--zenoh-connect", nowhere) as run:
+        run.wait_for(f"waiting up to 30 s for a Zenoh router at {nowhere}")
+        run.ctrl_c()
+        status = run.finish()
+        output = run.text()
+    # Had it waited the 30 s out, it would have said that no router answers, status 2.
+    assert status == 0, output
+    assert "no Zenoh router answers" not in output
+    assert clean(output), output
+
+
+@pytest.mark.parametrize("moment", ["at once", "motion ready"])
+def test_ctrl_c_during_the_demo_stops_it_and_its_cell_quietly(tmp_path: Path, moment: str) -> None:
+    with motocell(tmp_path, "demo", "--duration", "5") as demo:
+        if moment == "motion ready":
+            demo.wait_for("CHECK_MOTION_READY")
+        demo.ctrl_c()
+        status = demo.finish()
+        output = demo.text()
+    assert status in (0, 130, -signal.SIGINT), output
+    assert clean(output), output
+
+
+# -- a service by hand -----------------------------------------------------------------------
+
+
+def test_a_skipped_service_runs_by_hand_and_makes_the_cell_ready(tmp_path: Path) -> None:
+    options = up_options()
+    port_base, endpoint = options[1], options[3]
+    with motocell(tmp_path, "up", *options, "--skip", "gateway/0") as up:
+        up.wait_for("gateway/0 not started here")
+        credentials = registry.credentials_dir(CELL, tmp_path / "run")
+        by_hand = [
+            *("service", "gateway", "--zenoh-connect", endpoint),
+            *("--credentials", str(credentials), "--port-base", port_base),
+        ]
+        with holding(int(port_base)):
+            status, output = run_to_the_end(tmp_path, *by_hand)
+        assert status == EXIT_CONFIG, output
+        # After its INFO line that it joined the cell: it finds the port taken only then.
+        assert [line for line in output.splitlines() if " INFO " not in line] == [
+            f"motocell gateway/0: cannot listen on {HOST}:{port_base}: Address already in use"
+        ], output
+        assert " ready: " not in up.text()
+        with motocell(tmp_path, *by_hand) as gateway:
+            up.wait_for(" ready: ")
+            gateway.process.send_signal(signal.SIGTERM)
+            assert gateway.finish() == 0
+        up.process.send_signal(signal.SIGTERM)
+        assert up.finish() == 0
