@@ -18,6 +18,7 @@ from pathlib import Path
 
 import zenoh
 
+from services.launcher.core import WELL_KNOWN_ENDPOINT
 from shared import registry
 from shared.bus.access import Identity
 from shared.bus.credentials import CredentialsError, load
@@ -100,7 +101,8 @@ def add_arguments(parser: argparse.ArgumentParser, *, several: bool) -> None:
         "--zenoh-connect",
         metavar="ENDPOINT",
         help="a router of a cell not started on this machine (compose, another host), e.g. "
-        "tcp/robot-pc:7447; default: each cell's own router, from the registry",
+        "tcp/robot-pc:7447; default: each cell's own router, as `motocell up` registered it "
+        f"in {registry.runtime_dir()} (the first cell takes {WELL_KNOWN_ENDPOINT} when free)",
     )
     parser.add_argument(
         "--credentials",

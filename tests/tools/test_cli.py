@@ -8,6 +8,8 @@ from pathlib import Path
 
 import pytest
 
+from services.launcher.core import WELL_KNOWN_ENDPOINT
+from shared import registry
 from tools.cli import build_parser
 
 HEAVY = ("matplotlib", "mcap")
@@ -26,6 +28,7 @@ COMMANDS = (
     "credentials",
     "router",
     "demo",
+    "service",
 )
 
 
@@ -35,6 +38,30 @@ def test_every_command_has_help(command: str, capsys: pytest.CaptureFixture[str]
         build_parser().parse_args([command, "--help"])
     assert exit_.value.code == 0
     assert capsys.readouterr().out.startswith(f"usage: motocell {command}")
+
+
+def help_of(command: str, capsys: pytest.CaptureFixture[str]) -> str:
+    with pytest.raises(SystemExit):
+        build_parser().parse_args([command, "--help"])
+    return " ".join(capsys.readouterr().out.split())
+
+
+@pytest.mark.parametrize("command", ["up", "router"])
+def test_the_routers_default_endpoint_is_the_one_used(
+    command: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    text = help_of(command, capsys)
+    assert f"default {WELL_KNOWN_ENDPOINT}" in text
+    assert "127.0.0.1:0" not in text
+
+
+@pytest.mark.parametrize("command", ["ps", "watch"])
+def test_observers_say_where_they_look_by_default(
+    command: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    text = help_of(command, capsys)
+    assert f"registered it in {registry.runtime_dir()}" in text
+    assert WELL_KNOWN_ENDPOINT in text
 
 
 def test_help_imports_neither_mcap_nor_matplotlib(tmp_path: Path) -> None:
