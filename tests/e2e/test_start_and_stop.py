@@ -24,6 +24,7 @@ from pathlib import Path
 import pytest
 
 from shared import registry
+from shared.bus.session import CONNECT_WAIT_S
 from shared.config import EXIT_CONFIG, load_cell
 from shared.ports import free_port, free_port_block
 from shared.registry import ENV as RUNTIME_DIR_ENV
@@ -235,6 +236,23 @@ def test_ctrl_c_at_any_moment_of_a_start_stops_everything_quietly(
     assert clean(output), output
 
 
+@pytest.mark.parametrize("moment", ["at once", "running"])
+@pytest.mark.parametrize("command", ["router", "watch"])
+def test_ctrl_c_stops_the_router_and_watch_quietly(
+    tmp_path: Path, command: str, moment: str
+) -> None:
+    endpoint = f"tcp/{HOST}:{free_port(HOST)}"
+    args = ["router", "--listen", endpoint] if command == "router" else ["watch"]
+    with motocell(tmp_path, *args) as run:
+        if moment == "running":
+            run.wait_for("Zenoh router running" if command == "router" else "waiting for a cell")
+        run.ctrl_c()
+        status = run.finish()
+        output = run.text()
+    assert status in (0, 130, -signal.SIGINT), output
+    assert clean(output), output
+
+
 @pytest.mark.parametrize("command", ["up", "service"])
 def test_ctrl_c_while_waiting_for_a_router_stops_at_once(tmp_path: Path, command: str) -> None:
     nowhere = f"tcp/{HOST}:{free_port(HOST)}"
@@ -243,11 +261,11 @@ def test_ctrl_c_while_waiting_for_a_router_stops_at_once(tmp_path: Path, command
     else:
         args = ["service", "controller"]
     with motocell(tmp_path, *args, "--zenoh-connect", nowhere) as run:
-        run.wait_for(f"waiting up to 30 s for a Zenoh router at {nowhere}")
+        run.wait_for(f"waiting up to {CONNECT_WAIT_S:.0f} s for a Zenoh router at {nowhere}")
         run.ctrl_c()
         status = run.finish()
         output = run.text()
-    # Had it waited the 30 s out, it would have said that no router answers, status 2.
+    # Had it waited CONNECT_WAIT_S out, it would have said that no router answers, status 2.
     assert status == 0, output
     assert "no Zenoh router answers" not in output
     assert clean(output), output
