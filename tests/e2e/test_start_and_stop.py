@@ -164,7 +164,14 @@ def test_a_normal_start_and_stop_says_ready_once_and_warns_of_nothing(tmp_path: 
     assert " INFO " in ready[0]
     for part in (CELL, f"{HOST}:{port_base}", str(port_base + 1), str(port_base + 2), endpoint):
         assert part in ready[0]
-    noisy = [line for line in output.splitlines() if " WARNING " in line or " ERROR " in line]
+    noisy = [
+        line
+        for line in output.splitlines()
+        if (" WARNING " in line or " ERROR " in line)
+        # A machine that refuses SCHED_FIFO is not all well: that warning is meant
+        # (tests/e2e/test_realtime.py).
+        and "real-time priority" not in line
+    ]
     assert noisy == [], output
     assert clean(output), output
 
