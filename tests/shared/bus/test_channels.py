@@ -35,12 +35,13 @@ def test_a_doorbell_wakes_its_own_session_only(
     theirs = other.declare_subscriber(KEY, zenoh.handlers.FifoChannel(1024))
     doorbell = Doorbell(own, KEY)
     doorbell.ring()
-    sample = mine.recv()
-    assert is_doorbell(sample)
-    assert decoded(sample, Decoder(Slot)) is None
+    rung = mine.recv()
+    assert is_doorbell(rung)
+    assert decoded(rung, Decoder(Slot)) is None
     mine.undeclare()  # its FIFO would fill with the puts below and block Zenoh
     # Until the other session has the subscription, a put may not reach it: put until it does.
     deadline = time.monotonic() + 10.0
+    sample: zenoh.Sample | None
     while (sample := theirs.try_recv()) is None and time.monotonic() < deadline:
         own.put(KEY, encode(Slot(1, 2)))
         time.sleep(0.01)
