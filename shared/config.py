@@ -43,6 +43,9 @@ LOOK_AHEAD_POINTS = 3
 their segments all fit the executor's ring together (``GroupCredit.pending_fits``)."""
 
 
+SAMPLE_CELLS = "cells"
+"""The folder of ``shared`` that holds the sample cell files (package data)."""
+
 EXIT_CONFIG = 2
 """The exit status of a process that cannot start as configured (a bad file or option, refused
 credentials, a taken name): restarting it would not help, so the launcher stops the cell."""
@@ -320,14 +323,39 @@ def _check_name(name: str, where: str) -> None:
         raise ConfigError(f"{where}: name: {name!r} must be letters, digits, - or _")
 
 
+def sample_cells() -> list[str]:
+    """The sample cell files installed with motocell (``shared/cells``), by name."""
+    folder = resources.files("shared").joinpath(SAMPLE_CELLS)
+    return sorted(
+        entry.name.removesuffix(".toml")
+        for entry in folder.iterdir()
+        if entry.name.endswith(".toml")
+    )
+
+
+def _cell_text(path: str | Path) -> str:
+    """A file's text; a bare name that is no file (``four-group``) names a sample cell, so the
+    samples work from an installed wheel as from the source tree."""
+    candidate = Path(path)
+    is_name = candidate.name == str(path) and candidate.suffix == ""
+    if is_name and not candidate.exists():
+        sample = resources.files("shared").joinpath(SAMPLE_CELLS, f"{path}.toml")
+        if not sample.is_file():
+            known = ", ".join(sample_cells())
+            raise ConfigError(f"{path}: no such file, nor a sample cell (samples: {known})")
+        return sample.read_text()
+    try:
+        return candidate.read_text()
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read: {exc.strerror}") from exc
+
+
 def _load_cell(path: str | Path | None) -> Cell:
     if path is None:
         return resolve(CellFile())
     where = str(path)
     try:
-        raw = tomllib.loads(Path(path).read_text())
-    except OSError as exc:
-        raise ConfigError(f"{where}: cannot read: {exc.strerror}") from exc
+        raw = tomllib.loads(_cell_text(path))
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{where}: not valid TOML: {exc}") from exc
     return parse_cell(raw, where)

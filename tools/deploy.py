@@ -17,7 +17,7 @@ from shared.bus.router import router_settings
 from shared.config import load_cell
 
 REPO = Path(__file__).resolve().parent.parent
-COMPOSE_CELL = "deploy/cells/dual-arm-positioner.toml"
+COMPOSE_CELL = "shared/cells/dual-arm-positioner.toml"
 ROUTER_CONFIG = "deploy/zenoh/router.json5"
 CREDENTIALS_MOUNT = "/etc/motocell/credentials"
 """Where compose mounts the credentials directory, in the router's and every service's

@@ -1,6 +1,6 @@
 """Fixtures the end-to-end modules share.
 
-``cell`` is one running cell per module: the default cell, or the file of ``deploy/cells`` that
+``cell`` is one running cell per module: the default cell, or the file of ``shared/cells`` that
 the module names with ``pytest.mark.parametrize("cell", ["fs100.toml"], indirect=True)`` in its
 ``pytestmark``. The other fixtures are clients of that cell, opened for one test and closed after.
 """
@@ -29,7 +29,7 @@ def repo() -> Path:
 @pytest.fixture(scope="module")
 def cell(request: pytest.FixtureRequest, repo: Path) -> Iterator[RunningCell]:
     name: str | None = getattr(request, "param", None)
-    with running_cell(None if name is None else repo / "deploy" / "cells" / name) as running:
+    with running_cell(None if name is None else repo / "shared" / "cells" / name) as running:
         yield running
 
 

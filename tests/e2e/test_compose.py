@@ -56,7 +56,7 @@ def compose_commands(
         rewritten = [sys.executable, "-m"]
         for original in command[2:]:
             part = original.replace("tls/zenohd:7447", router)
-            part = part.replace("/etc/motocell/cells/", f"{repo}/deploy/cells/")
+            part = part.replace("/etc/motocell/cells/", f"{repo}/shared/cells/")
             part = part.replace(MOUNT, str(credentials))
             rewritten.append({"0.0.0.0": "127.0.0.1", "50240": str(port_base)}.get(part, part))
         assert rewritten[rewritten.index("--credentials") + 1] == str(credentials), name
@@ -109,7 +109,7 @@ def stop_services(processes: list[subprocess.Popen[bytes]]) -> None:
 
 
 def test_compose_services_execute_a_trajectory(repo: Path, compose_cell: int) -> None:
-    cell = load_cell(repo / "deploy" / "cells" / "dual-arm-positioner.toml")
+    cell = load_cell(repo / "shared" / "cells" / "dual-arm-positioner.toml")
     maps = [AxisMap(group) for group in cell.groups]
     byte_order = ByteOrder(cell.byte_order)
 

@@ -60,7 +60,7 @@ def run_to(cell: RunningCell, offset: float, results: dict[str, bool]) -> None:
 def test_two_cells_on_one_network_are_isolated_and_one_observer_sees_both(
     repo: Path, tmp_path: Path
 ) -> None:
-    single_arm = repo / "deploy" / "cells" / "single-arm.toml"
+    single_arm = repo / "shared" / "cells" / "single-arm.toml"
     with ExitStack() as stack:
         endpoint = stack.enter_context(zenoh_router(f"tcp/127.0.0.1:{free_port()}"))
         observer = open_session("client", [endpoint])
@@ -134,7 +134,7 @@ def other_host() -> Iterator[tuple[str, str, str]]:
 
 @pytest.mark.skipif(not _netns_available(), reason="needs root and `ip netns`")
 def test_a_groups_interpolator_on_another_host_through_a_router(repo: Path) -> None:
-    config = str(repo / "deploy" / "cells" / "dual-arm-positioner.toml")
+    config = str(repo / "shared" / "cells" / "dual-arm-positioner.toml")
     with ExitStack() as stack:
         namespace, ours, _theirs = stack.enter_context(other_host())
         endpoint = stack.enter_context(zenoh_router(f"tcp/{ours}:{free_port()}"))

@@ -22,11 +22,12 @@ from shared.config import (
     ControllerModel,
     load_catalogue,
     load_cell,
+    sample_cells,
 )
 from shared.protocol.constants import MAX_AXES
 
 REPO = Path(__file__).resolve().parents[2]
-CELLS = REPO / "deploy" / "cells"
+CELLS = REPO / "shared" / "cells"
 
 CATALOGUE_NAMES = ("arm6", "arm7", "positioner2", "track1")
 
@@ -211,6 +212,19 @@ def test_one_pending_point_as_motoros_unless_set(tmp_path: Path) -> None:
     assert default.points_outstanding == LOOK_AHEAD_POINTS
     deepest = load_cell(write_cell(tmp_path, f"pending_points = {MAX_PENDING_POINTS}\n"))
     assert deepest.pending_points == deepest.points_outstanding == MAX_PENDING_POINTS
+
+
+def test_a_sample_cell_is_named_without_its_path() -> None:
+    """So the samples work from an installed wheel (``motocell up --config four-group``)."""
+    assert sample_cells() == sorted(p.stem for p in CELLS.glob("*.toml"))
+    assert load_cell("four-group") == load_cell(CELLS / "four-group.toml")
+
+
+def test_a_name_that_is_neither_a_file_nor_a_sample_lists_the_samples() -> None:
+    with pytest.raises(
+        ConfigError, match=r"nosuch: no such file, nor a sample cell \(samples: dual"
+    ):
+        load_cell("nosuch")
 
 
 def test_no_start_buffer_as_motoros_unless_set(tmp_path: Path) -> None:

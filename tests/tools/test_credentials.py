@@ -18,7 +18,7 @@ from shared.bus.session import open_session
 from shared.ports import free_port
 from tools.cli import build_parser
 
-DUAL_ARM = Path(__file__).resolve().parents[2] / "deploy" / "cells" / "dual-arm-positioner.toml"
+DUAL_ARM = Path(__file__).resolve().parents[2] / "shared" / "cells" / "dual-arm-positioner.toml"
 
 
 def motocell(*argv: str) -> int:
