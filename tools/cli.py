@@ -94,6 +94,7 @@ def build_parser() -> argparse.ArgumentParser:
     for subcommand in commands.choices.values():
         # No abbreviated options anywhere: `--port-bas` must not silently mean `--port-base`.
         subcommand.allow_abbrev = False
+        subcommand.add_argument("--version", action=ShowVersion)
     return parser
 
 

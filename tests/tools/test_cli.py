@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import subprocess
 import sys
 from pathlib import Path
@@ -119,8 +120,21 @@ def test_abbreviated_options_are_refused(capsys: pytest.CaptureFixture[str]) -> 
     assert "unrecognized arguments: --port-bas" in capsys.readouterr().err
 
 
-def test_version_is_printed(capsys: pytest.CaptureFixture[str]) -> None:
+COMMANDS = ["up", "fault", "ps", "watch", "echo", "hz", "record", "plot", "bench"]
+COMMANDS += ["credentials", "service", "router", "demo"]
+
+
+@pytest.mark.parametrize("command", [[], *([c] for c in COMMANDS)])
+def test_version_is_printed_by_every_command(
+    command: list[str], capsys: pytest.CaptureFixture[str]
+) -> None:
     with pytest.raises(SystemExit) as exit_status:
-        build_parser().parse_args(["--version"])
+        build_parser().parse_args([*command, "--version"])
     assert exit_status.value.code == 0
     assert capsys.readouterr().out.startswith("motocell ")
+
+
+def test_every_command_is_tested_for_its_version() -> None:
+    parser = build_parser()
+    subparsers = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    assert sorted(subparsers.choices) == sorted(COMMANDS)
