@@ -120,11 +120,11 @@ def test_abbreviated_options_are_refused(capsys: pytest.CaptureFixture[str]) -> 
     assert "unrecognized arguments: --port-bas" in capsys.readouterr().err
 
 
-COMMANDS = ["up", "fault", "ps", "watch", "echo", "hz", "record", "plot", "bench"]
-COMMANDS += ["credentials", "service", "router", "demo"]
+EVERY_COMMAND = ["up", "fault", "ps", "watch", "echo", "hz", "record", "plot", "bench"]
+EVERY_COMMAND += ["credentials", "service", "router", "demo"]
 
 
-@pytest.mark.parametrize("command", [[], *([c] for c in COMMANDS)])
+@pytest.mark.parametrize("command", [[], *([c] for c in EVERY_COMMAND)])
 def test_version_is_printed_by_every_command(
     command: list[str], capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -137,4 +137,4 @@ def test_version_is_printed_by_every_command(
 def test_every_command_is_tested_for_its_version() -> None:
     parser = build_parser()
     subparsers = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
-    assert sorted(subparsers.choices) == sorted(COMMANDS)
+    assert sorted(subparsers.choices) == sorted(EVERY_COMMAND)
