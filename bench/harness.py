@@ -24,6 +24,7 @@ import platform
 import shutil
 import statistics
 import subprocess
+import sys
 import tempfile
 import time
 from collections.abc import Iterator, Mapping, Sequence
@@ -301,11 +302,15 @@ def gc_paused() -> Iterator[None]:
 
 @contextmanager
 def workdir() -> Iterator[Path]:
+    """A temporary directory for a figure's cells and clients; kept, and named, when the figure
+    fails, so its cells' logs say why."""
     path = Path(tempfile.mkdtemp(prefix="motocell-bench-"))
     try:
         yield path
-    finally:
-        shutil.rmtree(path, ignore_errors=True)
+    except BaseException:
+        print(f"  the failed figure's cell logs are kept in {path}", file=sys.stderr)
+        raise
+    shutil.rmtree(path, ignore_errors=True)
 
 
 @contextmanager

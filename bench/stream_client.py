@@ -30,7 +30,7 @@ import numpy as np
 
 from bench.recording import Columns, StdinControl, freeze_gc, report
 from shared.protocol.codec import ByteOrder
-from shared.protocol.constants import Command, Result
+from shared.protocol.constants import Command, Result, describe_reply
 from shared.protocol.messages import Message, MotoMotionReply
 from shared.protocol.replies import motion_ctrl
 from testkit.client import MotionClient
@@ -116,18 +116,18 @@ class Streaming:
                 wait_ns = self.first_sent_ns + index * pace_ns - time.monotonic_ns()
                 if wait_ns > 0:
                     time.sleep(wait_ns / 1e9)
-            result = self._send_until_taken(frame)
-            if result is None:
+            reply = self._send_until_taken(frame)
+            if reply is None:
                 self.link.exchange(self.link.stop_motion)
                 return
-            if result != Result.SUCCESS:
-                self.error = f"point {index} refused: result {result}"
+            if reply[0] != Result.SUCCESS:
+                self.error = f"point {index} refused: {describe_reply(*reply)}"
                 return
             self.accepted_ns[index] = time.monotonic_ns()
             self.points += 1
 
-    def _send_until_taken(self, frame: bytes) -> int | None:
-        """The first reply other than BUSY; None when told to stop first."""
+    def _send_until_taken(self, frame: bytes) -> tuple[int, int] | None:
+        """The first reply other than BUSY (result, subcode); None when told to stop first."""
         retry_ns = round(self.job.busy_retry_s * 1e9)
         while True:
             if self.control.pending():
@@ -135,11 +135,11 @@ class Streaming:
                     self.control.read_line()
                 return None
             sent = time.monotonic_ns()
-            result, _ = self.link.exchange(frame)
+            result, subcode = self.link.exchange(frame)
             replied = time.monotonic_ns()
             self.replies.add(sent, replied - sent, result)
             if result != Result.BUSY:
-                return result
+                return result, subcode
             self.busy += 1
             if self.job.probes:
                 self._probe(self.busy % len(self.job.probes))
