@@ -32,9 +32,12 @@ from testkit.cell import RunningCell
 from testkit.client import ex_messages
 
 STATE_CLIENTS = 4
-LOADED_SPEED = 0.05
-"""rad/s (m/s) on every axis: every tick moves every axis by at least 4 pulses, so feedback
-pulses identify the tick they come from."""
+LOADED_SPEED = 0.02
+"""rad/s (m/s) on every axis. A full run (60 s + 4 s) then moves 1.28 rad, inside every
+model's range from its initial position (the tightest, arm7's second axis, ends at 1.92 rad;
+0.05 rad/s ran into it after 38 s and the cell rightly stopped with its soft-limit alarm), and
+the 7-axis arm's axes (65,536 pulses/rad) still move 5 pulses a tick, so the feedback pulses
+of the 4 groups together identify the tick they come from."""
 POINT_INTERVAL_S = 0.1
 SETTLE_S = 0.5
 """After the first move, until the ring is full and state flows."""
