@@ -134,8 +134,8 @@ def test_every_sample_says_it_is_msgpack(cell: RunningCell, observer: zenoh.Sess
         assert encodings == {key: {str(ENCODING)} for key in encodings}
 
 
-def test_the_subscriber_example_of_the_docs_works(cell: RunningCell, repo: Path) -> None:
-    page = (repo / "docs" / "observing.md").read_text()
+def test_the_subscriber_example_of_the_readme_works(cell: RunningCell, repo: Path) -> None:
+    page = (repo / "README.md").read_text()
     (example,) = re.findall(r"```python\n(.*?)```", page, re.DOTALL)
     # The example's cell, at this cell's endpoint and credentials.
     here = example.replace("tcp/127.0.0.1:7447", cell.zenoh_endpoint).replace(
