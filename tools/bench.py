@@ -11,7 +11,7 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="run the benchmark suite: print a table, write JSON results",
         description="Run the benchmark suite (figures 1-9): median and [min-max] of at least "
         "3 runs each, printed as a table and written to <timestamp>.json and latest.json in "
-        "--out. The full suite takes about 11 minutes, --quick about one.",
+        "--out. The full suite takes about 15 minutes, --quick 1-2.",
         fill=_suite_arguments,
     )
 
