@@ -266,7 +266,7 @@ def write_cell_file(
 
 def wait_for_every_slot(cell: RunningCell, timeout: float = START_TIMEOUT_S) -> None:
     """The gateway accepts a group's points only once it has heard that group's interpolator
-    (its slot, published on change and every 0.5 s); wait until we have heard every one too."""
+    (its slot, published on change and every 0.1 s); wait until we have heard every one too."""
     session = cell.session()
     try:
         heard: set[str] = set()
