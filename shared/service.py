@@ -61,6 +61,21 @@ class StartError(Exception):
     taken): ``running_service`` prints the message as one line and exits with EXIT_CONFIG."""
 
 
+def listen(host: str, port: int) -> socket.socket:
+    """A listening TCP socket for one of the cell's Simple Message ports; a port that cannot be
+    served is a StartError (not restarted by the launcher: it would fail the same way)."""
+    server = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    server.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        server.bind((host, port))
+    except (OSError, OverflowError) as exc:
+        server.close()
+        reason = exc.strerror if isinstance(exc, OSError) else "a port is 1 to 65535"
+        raise StartError(f"cannot listen on {host}:{port}: {reason}") from exc
+    server.listen(socket.SOMAXCONN)
+    return server
+
+
 def version() -> str:
     # Imported only where needed: importlib.metadata brings the email package, 10-20 ms that
     # `motocell up` would spend before it starts a single service.

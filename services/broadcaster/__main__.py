@@ -11,11 +11,11 @@ from services.broadcaster.controller_watch import ControllerWatch
 from services.broadcaster.core import Broadcaster
 from services.broadcaster.loop import StateLoop
 from services.broadcaster.reports import Reports
-from services.broadcaster.state_port import StatePort, listen
+from services.broadcaster.state_port import StatePort
 from services.broadcaster.ticks import TickSource
 from shared.bus.session import publisher
 from shared.protocol.codec import ByteOrder
-from shared.service import argument_parser, running_service
+from shared.service import argument_parser, listen, running_service
 
 log = logging.getLogger("broadcaster")
 

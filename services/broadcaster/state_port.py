@@ -15,28 +15,12 @@ import socket
 
 from services.broadcaster.backlog import STUCK_S, Backlog, Cycle
 from services.broadcaster.core import Admission, admission
-from shared.service import StartError
 
 log = logging.getLogger("broadcaster")
 
 SEND_BUFFER_BYTES = 16 * 1024
 """The kernel's share of a client's backlog (Linux doubles it): a few dozen cycles, so a
 client on a slow link is not fed seconds of old states from our side of the connection."""
-
-
-def listen(host: str, port: int) -> socket.socket:
-    server = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-    server.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-    try:
-        server.bind((host, port))
-    except (OSError, OverflowError) as exc:
-        server.close()
-        # Not restarted by the launcher (EXIT_CONFIG): it would fail the same way.
-        reason = exc.strerror if isinstance(exc, OSError) else "a port is 1 to 65535"
-        raise StartError(f"cannot listen on {host}:{port}: {reason}") from exc
-    server.listen(socket.SOMAXCONN)
-    server.setblocking(False)
-    return server
 
 
 class StateClient:
@@ -57,6 +41,7 @@ class StateClient:
 
 class StatePort:
     def __init__(self, server: socket.socket) -> None:
+        server.setblocking(False)  # polled once a cycle by the broadcaster's one thread
         self.server = server
         self.clients: list[StateClient] = []
         self.replaced = 0

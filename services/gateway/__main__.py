@@ -15,10 +15,10 @@ from services.gateway.core.io import IoHandler
 from services.gateway.core.motion import MotionHandler
 from services.gateway.metrics import GatewayStats
 from services.gateway.reporter import Reporter
-from services.gateway.tcp import RequestServer, listen
+from services.gateway.tcp import RequestServer
 from services.gateway.zenoh_cell import ZenohCell
 from shared.protocol.codec import ByteOrder
-from shared.service import argument_parser, running_service
+from shared.service import argument_parser, listen, running_service
 
 log = logging.getLogger("gateway")
 

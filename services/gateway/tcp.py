@@ -19,7 +19,6 @@ from services.gateway.core.answer import Answer
 from shared.protocol.codec import CLOSED, NEED_DATA, ByteOrder, Role, SimpleMessageCodec
 from shared.protocol.errors import PeerProtocolError
 from shared.protocol.messages import Message, UnknownMessage
-from shared.service import StartError
 
 log = logging.getLogger("gateway")
 
@@ -32,20 +31,6 @@ CLOSE_DELAY_S = 0.05
 Respond = Callable[[Message | UnknownMessage], Answer]
 Observe = Callable[[int, Message | None, int], None]
 ErrorReply = Callable[[PeerProtocolError], Message]
-
-
-def listen(host: str, port: int) -> socket.socket:
-    server = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-    server.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-    try:
-        server.bind((host, port))
-    except (OSError, OverflowError) as exc:
-        server.close()
-        # Not restarted by the launcher (EXIT_CONFIG): it would fail the same way.
-        reason = exc.strerror if isinstance(exc, OSError) else "a port is 1 to 65535"
-        raise StartError(f"cannot listen on {host}:{port}: {reason}") from exc
-    server.listen(socket.SOMAXCONN)
-    return server
 
 
 def configure(client: socket.socket) -> None:

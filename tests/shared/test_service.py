@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from shared.service import StopFlag, freeze_what_lives_forever, stop_on_signals
+from shared.service import StartError, StopFlag, freeze_what_lives_forever, listen, stop_on_signals
 
 REPO = Path(__file__).resolve().parents[2]
 DEADLINE_S = 20.0
@@ -216,3 +216,14 @@ def test_what_start_up_made_is_frozen_out_of_full_collections() -> None:
         assert gc.get_freeze_count() > before
     finally:
         gc.unfreeze()
+
+
+def test_a_port_that_cannot_be_served_is_a_start_error_in_one_line() -> None:
+    with listen("127.0.0.1", 0) as taken:
+        port = taken.getsockname()[1]
+        with pytest.raises(StartError, match=rf"^cannot listen on 127.0.0.1:{port}: Address"):
+            listen("127.0.0.1", port)
+    with pytest.raises(
+        StartError, match=r"^cannot listen on 127.0.0.1:70000: a port is 1 to 65535$"
+    ):
+        listen("127.0.0.1", 70000)

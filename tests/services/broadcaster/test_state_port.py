@@ -11,7 +11,8 @@ import pytest
 
 from services.broadcaster.backlog import STUCK_S
 from services.broadcaster.core import MAX_STATE_CLIENTS
-from services.broadcaster.state_port import StatePort, listen
+from services.broadcaster.state_port import StatePort
+from shared.service import listen
 from testkit.processes import wait_until
 
 CYCLE_BYTES = 64 * 1024
