@@ -16,7 +16,7 @@ import socket
 import threading
 import time
 from collections.abc import Callable, Sequence
-from typing import Any, TypeVar
+from typing import Any
 
 import msgspec
 import zenoh
@@ -27,7 +27,6 @@ from shared.bus.schemas import CommandReply, CommandRequest, Decoder, encode
 
 log = logging.getLogger(__name__)
 
-T = TypeVar("T")
 
 LEASE_MS = 5000
 """Transport lease: how long a process may go unheard before its router closes its session and
@@ -266,24 +265,20 @@ class Inbox:
     """One queue that several Zenoh callbacks feed, drained by the service's own thread.
 
     Zenoh callbacks run on Zenoh's threads; they only append here (style §10), so no service
-    logic ever runs on them. Bounded: a producer that outruns the consumer is logged and
-    dropped rather than growing memory without limit.
+    logic ever runs on them. Bounded: what a producer that outruns the consumer sends is
+    dropped and counted (``dropped``) rather than growing memory without limit.
     """
 
     def __init__(self, maxsize: int = 10_000) -> None:
         self._queue: queue.Queue[tuple[str, Any]] = queue.Queue(maxsize)
         self.dropped = 0
 
-    def feed(
-        self, tag: str, transform: Callable[[Any], Any] = lambda x: x
-    ) -> Callable[[Any], None]:
+    def feed(self, tag: str) -> Callable[[Any], None]:
         def callback(item: Any) -> None:
             try:
-                self._queue.put_nowait((tag, transform(item)))
+                self._queue.put_nowait((tag, item))
             except queue.Full:
                 self.dropped += 1
-            except (msgspec.DecodeError, ValueError) as exc:
-                log.warning("undecodable %s payload dropped: %s", tag, exc)
 
         return callback
 
@@ -301,13 +296,6 @@ class Inbox:
             return self._queue.get_nowait()
         except queue.Empty:
             return None
-
-
-def payload_of(decoder: Decoder[T]) -> Callable[[zenoh.Sample], T]:
-    def decode(sample: zenoh.Sample) -> T:
-        return decoder.decode(sample.payload.to_bytes())
-
-    return decode
 
 
 _reply_decoder = Decoder(CommandReply)
