@@ -29,7 +29,7 @@ from contextlib import contextmanager
 import zenoh
 
 from services.gateway.core.cell_state import STATUS_STREAM, CellState, queue_stream
-from shared.bus.channels import Channel, newest
+from shared.bus.channels import Channel, decoded, newest
 from shared.bus.keys import CellKeys
 from shared.bus.liveness import HEARTBEAT_S
 from shared.bus.schemas import (
@@ -138,7 +138,9 @@ class ZenohCell:
         old.undeclare()
 
     def _on_status(self, sample: zenoh.Sample) -> None:
-        status = _status_decoder.decode(sample.payload.to_bytes())
+        status = decoded(sample, _status_decoder)
+        if status is None:
+            return
         with self._changed:
             self.state.on_status(status)
             self._changed.notify_all()
