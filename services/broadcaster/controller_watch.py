@@ -2,16 +2,12 @@
 
 from __future__ import annotations
 
-import logging
-
-import msgspec
 import zenoh
 
+from shared.bus.channels import newest
 from shared.bus.keys import CellKeys
 from shared.bus.schemas import ControllerStatus, Decoder
 from shared.bus.session import Liveness
-
-log = logging.getLogger("broadcaster")
 
 _status_decoder = Decoder(ControllerStatus)
 
@@ -30,12 +26,9 @@ class ControllerWatch:
         )
 
     def status(self) -> ControllerStatus | None:
-        sample = self._subscriber.try_recv()
-        if sample is not None:
-            try:
-                self._status = _status_decoder.decode(sample.payload.to_bytes())
-            except msgspec.DecodeError as exc:
-                log.warning("undecodable controller status dropped: %s", exc)
+        status = newest(self._subscriber, _status_decoder)
+        if status is not None:
+            self._status = status
         return self._status
 
     def alive(self) -> bool:
