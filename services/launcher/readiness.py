@@ -12,11 +12,11 @@ import logging
 from collections.abc import Sequence
 from typing import Any
 
-import msgspec
 import zenoh
 
 from services.launcher.core import TcpPort
 from services.launcher.ports import listening
+from shared.bus.channels import newest
 from shared.bus.keys import CellKeys
 from shared.bus.schemas import ControllerStatus, Decoder
 
@@ -49,12 +49,8 @@ class ReadyNotice:
         """Say it once, the first time the cell is ready; never waits."""
         if self.told:
             return
-        sample = self._samples.try_recv()
-        if sample is not None:
-            try:
-                status = _status.decode(sample.payload.to_bytes())
-            except msgspec.DecodeError:
-                return
+        status = newest(self._samples, _status)
+        if status is not None:
             self._whole = not status.missing_services
         if self._whole and listening(self._host, self._ports):
             self.told = True

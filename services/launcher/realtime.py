@@ -13,9 +13,9 @@ import logging
 from collections.abc import Callable
 from typing import Any
 
-import msgspec
 import zenoh
 
+from shared.bus.channels import newest
 from shared.bus.keys import CellKeys
 from shared.bus.schemas import Decoder, ExecutorMetrics
 from shared.realtime import ELSEWHERE, RT_PRIORITY, fix_command
@@ -39,14 +39,10 @@ class RealtimeNotice:
     def check(self) -> None:
         """Tell once, the first time the executor reports it runs without SCHED_FIFO; never
         waits."""
-        sample = self._samples.try_recv()
-        if sample is None or self.told:
+        if self.told:
             return
-        try:
-            realtime = _metrics.decode(sample.payload.to_bytes()).realtime
-        except msgspec.DecodeError:
-            return
-        if not realtime:
+        metrics = newest(self._samples, _metrics)
+        if metrics is not None and not metrics.realtime:
             self.told = True
             pid = self._executor_pid()
             log.warning(
