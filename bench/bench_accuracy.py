@@ -1,6 +1,6 @@
 """Figure 8: accuracy of the applied pulses against the float64 closed form.
 
-    python -m bench.run --only 8 [--quick]
+    python -m motocell.bench.run --only 8 [--quick]
 
 Pure part (no cell): for every robot model of the catalogue (arm6, arm7 with its axis
 reordering, positioner2, track1), a long random trajectory (knots 10-400 ms apart at arbitrary
@@ -28,20 +28,20 @@ from typing import Any
 
 import numpy as np
 
-from bench.clients import StreamClientProcess, stream_bound_s
-from bench.harness import (
+from motocell.bench.clients import StreamClientProcess, stream_bound_s
+from motocell.bench.harness import (
     Observer,
     bench_cell,
     figure_result,
     positions_of,
     workdir,
 )
-from services.interpolator.core import MAX_BATCH
-from shared.bus.schemas import Tick
-from shared.config import Group, load_catalogue
-from shared.motion.interpolation import Knot, Trajectory, time_to_ns
-from shared.motion.kinematics import AxisMap
-from testkit.client import PlannedPoint, ex_messages
+from motocell.services.interpolator.core import MAX_BATCH
+from motocell.shared.bus.schemas import Tick
+from motocell.shared.config import Group, load_catalogue
+from motocell.shared.motion.interpolation import Knot, Trajectory, time_to_ns
+from motocell.shared.motion.kinematics import AxisMap
+from motocell.testkit.client import PlannedPoint, ex_messages
 
 FIGURE = 8
 RUNS = 3

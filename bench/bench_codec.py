@@ -1,6 +1,6 @@
 """Simple Message codec throughput: decode and encode, in frames per second on one core.
 
-    python -m bench.bench_codec [--quick] [--runs N] [--big-endian]
+    python -m motocell.bench.bench_codec [--quick] [--runs N] [--big-endian]
 
 Decoding is timed as the gateway does it: 64 KiB reads fed to ``receive_data``, each drained
 with ``next_event``. Each case runs several times; the table shows the median and the spread.
@@ -17,11 +17,11 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from bench.harness import RESULTS_DIR
-from shared.protocol.codec import NEED_DATA, ByteOrder, Role, SimpleMessageCodec
-from shared.protocol.constants import MsgType
-from shared.protocol.messages import JointFeedback, JointFeedbackEx, Message
-from shared.protocol.replies import state_message, traj_point
+from motocell.bench.harness import RESULTS_DIR
+from motocell.shared.protocol.codec import NEED_DATA, ByteOrder, Role, SimpleMessageCodec
+from motocell.shared.protocol.constants import MsgType
+from motocell.shared.protocol.messages import JointFeedback, JointFeedbackEx, Message
+from motocell.shared.protocol.replies import state_message, traj_point
 
 RUNS = 5
 FRAMES = 50_000

@@ -1,6 +1,6 @@
 """Figure 3: executor lateness and missed periods under load.
 
-    python -m bench.run --only 3 [--quick]
+    python -m motocell.bench.run --only 3 [--quick]
 
 A 4-group cell (arm6, arm6, arm7, positioner2, YRC1000, 4 ms period) with the state period set
 to one tick (4 ms), 4 state clients connected (each its own process), and all 4 groups moving
@@ -21,8 +21,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from bench.harness import figure_result, percentiles
-from bench.loaded import loaded_runs
+from motocell.bench.harness import figure_result, percentiles
+from motocell.bench.loaded import loaded_runs
 
 FIGURE = 3
 RUNS = 3

@@ -1,7 +1,7 @@
 """Interpolation throughput: queue entries (one pulse increment per axis, one row per
 interpolation period) computed per second for one group, on one core.
 
-    python -m bench.bench_interpolation [--quick] [--runs N]
+    python -m motocell.bench.bench_interpolation [--quick] [--runs N]
 
 The group is the 6-axis arm of the default cell at a 4 ms period. Cases:
 
@@ -28,12 +28,12 @@ from typing import Any
 
 import numpy as np
 
-from bench.harness import RESULTS_DIR
-from services.interpolator.core import MAX_BATCH, Feeder
-from shared.bus.schemas import IncrementBatch, Point, QueueState
-from shared.config import load_cell
-from shared.motion.interpolation import Knot, Trajectory
-from shared.motion.kinematics import AxisMap
+from motocell.bench.harness import RESULTS_DIR
+from motocell.services.interpolator.core import MAX_BATCH, Feeder
+from motocell.shared.bus.schemas import IncrementBatch, Point, QueueState
+from motocell.shared.config import load_cell
+from motocell.shared.motion.interpolation import Knot, Trajectory
+from motocell.shared.motion.kinematics import AxisMap
 
 RUNS = 5
 GOAL = 1_000_000.0

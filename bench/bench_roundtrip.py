@@ -1,6 +1,6 @@
 """Figure 4: request -> reply round trip over TCP on the motion port.
 
-    python -m bench.run --only 4 [--quick]
+    python -m motocell.bench.run --only 4 [--quick]
 
 A 4-group cell (default 10 ms state period) with one state client connected, as a ROS driver
 has. The motion client runs in its own process (``bench.stream_client``, garbage collector off)
@@ -34,8 +34,8 @@ from typing import Any
 
 import numpy as np
 
-from bench.clients import StateClientProcess, StreamClientProcess, stream_bound_s
-from bench.harness import (
+from motocell.bench.clients import StateClientProcess, StreamClientProcess, stream_bound_s
+from motocell.bench.harness import (
     CHECK_MOTION_READY,
     CHECK_QUEUE_CNT,
     Observer,
@@ -48,11 +48,11 @@ from bench.harness import (
     ramps,
     workdir,
 )
-from shared.bus.schemas import Decoder, GatewayMetrics
-from shared.protocol.constants import MsgType, Result
-from shared.protocol.messages import Message
-from testkit.cell import RunningCell
-from testkit.client import ex_messages, point_messages
+from motocell.shared.bus.schemas import Decoder, GatewayMetrics
+from motocell.shared.protocol.constants import MsgType, Result
+from motocell.shared.protocol.messages import Message
+from motocell.testkit.cell import RunningCell
+from motocell.testkit.client import ex_messages, point_messages
 
 FIGURE = 4
 RUNS = 3

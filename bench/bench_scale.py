@@ -1,6 +1,6 @@
 """Figure 7: how many 4-group cells fit on this machine with no missed period.
 
-    python -m bench.run --only 7 [--quick]
+    python -m motocell.bench.run --only 7 [--quick]
 
 Each cell is a whole ``motocell up`` with its own router, 4 groups (arm6, arm6, arm7,
 positioner2), the default 10 ms state period, one state client, and a motion client streaming a
@@ -36,8 +36,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from bench.clients import StateClientProcess, StreamClientProcess
-from bench.harness import (
+from motocell.bench.clients import StateClientProcess, StreamClientProcess
+from motocell.bench.harness import (
     CpuSampler,
     Observer,
     bench_cell,
@@ -50,7 +50,7 @@ from bench.harness import (
     wait_moving,
     workdir,
 )
-from testkit.client import ex_messages
+from motocell.testkit.client import ex_messages
 
 FIGURE = 7
 CPU_SHARE = 0.7

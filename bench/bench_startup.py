@@ -1,6 +1,6 @@
 """Figure 9: start-up and stop of a whole cell.
 
-    python -m bench.run --only 9 [--quick]
+    python -m motocell.bench.run --only 9 [--quick]
 
 Each run spawns ``motocell up`` (a 4-group cell: launcher with its router, controller,
 executor, broadcaster, 4 interpolators, gateway) and measures from the spawn (CLOCK_MONOTONIC):
@@ -21,11 +21,11 @@ import time
 from pathlib import Path
 from typing import Any
 
-from bench.harness import Observer, figure_result, workdir, write_cell_file
-from shared.protocol.constants import Command, NotReadySubcode, Result
-from testkit.cell import RunningCell, start_cell
-from testkit.client import MotionClient, StateListener
-from testkit.processes import connectable, wait_until
+from motocell.bench.harness import Observer, figure_result, workdir, write_cell_file
+from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
+from motocell.testkit.cell import RunningCell, start_cell
+from motocell.testkit.client import MotionClient, StateListener
+from motocell.testkit.processes import connectable, wait_until
 
 FIGURE = 9
 RUNS = 5

@@ -1,6 +1,6 @@
 """Figure 6: state rate achieved and feedback age (tick -> frame read) with 4 state clients.
 
-    python -m bench.run --only 6 [--quick]
+    python -m motocell.bench.run --only 6 [--quick]
 
 Measured in the same runs as figure 3 (``bench.loaded``): a 4-group cell with the state period
 at one tick (4 ms, so 250 Hz is configured), 4 state clients, all groups moving.
@@ -32,9 +32,9 @@ from typing import Any
 
 import numpy as np
 
-from bench.bench_executor import settings
-from bench.harness import figure_result, percentiles
-from bench.loaded import LoadedRun, loaded_runs
+from motocell.bench.bench_executor import settings
+from motocell.bench.harness import figure_result, percentiles
+from motocell.bench.loaded import LoadedRun, loaded_runs
 
 FIGURE = 6
 AGE_P99_GOAL_MS = 3.0

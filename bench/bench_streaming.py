@@ -1,6 +1,6 @@
 """Figure 5: streaming a 4-group trajectory point by point.
 
-    python -m bench.run --only 5 [--quick]
+    python -m motocell.bench.run --only 5 [--quick]
 
 4-group cells (default 10 ms state period, one state client connected). Each run streams
 MOTO_JOINT_TRAJ_PT_FULL_EX (2016) points of a constant-velocity trajectory on every axis (so
@@ -47,8 +47,13 @@ from typing import Any
 
 import numpy as np
 
-from bench.clients import StateClientProcess, StreamClientProcess, StreamRecord, stream_bound_s
-from bench.harness import (
+from motocell.bench.clients import (
+    StateClientProcess,
+    StreamClientProcess,
+    StreamRecord,
+    stream_bound_s,
+)
+from motocell.bench.harness import (
     Extensions,
     Observer,
     bench_cell,
@@ -61,9 +66,9 @@ from bench.harness import (
     wake_ns,
     workdir,
 )
-from bench.stream_client import BUSY_RETRY_S
-from shared.bus.schemas import Decoder, Point, Slot, Tick
-from testkit.client import ex_messages
+from motocell.bench.stream_client import BUSY_RETRY_S
+from motocell.shared.bus.schemas import Decoder, Point, Slot, Tick
+from motocell.testkit.client import ex_messages
 
 FIGURE = 5
 RUNS = 3

@@ -21,12 +21,12 @@ from pathlib import Path
 import msgspec
 import numpy as np
 
-from bench.stream_client import BUSY_RETRY_S, Requests, Stream
-from shared.protocol.codec import Role, SimpleMessageCodec
-from shared.protocol.constants import Command, Result
-from shared.protocol.messages import Message
-from shared.protocol.replies import motion_ctrl
-from testkit.cell import RunningCell
+from motocell.bench.stream_client import BUSY_RETRY_S, Requests, Stream
+from motocell.shared.protocol.codec import Role, SimpleMessageCodec
+from motocell.shared.protocol.constants import Command, Result
+from motocell.shared.protocol.messages import Message
+from motocell.shared.protocol.replies import motion_ctrl
+from motocell.testkit.cell import RunningCell
 
 START_TIMEOUT_S = 30.0
 JOB_TIMEOUT_S = 600.0
@@ -116,7 +116,7 @@ def load(path: Path) -> dict[str, np.ndarray]:
 
 
 class StateClientProcess:
-    """``python -m bench.state_client``: records every state cycle for up to ``seconds``."""
+    """``python -m motocell.bench.state_client``: records every state cycle for ``seconds``."""
 
     def __init__(self, cell: RunningCell, out: Path, seconds: float) -> None:
         self.out = out
@@ -124,7 +124,7 @@ class StateClientProcess:
             *("--host", cell.host, "--port", str(cell.port_base + 1)),
             *("--config", str(cell.config), "--seconds", f"{seconds:g}", "--out", str(out)),
         ]
-        self.child = ChildProcess("bench.state_client", arguments)
+        self.child = ChildProcess("motocell.bench.state_client", arguments)
 
     def stop(self, timeout: float = 30.0) -> dict[str, np.ndarray]:
         """``received_ns``, ``pulses`` and ``dropped`` (see ``bench.state_client``)."""
@@ -188,7 +188,7 @@ class StreamRecord:
 
 
 class StreamClientProcess:
-    """``python -m bench.stream_client``: the cell's motion client, one job at a time."""
+    """``python -m motocell.bench.stream_client``: the cell's motion client, one job at a time."""
 
     def __init__(self, cell: RunningCell, directory: Path) -> None:
         self.directory = directory
@@ -200,7 +200,7 @@ class StreamClientProcess:
             *("--host", cell.host, "--port", str(cell.port_base)),
             *("--byte-order", cell.byte_order.value),
         ]
-        self.child = ChildProcess("bench.stream_client", arguments)
+        self.child = ChildProcess("motocell.bench.stream_client", arguments)
 
     def _out(self) -> str:
         self.jobs += 1

@@ -35,14 +35,14 @@ from typing import Any
 import numpy as np
 import zenoh
 
-from shared.bus.schemas import Decoder, ExecutorMetrics, State, Tick
-from shared.config import Cell, CellFile
-from shared.motion.kinematics import AxisMap
-from shared.protocol.constants import Command
-from shared.protocol.replies import motion_ctrl
-from testkit.cell import RunningCell, running_cell
-from testkit.client import PlannedPoint
-from testkit.processes import cmdline, wait_until
+from motocell.shared.bus.schemas import Decoder, ExecutorMetrics, State, Tick
+from motocell.shared.config import Cell, CellFile
+from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.protocol.constants import Command
+from motocell.shared.protocol.replies import motion_ctrl
+from motocell.testkit.cell import RunningCell, running_cell
+from motocell.testkit.client import PlannedPoint
+from motocell.testkit.processes import cmdline, wait_until
 
 SOURCE = Path(__file__).resolve().parent.parent
 """Where the bench package is: a checkout (git then names the commit measured) or an install."""
@@ -207,8 +207,8 @@ def process_kinds(cell: RunningCell) -> dict[int, str]:
     its module (executor, gateway, interpolator, ...)."""
     kinds = {cell.process.pid: "launcher+router"}
     for pid in cell.children():
-        modules = [word for word in cmdline(pid) if word.startswith("services.")]
-        kinds[pid] = modules[0].removeprefix("services.") if modules else "gone"
+        modules = [word for word in cmdline(pid) if word.startswith("motocell.services.")]
+        kinds[pid] = modules[0].removeprefix("motocell.services.") if modules else "gone"
     return kinds
 
 

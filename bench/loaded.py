@@ -15,8 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bench.clients import StateClientProcess, StreamClientProcess, StreamRecord
-from bench.harness import (
+from motocell.bench.clients import StateClientProcess, StreamClientProcess, StreamRecord
+from motocell.bench.harness import (
     EXECUTOR_MODES,
     Observer,
     bench_cell,
@@ -27,9 +27,9 @@ from bench.harness import (
     wake_ns,
     workdir,
 )
-from shared.bus.schemas import State, Tick
-from testkit.cell import RunningCell
-from testkit.client import ex_messages
+from motocell.shared.bus.schemas import State, Tick
+from motocell.testkit.cell import RunningCell
+from motocell.testkit.client import ex_messages
 
 STATE_CLIENTS = 4
 LOADED_SPEED = 0.02

@@ -1,6 +1,7 @@
 """Where the services spend their CPU under a benchmark's load: py-spy on a real cell.
 
-    python -m bench.profile_cell [--scenario points|state] [--seconds 10] [--services gateway,...]
+    python -m motocell.bench.profile_cell [--scenario points|state] [--seconds 10]
+        [--services gateway,...]
 
 Starts a 4-group cell, applies a load, and samples the chosen services with
 ``py-spy record --format raw`` (install it with ``.venv/bin/pip install py-spy``; it needs
@@ -30,8 +31,8 @@ from collections import Counter
 from contextlib import ExitStack
 from pathlib import Path
 
-from bench.clients import StateClientProcess, StreamClientProcess, stream_bound_s
-from bench.harness import (
+from motocell.bench.clients import StateClientProcess, StreamClientProcess, stream_bound_s
+from motocell.bench.harness import (
     Observer,
     bench_cell,
     oscillations,
@@ -40,7 +41,7 @@ from bench.harness import (
     wait_moving,
     workdir,
 )
-from testkit.client import ex_messages
+from motocell.testkit.client import ex_messages
 
 TOP = 15
 

@@ -1,6 +1,6 @@
 """The whole benchmark suite: one table, and JSON in bench/results/ (under the current directory).
 
-    motocell bench [--quick] [--only 3,6] [--out DIR]       (or: python -m bench.run ...)
+    motocell bench [--quick] [--only 3,6] [--out DIR]       (or: python -m motocell.bench.run ...)
 
 Figures (goals are for a 2-core machine running the whole cell):
 
@@ -43,7 +43,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from bench import (
+from motocell.bench import (
     bench_accuracy,
     bench_codec,
     bench_executor,
@@ -54,8 +54,8 @@ from bench import (
     bench_state,
     bench_streaming,
 )
-from bench.harness import EXECUTOR_MODES, RESULTS_DIR, compare, goal_text, machine_info
-from testkit.processes import descendants
+from motocell.bench.harness import EXECUTOR_MODES, RESULTS_DIR, compare, goal_text, machine_info
+from motocell.testkit.processes import descendants
 
 Results = list[dict[str, Any]]
 
@@ -260,7 +260,9 @@ def run(args: argparse.Namespace) -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m bench.run", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(
+        prog="python -m motocell.bench.run", description=__doc__.split("\n")[0]
+    )
     add_arguments(parser)
     return run(parser.parse_args(argv))
 

@@ -1,6 +1,6 @@
 """One state-port client in its own process: the state figures (3, 6) and the load of 4, 5, 7.
 
-    python -m bench.state_client --port P --config CELL.toml --seconds S --out OUT.npz
+    python -m motocell.bench.state_client --port P --config CELL.toml --seconds S --out OUT.npz
 
 A lean recorder, so that what it measures is the cell and not itself: it reads the socket in its
 main thread (no reader thread, no queue), stamps CLOCK_MONOTONIC as soon as a read returns, and
@@ -26,12 +26,12 @@ import time
 
 import numpy as np
 
-from bench.recording import freeze_gc, report
-from shared.config import Cell, load_cell
-from shared.motion.kinematics import AxisMap
-from shared.protocol.codec import CLOSED, NEED_DATA, ByteOrder, Role, SimpleMessageCodec
-from shared.protocol.messages import JointFeedback, Message, RobotStatus
-from testkit.client import connect
+from motocell.bench.recording import freeze_gc, report
+from motocell.shared.config import Cell, load_cell
+from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.protocol.codec import CLOSED, NEED_DATA, ByteOrder, Role, SimpleMessageCodec
+from motocell.shared.protocol.messages import JointFeedback, Message, RobotStatus
+from motocell.testkit.client import connect
 
 INCOMPLETE = np.iinfo(np.int64).min
 HEADROOM = 1.25

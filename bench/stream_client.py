@@ -1,6 +1,6 @@
 """The cell's motion client in its own process, for every figure that moves (3-8).
 
-    python -m bench.stream_client --port P [--host H] [--byte-order little|big]
+    python -m motocell.bench.stream_client --port P [--host H] [--byte-order little|big]
 
 It holds the one motion-port connection for a whole figure and runs jobs, one JSON line each on
 stdin (``Requests`` or ``Stream``, below), answering ``done`` (or ``error ...``) on stdout once
@@ -28,12 +28,12 @@ from collections.abc import Mapping
 import msgspec
 import numpy as np
 
-from bench.recording import Columns, StdinControl, freeze_gc, report
-from shared.protocol.codec import ByteOrder
-from shared.protocol.constants import Command, Result, describe_reply
-from shared.protocol.messages import Message, MotoMotionReply
-from shared.protocol.replies import motion_ctrl
-from testkit.client import MotionClient
+from motocell.bench.recording import Columns, StdinControl, freeze_gc, report
+from motocell.shared.protocol.codec import ByteOrder
+from motocell.shared.protocol.constants import Command, Result, describe_reply
+from motocell.shared.protocol.messages import Message, MotoMotionReply
+from motocell.shared.protocol.replies import motion_ctrl
+from motocell.testkit.client import MotionClient
 
 BUSY_RETRY_S = 0.005
 """motoman_driver resends a BUSY point after 5 ms."""

@@ -1,4 +1,4 @@
-"""The cell's processes: one package per service, each run as ``python -m services.<name>``.
+"""The cell's processes: one package per service, run as ``python -m motocell.services.<name>``.
 
 Before any service imports numpy: one BLAS thread. The services compute on vectors of a few
 axes, where OpenBLAS never uses its threads, but its worker spins while numpy starts: 60 ms of

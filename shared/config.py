@@ -22,7 +22,7 @@ from typing import Any, Literal
 
 import msgspec
 
-from shared.protocol.constants import MAX_AXES
+from motocell.shared.protocol.constants import MAX_AXES
 
 DEFAULT_MAX_LATENESS_PERIODS = 25
 """100 ms at 4 ms. Far shorter than the 0.4-0.5 s after which a client can be told NOT_READY
@@ -205,7 +205,7 @@ class Cell:
 
 
 def load_catalogue() -> dict[str, RobotModel]:
-    text = resources.files("shared").joinpath("models.toml").read_text()
+    text = resources.files("motocell.shared").joinpath("models.toml").read_text()
     return _decode_models(tomllib.loads(text).get("models", {}), "models.toml")
 
 
@@ -325,7 +325,7 @@ def _check_name(name: str, where: str) -> None:
 
 def sample_cells() -> list[str]:
     """The sample cell files installed with motocell (``shared/cells``), by name."""
-    folder = resources.files("shared").joinpath(SAMPLE_CELLS)
+    folder = resources.files("motocell.shared").joinpath(SAMPLE_CELLS)
     return sorted(
         entry.name.removesuffix(".toml")
         for entry in folder.iterdir()
@@ -339,7 +339,7 @@ def _cell_text(path: str | Path) -> str:
     candidate = Path(path)
     is_name = candidate.name == str(path) and candidate.suffix == ""
     if is_name and not candidate.exists():
-        sample = resources.files("shared").joinpath(SAMPLE_CELLS, f"{path}.toml")
+        sample = resources.files("motocell.shared").joinpath(SAMPLE_CELLS, f"{path}.toml")
         if not sample.is_file():
             known = ", ".join(sample_cells())
             raise ConfigError(f"{path}: no such file, nor a sample cell (samples: {known})")

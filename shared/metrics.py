@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from shared.bus.schemas import Percentiles
+from motocell.shared.bus.schemas import Percentiles
 
 
 class Window:

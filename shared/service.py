@@ -25,16 +25,16 @@ from types import FrameType
 import msgspec
 import zenoh
 
-from shared.bus.access import Identity
-from shared.bus.catalog import Role
-from shared.bus.claim import NameTakenError, claim_name, watch_claims
-from shared.bus.credentials import CredentialsError
-from shared.bus.credentials import load as load_credentials
-from shared.bus.keys import CellKeys
-from shared.bus.schemas import Listening, ServiceInfo, encode
-from shared.bus.session import ENCODING, StoppedWaiting, open_session
-from shared.config import EXIT_CONFIG, Cell, ConfigError, load_cell
-from shared.service_names import (
+from motocell.shared.bus.access import Identity
+from motocell.shared.bus.catalog import Role
+from motocell.shared.bus.claim import NameTakenError, claim_name, watch_claims
+from motocell.shared.bus.credentials import CredentialsError
+from motocell.shared.bus.credentials import load as load_credentials
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.schemas import Listening, ServiceInfo, encode
+from motocell.shared.bus.session import ENCODING, StoppedWaiting, open_session
+from motocell.shared.config import EXIT_CONFIG, Cell, ConfigError, load_cell
+from motocell.shared.service_names import (
     PER_GROUP,
     SERVICES,
     ServiceName,

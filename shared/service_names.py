@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from shared.config import Cell
+from motocell.shared.config import Cell
 
 PER_GROUP = "interpolator"
 """The service that runs once per control group, its group as its instance."""

@@ -1,6 +1,6 @@
 """Real cells on free loopback ports, for the tests, the benchmarks and the demo.
 
-``running_cell`` starts the launcher (``python -m services.launcher``, what ``motocell up``
+``running_cell`` starts the launcher (``python -m motocell.services.launcher``, what ``motocell up``
 runs) as a child process, waits until the cell is whole, and on exit stops it and proves that
 no process it started is left. Each cell gets its own Zenoh router on a free port (never the
 well-known 7447, never multicast) and its own registry of running cells, so cells started here
@@ -29,25 +29,25 @@ from pathlib import Path
 
 import zenoh
 
-from shared import registry
-from shared.bus.access import Identity
-from shared.bus.catalog import Role
-from shared.bus.credentials import load
-from shared.bus.keys import CellKeys
-from shared.bus.schemas import Decoder, Tick
-from shared.bus.session import open_session
-from shared.config import Cell, load_cell
-from shared.ports import free_port, free_port_block
-from shared.protocol.codec import ByteOrder
-from shared.protocol.constants import Command, NotReadySubcode
-from shared.registry import ENV as RUNTIME_DIR_ENV
-from shared.service import REQUIRED_SERVICES
-from testkit.client import MotionClient, StateListener
-from testkit.processes import alive, cmdline, connectable, descendants, wait_until
+from motocell.shared import registry
+from motocell.shared.bus.access import Identity
+from motocell.shared.bus.catalog import Role
+from motocell.shared.bus.credentials import load
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.schemas import Decoder, Tick
+from motocell.shared.bus.session import open_session
+from motocell.shared.config import Cell, load_cell
+from motocell.shared.ports import free_port, free_port_block
+from motocell.shared.protocol.codec import ByteOrder
+from motocell.shared.protocol.constants import Command, NotReadySubcode
+from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
+from motocell.shared.service import REQUIRED_SERVICES
+from motocell.testkit.client import MotionClient, StateListener
+from motocell.testkit.processes import alive, cmdline, connectable, descendants, wait_until
 
-LAUNCHER = (sys.executable, "-m", "services.launcher")
+LAUNCHER = (sys.executable, "-m", "motocell.services.launcher")
 """What ``motocell up`` runs, by the Python that runs the harness."""
-ROUTER = (sys.executable, "-m", "tools.cli", "router")
+ROUTER = (sys.executable, "-m", "motocell.tools.cli", "router")
 """``motocell router``: a Zenoh router of its own, for cells that join one."""
 
 HOST = "127.0.0.1"
@@ -125,7 +125,7 @@ class RunningCell:
         found = set()
         for pid in self.children():
             argv = cmdline(pid)
-            if f"services.{module}" not in argv:
+            if f"motocell.services.{module}" not in argv:
                 continue
             if group is None or ("--group", str(group)) in itertools.pairwise(argv):
                 found.add(pid)

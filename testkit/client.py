@@ -14,7 +14,7 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
-from shared.protocol.codec import (
+from motocell.shared.protocol.codec import (
     CLOSED,
     NEED_DATA,
     ByteOrder,
@@ -22,10 +22,10 @@ from shared.protocol.codec import (
     SimpleMessageCodec,
     readable_byte_order,
 )
-from shared.protocol.constants import PREFIX_SIZE, Command, Result, describe_reply
-from shared.protocol.errors import PeerProtocolError
-from shared.protocol.layouts import Direction
-from shared.protocol.messages import (
+from motocell.shared.protocol.constants import PREFIX_SIZE, Command, Result, describe_reply
+from motocell.shared.protocol.errors import PeerProtocolError
+from motocell.shared.protocol.layouts import Direction
+from motocell.shared.protocol.messages import (
     JointFeedback,
     JointFeedbackEx,
     Message,
@@ -33,7 +33,7 @@ from shared.protocol.messages import (
     RobotStatus,
     UnknownMessage,
 )
-from shared.protocol.replies import ex_group, motion_ctrl, traj_point, traj_point_ex
+from motocell.shared.protocol.replies import ex_group, motion_ctrl, traj_point, traj_point_ex
 
 
 class ConnectionClosedError(ConnectionError):

@@ -20,7 +20,7 @@ from collections.abc import Iterator
 
 import pytest
 
-from testkit.processes import alive, children, descendants, wait_until
+from motocell.testkit.processes import alive, children, descendants, wait_until
 
 DEADLINE_S = 5.0
 

@@ -6,7 +6,7 @@ from typing import Any
 
 import msgspec
 
-from shared.bus.schemas import ControllerStatus
+from motocell.shared.bus.schemas import ControllerStatus
 
 READY = ControllerStatus(
     seq=1,

@@ -13,7 +13,9 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parent.parent
-OURS = frozenset({"shared", "services", "tools", "testkit", "bench", "tests"})
+PACKAGE = "motocell"
+"""The one import root of the installed code; the top-level folders are its subpackages."""
+OURS = frozenset({"shared", "services", "tools", "testkit", "bench"})
 
 MAY_IMPORT = {
     "shared": {"shared"},
@@ -51,8 +53,8 @@ def violations() -> Iterator[str]:
             relative = path.relative_to(REPO)
             own_service = relative.parts[1] if package == "services" else None
             for line, name in imports(path):
-                top, *rest = name.split(".")
-                if top not in OURS:
+                root, top, *rest = (*name.split("."), "")
+                if root != PACKAGE or top not in OURS:
                     continue
                 if top in allowed:
                     continue
@@ -77,6 +79,17 @@ def core_violations() -> Iterator[str]:
 
 def test_every_import_follows_the_layer_rule() -> None:
     assert list(violations()) == []
+
+
+def test_nothing_imports_a_folder_by_its_bare_name() -> None:
+    """``shared.x`` and ``motocell.shared.x`` would be two modules with two copies of each fact."""
+    bare = [
+        f"{path.relative_to(REPO)}:{line} imports {name}"
+        for path in [*modules("tests"), *(p for package in OURS for p in modules(package))]
+        for line, name in imports(path)
+        if name.split(".")[0] in OURS
+    ]
+    assert bare == []
 
 
 def test_cores_import_no_io() -> None:

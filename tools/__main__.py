@@ -16,7 +16,7 @@ INTERRUPTED = 130
 def main(argv: Sequence[str] | None = None) -> None:
     try:
         # Imported here, not at the top: the guard must already be in place while it loads.
-        from tools import cli  # noqa: PLC0415
+        from motocell.tools import cli  # noqa: PLC0415
 
         cli.main(argv)
     except KeyboardInterrupt:

@@ -18,7 +18,7 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
 def _suite_arguments(parser: argparse.ArgumentParser) -> None:
     # The suite imports numpy and every benchmark: only for `motocell bench` (tools.cli).
-    from bench import run as suite  # noqa: PLC0415
+    from motocell.bench import run as suite  # noqa: PLC0415
 
     suite.add_arguments(parser)
     parser.set_defaults(run=suite.run)

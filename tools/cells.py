@@ -18,13 +18,13 @@ from pathlib import Path
 
 import zenoh
 
-from services.launcher.core import WELL_KNOWN_ENDPOINT
-from shared import registry
-from shared.bus.access import Identity
-from shared.bus.credentials import CredentialsError, load
-from shared.bus.keys import ALIVE_ROOT
-from shared.bus.session import NoRouterError as NothingListens
-from shared.bus.session import open_session
+from motocell.services.launcher.core import WELL_KNOWN_ENDPOINT
+from motocell.shared import registry
+from motocell.shared.bus.access import Identity
+from motocell.shared.bus.credentials import CredentialsError, load
+from motocell.shared.bus.keys import ALIVE_ROOT
+from motocell.shared.bus.session import NoRouterError as NothingListens
+from motocell.shared.bus.session import open_session
 
 ANY_CELL = "*"
 """The cell level of a key expression that matches every cell (open bus, cells not named)."""

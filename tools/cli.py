@@ -9,9 +9,9 @@ import sys
 from collections.abc import Callable, Sequence
 from typing import Any, cast
 
-from services.launcher import __main__ as launcher
-from shared.service import version
-from tools import bench, credentials, echo, fault, hz, observe, plot, record, service
+from motocell.services.launcher import __main__ as launcher
+from motocell.shared.service import version
+from motocell.tools import bench, credentials, echo, fault, hz, observe, plot, record, service
 
 
 class CommandParser(argparse.ArgumentParser):
@@ -100,7 +100,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _demo_arguments(parser: argparse.ArgumentParser) -> None:
     # numpy and the test kit: only for `motocell demo`.
-    from tools import demo  # noqa: PLC0415
+    from motocell.tools import demo  # noqa: PLC0415
 
     demo.add_arguments(parser)
 

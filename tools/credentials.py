@@ -13,10 +13,10 @@ import argparse
 import sys
 from pathlib import Path
 
-from shared.bus.access import Identity, cell_identities
-from shared.bus.credentials import CA_FILE, USERS_FILE, write_passwords
-from shared.bus.router import ROUTER_CERTIFICATE, ROUTER_KEY
-from shared.config import ConfigError, load_cell
+from motocell.shared.bus.access import Identity, cell_identities
+from motocell.shared.bus.credentials import CA_FILE, USERS_FILE, write_passwords
+from motocell.shared.bus.router import ROUTER_CERTIFICATE, ROUTER_KEY
+from motocell.shared.config import ConfigError, load_cell
 
 DEFAULT_HOSTS = ("localhost", "127.0.0.1")
 """The names a router's certificate is valid for unless ``--host`` says otherwise."""
@@ -68,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
     hosts = args.host or list(DEFAULT_HOSTS)
     if args.tls:
         # cryptography only for --tls: 20-30 ms every other motocell command would pay.
-        from shared.bus.certificates import write_certificates  # noqa: PLC0415
+        from motocell.shared.bus.certificates import write_certificates  # noqa: PLC0415
 
         write_certificates(directory, cell.name, identities, hosts)
     print(report(directory, cell.name, identities, hosts if args.tls else None))

@@ -19,14 +19,14 @@ from pathlib import Path
 
 import numpy as np
 
-from shared.config import Cell, ConfigError, Group, load_cell
-from shared.motion.kinematics import AxisMap
-from shared.protocol.codec import ByteOrder
-from shared.protocol.constants import Command, Result, describe_reply
-from shared.protocol.errors import PeerProtocolError
-from shared.protocol.messages import MotoMotionReply
-from testkit.cell import running_cell
-from testkit.client import (
+from motocell.shared.config import Cell, ConfigError, Group, load_cell
+from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.protocol.codec import ByteOrder
+from motocell.shared.protocol.constants import Command, Result, describe_reply
+from motocell.shared.protocol.errors import PeerProtocolError
+from motocell.shared.protocol.messages import MotoMotionReply
+from motocell.testkit.cell import running_cell
+from motocell.testkit.client import (
     Feedback,
     MotionClient,
     PlannedPoint,
@@ -37,7 +37,7 @@ from testkit.client import (
     stream,
     stream_ex,
 )
-from testkit.processes import connectable, wait_until
+from motocell.testkit.processes import connectable, wait_until
 
 GOAL_TOLERANCE_RAD = 1e-4
 READY_TIMEOUT_S = 120.0

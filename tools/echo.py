@@ -14,11 +14,11 @@ import sys
 
 import msgspec
 
-from shared.bus import catalog
-from shared.service import stop_on_signals
-from tools import cells, listen
-from tools.cells import CellsError
-from tools.listen import POLL_S, Listener, Received
+from motocell.shared.bus import catalog
+from motocell.shared.service import stop_on_signals
+from motocell.tools import cells, listen
+from motocell.tools.cells import CellsError
+from motocell.tools.listen import POLL_S, Listener, Received
 
 
 def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

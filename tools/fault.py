@@ -13,14 +13,14 @@ import sys
 
 import zenoh
 
-from shared.bus.access import Identity
-from shared.bus.catalog import Role
-from shared.bus.keys import CellKeys
-from shared.bus.schemas import CommandRequest
-from shared.bus.session import call
-from shared.protocol.constants import Result, describe_reply
-from tools import cells
-from tools.cells import CellsError, JoinError, Target, TargetError
+from motocell.shared.bus.access import Identity
+from motocell.shared.bus.catalog import Role
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.schemas import CommandRequest
+from motocell.shared.bus.session import call
+from motocell.shared.protocol.constants import Result, describe_reply
+from motocell.tools import cells
+from motocell.tools.cells import CellsError, JoinError, Target, TargetError
 
 OPERATOR = Identity(Role.OPERATOR)
 

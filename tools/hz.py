@@ -13,10 +13,10 @@ import sys
 import time
 from collections import deque
 
-from shared.service import StopFlag, stop_on_signals
-from tools import cells, listen
-from tools.cells import CellsError
-from tools.listen import POLL_S, Listener
+from motocell.shared.service import StopFlag, stop_on_signals
+from motocell.tools import cells, listen
+from motocell.tools.cells import CellsError
+from motocell.tools.listen import POLL_S, Listener
 
 REPORT_S = 1.0
 WINDOW = 1000

@@ -15,12 +15,12 @@ from types import TracebackType
 
 import zenoh
 
-from shared.bus import catalog
-from shared.bus.access import Identity
-from shared.bus.catalog import ROUTES, Op, Role
-from shared.bus.keys import ROOT
-from tools import cells
-from tools.cells import TargetError
+from motocell.shared.bus import catalog
+from motocell.shared.bus.access import Identity
+from motocell.shared.bus.catalog import ROUTES, Op, Role
+from motocell.shared.bus.keys import ROOT
+from motocell.tools import cells
+from motocell.tools.cells import TargetError
 
 OBSERVER = Identity(Role.OBSERVER)
 """Read-only on a secured bus, as ``ps``, ``watch`` and ``record`` join."""

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import argparse
 
-from tools import ps, watch
+from motocell.tools import ps, watch
 
 
 def add_parsers(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

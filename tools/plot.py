@@ -32,7 +32,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     # matplotlib and mcap are in the tools extra, and matplotlib is slow to import: imported by
     # this command only, not by every `motocell`.
-    from tools.plotting import plot_recording  # noqa: PLC0415
+    from motocell.tools.plotting import plot_recording  # noqa: PLC0415
 
     out = args.out or str(Path(args.file).with_suffix(".png"))
     try:

@@ -18,8 +18,8 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from mcap.exceptions import McapError
 
-from shared.bus import catalog
-from tools.recording import read_recording
+from motocell.shared.bus import catalog
+from motocell.tools.recording import read_recording
 
 MCAP_MAGIC = b"\x89MCAP0\r\n"
 """The first 8 bytes of every MCAP file (the MCAP format specification, "Magic")."""

@@ -16,13 +16,13 @@ from dataclasses import dataclass
 import msgspec
 import zenoh
 
-from shared.bus.access import Identity
-from shared.bus.catalog import Role
-from shared.bus.keys import ALIVE_ROOT, ROOT
-from shared.bus.schemas import Decoder, ServiceInfo
-from tools import cells
-from tools.cells import CellsError, Target
-from tools.realtime import NOT_REALTIME, ClockModes, fix_for
+from motocell.shared.bus.access import Identity
+from motocell.shared.bus.catalog import Role
+from motocell.shared.bus.keys import ALIVE_ROOT, ROOT
+from motocell.shared.bus.schemas import Decoder, ServiceInfo
+from motocell.tools import cells
+from motocell.tools.cells import CellsError, Target
+from motocell.tools.realtime import NOT_REALTIME, ClockModes, fix_for
 
 QUERY_TIMEOUT_S = 2.0
 OBSERVER = Identity(Role.OBSERVER)

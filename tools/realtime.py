@@ -16,9 +16,9 @@ from collections.abc import Iterable
 import msgspec
 import zenoh
 
-from shared.bus.keys import ROOT
-from shared.bus.schemas import Decoder, ExecutorMetrics, ServiceInfo
-from shared.realtime import ELSEWHERE, fix_command
+from motocell.shared.bus.keys import ROOT
+from motocell.shared.bus.schemas import Decoder, ExecutorMetrics, ServiceInfo
+from motocell.shared.realtime import ELSEWHERE, fix_command
 
 METRICS_WAIT_S = 1.5
 """The executor publishes its metrics every second."""

@@ -23,15 +23,15 @@ from typing import TYPE_CHECKING
 
 import zenoh
 
-from shared.bus.access import Identity
-from shared.bus.catalog import ROUTES, Op, Role
-from shared.bus.keys import ROOT
-from shared.service import StopFlag, stop_on_signals
-from tools import cells
-from tools.cells import CellsError, Target
+from motocell.shared.bus.access import Identity
+from motocell.shared.bus.catalog import ROUTES, Op, Role
+from motocell.shared.bus.keys import ROOT
+from motocell.shared.service import StopFlag, stop_on_signals
+from motocell.tools import cells
+from motocell.tools.cells import CellsError, Target
 
 if TYPE_CHECKING:
-    from tools.recording import McapSink
+    from motocell.tools.recording import McapSink
 
 QUEUE_SIZE = 100_000
 """Samples waiting for the writer: about 100 s of one busy cell, a few tens of MB at most. A
@@ -138,7 +138,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _record(joined: list[tuple[Target, zenoh.Session]], args: argparse.Namespace) -> int:
     # mcap is in the tools extra: imported by this command only, not by every `motocell`.
-    from tools.recording import McapSink  # noqa: PLC0415
+    from motocell.tools.recording import McapSink  # noqa: PLC0415
 
     try:
         stream = open(args.out, "wb")  # noqa: SIM115 -- closed below, after the summary

@@ -25,7 +25,7 @@ from mcap.reader import make_reader
 from mcap.well_known import MessageEncoding, SchemaEncoding
 from mcap.writer import Writer
 
-from shared.bus import catalog
+from motocell.shared.bus import catalog
 
 # --------------------------------------------------------------------------- JSON Schema
 

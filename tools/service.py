@@ -1,5 +1,5 @@
 """``motocell service NAME [OPTIONS]``: one service of a cell in the foreground, run as
-``motocell up`` runs it (``python -m services.<service>`` with this interpreter), typically
+``motocell up`` runs it (``python -m motocell.services.<service>`` with this interpreter), typically
 on another host than the rest of the cell (``motocell up --skip NAME`` there)."""
 
 from __future__ import annotations
@@ -9,8 +9,8 @@ import os
 import signal
 import sys
 
-from shared.config import EXIT_CONFIG
-from shared.service_names import PER_GROUP, SERVICES, UnknownServiceError, service_kind
+from motocell.shared.config import EXIT_CONFIG
+from motocell.shared.service_names import PER_GROUP, SERVICES, UnknownServiceError, service_kind
 
 EXAMPLE = (
     "motocell service interpolator/1 --config cell.toml --zenoh-connect tls/HOST:7447 "
@@ -24,8 +24,8 @@ def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="run one service of a cell in the foreground (one that `motocell up --skip` "
         "leaves out)",
         description="Run one service of a cell in the foreground, as `motocell up` runs it "
-        "(python -m services.<service> with this interpreter): typically one that `motocell "
-        f"up --skip NAME` leaves to another host. For example: {EXAMPLE}",
+        "(python -m motocell.services.<service> with this interpreter): typically one that "
+        f"`motocell up --skip NAME` leaves to another host. For example: {EXAMPLE}",
     )
     parser.add_argument(
         "name",
@@ -64,4 +64,4 @@ def service_command(name: str, options: list[str]) -> list[str]:
         if any(option.split("=")[0] == "--group" for option in options):
             raise UnknownServiceError(f"{name} names its group: leave out --group")
         extra = ["--group", instance]
-    return [sys.executable, "-m", f"services.{service}", *extra, *options]
+    return [sys.executable, "-m", f"motocell.services.{service}", *extra, *options]

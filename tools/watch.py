@@ -26,11 +26,11 @@ from typing import Generic, TypeVar
 import msgspec
 import zenoh
 
-from shared.bus import catalog
-from shared.bus.access import Identity
-from shared.bus.catalog import Role
-from shared.bus.keys import ALIVE_ROOT, ROOT, service_of_alive
-from shared.bus.schemas import (
+from motocell.shared.bus import catalog
+from motocell.shared.bus.access import Identity
+from motocell.shared.bus.catalog import Role
+from motocell.shared.bus.keys import ALIVE_ROOT, ROOT, service_of_alive
+from motocell.shared.bus.schemas import (
     BroadcasterMetrics,
     CommandRequest,
     ControllerStatus,
@@ -39,12 +39,12 @@ from shared.bus.schemas import (
     QueueState,
     State,
 )
-from shared.bus.session import Liveness
-from shared.protocol.constants import Result, describe_reply
-from shared.service import StopFlag, stop_on_signals
-from tools import cells
-from tools.cells import CellsError, JoinError, NoRouterError, Target
-from tools.realtime import NOT_REALTIME
+from motocell.shared.bus.session import Liveness
+from motocell.shared.protocol.constants import Result, describe_reply
+from motocell.shared.service import StopFlag, stop_on_signals
+from motocell.tools import cells
+from motocell.tools.cells import CellsError, JoinError, NoRouterError, Target
+from motocell.tools.realtime import NOT_REALTIME
 
 OBSERVER = Identity(Role.OBSERVER)
 STALE_S = 1.0

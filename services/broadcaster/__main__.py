@@ -7,15 +7,15 @@ from __future__ import annotations
 import logging
 from collections.abc import Sequence
 
-from services.broadcaster.controller_watch import ControllerWatch
-from services.broadcaster.core import Broadcaster
-from services.broadcaster.loop import StateLoop
-from services.broadcaster.reports import Reports
-from services.broadcaster.state_port import StatePort
-from services.broadcaster.ticks import TickSource
-from shared.bus.session import publisher
-from shared.protocol.codec import ByteOrder
-from shared.service import argument_parser, listen, running_service
+from motocell.services.broadcaster.controller_watch import ControllerWatch
+from motocell.services.broadcaster.core import Broadcaster
+from motocell.services.broadcaster.loop import StateLoop
+from motocell.services.broadcaster.reports import Reports
+from motocell.services.broadcaster.state_port import StatePort
+from motocell.services.broadcaster.ticks import TickSource
+from motocell.shared.bus.session import publisher
+from motocell.shared.protocol.codec import ByteOrder
+from motocell.shared.service import argument_parser, listen, running_service
 
 log = logging.getLogger("broadcaster")
 

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import zenoh
 
-from shared.bus.channels import newest
-from shared.bus.keys import CellKeys
-from shared.bus.schemas import ControllerStatus, Decoder
-from shared.bus.session import Liveness
+from motocell.shared.bus.channels import newest
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.schemas import ControllerStatus, Decoder
+from motocell.shared.bus.session import Liveness
 
 _status_decoder = Decoder(ControllerStatus)
 

@@ -13,9 +13,9 @@ from __future__ import annotations
 from enum import Enum
 from typing import Protocol
 
-from shared.bus.schemas import ControllerStatus, GroupState, RobotStatusFields, State, Tick
-from shared.config import Cell
-from shared.motion.kinematics import AxisMap
+from motocell.shared.bus.schemas import ControllerStatus, GroupState, RobotStatusFields, State, Tick
+from motocell.shared.config import Cell
+from motocell.shared.motion.kinematics import AxisMap
 
 IN_MOTION_PULSES = 30
 """in_motion also while |feedback - command| exceeds 30 pulses on any axis (motoros1 §6,

@@ -4,11 +4,11 @@ client."""
 
 from __future__ import annotations
 
-from shared.bus.schemas import State
-from shared.protocol.codec import ByteOrder, Role, encode
-from shared.protocol.constants import MAX_JOINTS, MsgType, ValidFields
-from shared.protocol.messages import JointFeedback, JointFeedbackEx, RobotStatus
-from shared.protocol.replies import state_message
+from motocell.shared.bus.schemas import State
+from motocell.shared.protocol.codec import ByteOrder, Role, encode
+from motocell.shared.protocol.constants import MAX_JOINTS, MsgType, ValidFields
+from motocell.shared.protocol.messages import JointFeedback, JointFeedbackEx, RobotStatus
+from motocell.shared.protocol.replies import state_message
 
 FEEDBACK_FIELDS = int(ValidFields.POSITION | ValidFields.VELOCITY)
 """MotoROS 1.9 sends 6 when it can read speed feedback (the 2012 spec's 2 is superseded)."""

@@ -12,11 +12,11 @@ import time
 from collections.abc import Callable
 from typing import Protocol
 
-from services.broadcaster.core import Broadcaster
-from services.broadcaster.frames import state_frames
-from services.broadcaster.state_port import StatePort
-from shared.bus.schemas import Tick, encode
-from shared.protocol.codec import ByteOrder
+from motocell.services.broadcaster.core import Broadcaster
+from motocell.services.broadcaster.frames import state_frames
+from motocell.services.broadcaster.state_port import StatePort
+from motocell.shared.bus.schemas import Tick, encode
+from motocell.shared.protocol.codec import ByteOrder
 
 
 class TickFeed(Protocol):

@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import zenoh
 
-from shared.bus.keys import CellKeys
-from shared.bus.schemas import BroadcasterMetrics, CommandRequest, encode
-from shared.bus.session import publisher
-from shared.metrics import Window
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.schemas import BroadcasterMetrics, CommandRequest, encode
+from motocell.shared.bus.session import publisher
+from motocell.shared.metrics import Window
 
 REFRESH_S = 1.0
 """Also this often: a restarted controller has to learn the clients again, and a notice that

@@ -13,8 +13,8 @@ import contextlib
 import logging
 import socket
 
-from services.broadcaster.backlog import STUCK_S, Backlog, Cycle
-from services.broadcaster.core import Admission, admission
+from motocell.services.broadcaster.backlog import STUCK_S, Backlog, Cycle
+from motocell.services.broadcaster.core import Admission, admission
 
 log = logging.getLogger("broadcaster")
 

@@ -17,10 +17,10 @@ import time
 import msgspec
 import zenoh
 
-from shared.bus.channels import Doorbell, is_doorbell
-from shared.bus.keys import CellKeys
-from shared.bus.schemas import Decoder, Tick
-from shared.service import StopFlag
+from motocell.shared.bus.channels import Doorbell, is_doorbell
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.schemas import Decoder, Tick
+from motocell.shared.service import StopFlag
 
 log = logging.getLogger("broadcaster")
 

@@ -10,12 +10,17 @@ from collections.abc import Sequence
 import msgspec
 import zenoh
 
-from services.controller.core.dispatch import COMMANDS, FAULTS, Dispatcher
-from services.controller.core.io_table import IoTable
-from services.controller.core.model import Controller
-from shared.bus.schemas import CommandReply, CommandRequest, Decoder, Tick, encode
-from shared.bus.session import Inbox, Liveness, answer, command_of, publisher
-from shared.service import ServiceContext, argument_parser, required_alive_keys, running_service
+from motocell.services.controller.core.dispatch import COMMANDS, FAULTS, Dispatcher
+from motocell.services.controller.core.io_table import IoTable
+from motocell.services.controller.core.model import Controller
+from motocell.shared.bus.schemas import CommandReply, CommandRequest, Decoder, Tick, encode
+from motocell.shared.bus.session import Inbox, Liveness, answer, command_of, publisher
+from motocell.shared.service import (
+    ServiceContext,
+    argument_parser,
+    required_alive_keys,
+    running_service,
+)
 
 _request_decoder = Decoder(CommandRequest)
 _tick_decoder = Decoder(Tick)

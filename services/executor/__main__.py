@@ -18,8 +18,8 @@ from typing import Any
 import msgspec
 import zenoh
 
-from services.executor.controller_token import ControllerToken
-from services.executor.core import (
+from motocell.services.executor.controller_token import ControllerToken
+from motocell.services.executor.core import (
     SOFT_LIMIT_ALARM,
     STALL_ALARM,
     BatchOutcome,
@@ -29,7 +29,7 @@ from services.executor.core import (
     stalled,
     starting_pulses,
 )
-from shared.bus.schemas import (
+from motocell.shared.bus.schemas import (
     CommandReply,
     ControllerStatus,
     Decoder,
@@ -37,13 +37,13 @@ from shared.bus.schemas import (
     IncrementBatch,
     encode,
 )
-from shared.bus.session import ENCODING, answer, call, publisher
-from shared.config import Cell
-from shared.metrics import Window
-from shared.motion.kinematics import AxisMap
-from shared.protocol.constants import Result
-from shared.realtime import RT_PRIORITY, clock_cpus, fix_command, tighten_timer_slack
-from shared.service import ServiceContext, argument_parser, running_service
+from motocell.shared.bus.session import ENCODING, answer, call, publisher
+from motocell.shared.config import Cell
+from motocell.shared.metrics import Window
+from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.protocol.constants import Result
+from motocell.shared.realtime import RT_PRIORITY, clock_cpus, fix_command, tighten_timer_slack
+from motocell.shared.service import ServiceContext, argument_parser, running_service
 
 log = logging.getLogger("executor")
 

@@ -12,7 +12,7 @@ from typing import Any
 
 import zenoh
 
-from shared.bus.liveness import Presence
+from motocell.shared.bus.liveness import Presence
 
 CHANNEL_DEPTH = 64
 """Events and answers between two ticks: a handful at most."""

@@ -14,11 +14,11 @@ from enum import Enum
 
 import numpy as np
 
-from shared.bus.liveness import HEARTBEAT_S
-from shared.bus.schemas import CommandReply, GroupTick, IncrementBatch, QueueState, Tick
-from shared.config import Cell
-from shared.motion.kinematics import AxisMap
-from shared.protocol.constants import MAX_AXES, Result
+from motocell.shared.bus.liveness import HEARTBEAT_S
+from motocell.shared.bus.schemas import CommandReply, GroupTick, IncrementBatch, QueueState, Tick
+from motocell.shared.config import Cell
+from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.protocol.constants import MAX_AXES, Result
 
 log = logging.getLogger("executor")
 

@@ -11,14 +11,14 @@ import logging
 import time
 from collections.abc import Sequence
 
-from services.gateway.core.io import IoHandler
-from services.gateway.core.motion import MotionHandler
-from services.gateway.metrics import GatewayStats
-from services.gateway.reporter import Reporter
-from services.gateway.tcp import RequestServer
-from services.gateway.zenoh_cell import ZenohCell
-from shared.protocol.codec import ByteOrder
-from shared.service import argument_parser, listen, running_service
+from motocell.services.gateway.core.io import IoHandler
+from motocell.services.gateway.core.motion import MotionHandler
+from motocell.services.gateway.metrics import GatewayStats
+from motocell.services.gateway.reporter import Reporter
+from motocell.services.gateway.tcp import RequestServer
+from motocell.services.gateway.zenoh_cell import ZenohCell
+from motocell.shared.protocol.codec import ByteOrder
+from motocell.shared.service import argument_parser, listen, running_service
 
 log = logging.getLogger("gateway")
 

@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import threading
 
-from shared.bus.schemas import GatewayMetrics, RequestStats
-from shared.metrics import Window
-from shared.protocol.constants import MsgType, Result
-from shared.protocol.messages import Message, MotoMotionReply
+from motocell.shared.bus.schemas import GatewayMetrics, RequestStats
+from motocell.shared.metrics import Window
+from motocell.shared.protocol.constants import MsgType, Result
+from motocell.shared.protocol.messages import Message, MotoMotionReply
 
 WINDOW = 4096
 """Replies kept per type between two publications (a point stream is a few hundred a second)."""

@@ -8,11 +8,11 @@ import threading
 
 import zenoh
 
-from services.gateway.metrics import GatewayStats
-from services.gateway.tcp import RequestServer
-from shared.bus.keys import CellKeys
-from shared.bus.schemas import CommandRequest, encode
-from shared.bus.session import publisher
+from motocell.services.gateway.metrics import GatewayStats
+from motocell.services.gateway.tcp import RequestServer
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.schemas import CommandRequest, encode
+from motocell.shared.bus.session import publisher
 
 REFRESH_S = 1.0
 """Connections are reported on every change and also this often: a restarted controller has

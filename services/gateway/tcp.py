@@ -15,10 +15,10 @@ import threading
 import time
 from collections.abc import Callable
 
-from services.gateway.core.answer import Answer
-from shared.protocol.codec import CLOSED, NEED_DATA, ByteOrder, Role, SimpleMessageCodec
-from shared.protocol.errors import PeerProtocolError
-from shared.protocol.messages import Message, UnknownMessage
+from motocell.services.gateway.core.answer import Answer
+from motocell.shared.protocol.codec import CLOSED, NEED_DATA, ByteOrder, Role, SimpleMessageCodec
+from motocell.shared.protocol.errors import PeerProtocolError
+from motocell.shared.protocol.messages import Message, UnknownMessage
 
 log = logging.getLogger("gateway")
 

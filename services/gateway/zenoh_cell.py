@@ -28,11 +28,11 @@ from contextlib import contextmanager
 
 import zenoh
 
-from services.gateway.core.cell_state import STATUS_STREAM, CellState, queue_stream
-from shared.bus.channels import Channel, decoded, newest
-from shared.bus.keys import CellKeys
-from shared.bus.liveness import HEARTBEAT_S
-from shared.bus.schemas import (
+from motocell.services.gateway.core.cell_state import STATUS_STREAM, CellState, queue_stream
+from motocell.shared.bus.channels import Channel, decoded, newest
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.liveness import HEARTBEAT_S
+from motocell.shared.bus.schemas import (
     CommandReply,
     CommandRequest,
     ControllerStatus,
@@ -42,8 +42,8 @@ from shared.bus.schemas import (
     Slot,
     encode,
 )
-from shared.bus.session import Liveness, call, publisher
-from shared.config import Cell
+from motocell.shared.bus.session import Liveness, call, publisher
+from motocell.shared.config import Cell
 
 STATUS_WAIT_S = 0.5
 """The controller publishes its status before it replies; this only bounds a lost sample."""

@@ -13,12 +13,12 @@ import time
 from collections import deque
 from collections.abc import Sequence
 
-from services.interpolator.core import Feeder, queue_point
-from services.interpolator.inputs import Inputs
-from services.interpolator.reports import SLOT_REFRESH_S, Reports
-from shared.bus.schemas import Point, encode
-from shared.bus.session import publisher
-from shared.service import ServiceContext, argument_parser, running_service
+from motocell.services.interpolator.core import Feeder, queue_point
+from motocell.services.interpolator.inputs import Inputs
+from motocell.services.interpolator.reports import SLOT_REFRESH_S, Reports
+from motocell.shared.bus.schemas import Point, encode
+from motocell.shared.bus.session import publisher
+from motocell.shared.service import ServiceContext, argument_parser, running_service
 
 
 def run(ctx: ServiceContext, group_index: int) -> None:

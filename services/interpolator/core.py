@@ -9,11 +9,11 @@ from collections.abc import Callable
 
 import numpy as np
 
-from shared.bus.schemas import ControllerStatus, IncrementBatch, Point, QueueState, Slot
-from shared.config import Group
-from shared.motion.interpolation import Entries, Knot, Segment, Trajectory, time_to_ns
-from shared.motion.kinematics import AxisMap, IntArray
-from shared.protocol.constants import MAX_AXES
+from motocell.shared.bus.schemas import ControllerStatus, IncrementBatch, Point, QueueState, Slot
+from motocell.shared.config import Group
+from motocell.shared.motion.interpolation import Entries, Knot, Segment, Trajectory, time_to_ns
+from motocell.shared.motion.kinematics import AxisMap, IntArray
+from motocell.shared.protocol.constants import MAX_AXES
 
 log = logging.getLogger("interpolator")
 

@@ -26,9 +26,9 @@ from collections.abc import Iterator
 
 import zenoh
 
-from shared.bus.channels import Doorbell, decoded, newest
-from shared.bus.schemas import ControllerStatus, Decoder, Point, QueueState
-from shared.service import ServiceContext
+from motocell.shared.bus.channels import Doorbell, decoded, newest
+from motocell.shared.bus.schemas import ControllerStatus, Decoder, Point, QueueState
+from motocell.shared.service import ServiceContext
 
 POINT_CHANNEL_SIZE = 1024
 """Points (and doorbells) held in Zenoh until read. Far above what the gateway lets a group

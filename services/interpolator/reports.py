@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import time
 
-from services.interpolator.core import Feeder
-from shared.bus.schemas import InterpolatorMetrics, Slot, encode
-from shared.bus.session import publisher
-from shared.service import ServiceContext
+from motocell.services.interpolator.core import Feeder
+from motocell.shared.bus.schemas import InterpolatorMetrics, Slot, encode
+from motocell.shared.bus.session import publisher
+from motocell.shared.service import ServiceContext
 
 SLOT_REFRESH_S = 0.1
 """Also publish the slot periodically, so a gateway that (re)starts learns it, and one that

@@ -1,5 +1,5 @@
-"""``python -m services.launcher`` (``motocell up``): a whole cell as child processes on this
-machine, in the foreground; and ``motocell router``, a standalone Zenoh router.
+"""``python -m motocell.services.launcher`` (``motocell up``): a whole cell as child processes on
+this machine, in the foreground; and ``motocell router``, a standalone Zenoh router.
 
 The launcher claims the cell's name in this user's registry of running cells (a second cell
 of the same name is refused), writes fresh credentials for every identity of the cell, and runs
@@ -31,8 +31,8 @@ from pathlib import Path
 
 import zenoh
 
-from services.launcher.children import Child, stop_children, supervise
-from services.launcher.core import (
+from motocell.services.launcher.children import Child, stop_children, supervise
+from motocell.services.launcher.core import (
     EXECUTOR,
     WELL_KNOWN_ENDPOINT,
     RestartPolicy,
@@ -42,27 +42,27 @@ from services.launcher.core import (
     services_here,
     tcp_ports,
 )
-from services.launcher.ports import PortError, check_router_endpoints, check_tcp_ports
-from services.launcher.readiness import ReadyNotice
-from services.launcher.realtime import RealtimeNotice
-from services.launcher.router import cell_router_endpoints, open_cell_router, serve_router
-from shared import registry
-from shared.bus.access import Identity, cell_identities
-from shared.bus.catalog import Role
-from shared.bus.credentials import CredentialsError, write_passwords
-from shared.bus.credentials import load as load_credentials
-from shared.bus.keys import CellKeys
-from shared.bus.session import StoppedWaiting, open_session
-from shared.config import EXIT_CONFIG, Cell, ConfigError, load_cell
-from shared.registry import CellEntry, CellNameTakenError
-from shared.service import StopFlag, add_cell_arguments, stop_on_signals
-from shared.service_names import UnknownServiceError, cell_services
+from motocell.services.launcher.ports import PortError, check_router_endpoints, check_tcp_ports
+from motocell.services.launcher.readiness import ReadyNotice
+from motocell.services.launcher.realtime import RealtimeNotice
+from motocell.services.launcher.router import cell_router_endpoints, open_cell_router, serve_router
+from motocell.shared import registry
+from motocell.shared.bus.access import Identity, cell_identities
+from motocell.shared.bus.catalog import Role
+from motocell.shared.bus.credentials import CredentialsError, write_passwords
+from motocell.shared.bus.credentials import load as load_credentials
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.session import StoppedWaiting, open_session
+from motocell.shared.config import EXIT_CONFIG, Cell, ConfigError, load_cell
+from motocell.shared.registry import CellEntry, CellNameTakenError
+from motocell.shared.service import StopFlag, add_cell_arguments, stop_on_signals
+from motocell.shared.service_names import UnknownServiceError, cell_services
 
 log = logging.getLogger("motocell")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """The options of ``motocell up`` and ``python -m services.launcher``."""
+    """The options of ``motocell up`` and ``python -m motocell.services.launcher``."""
     parser.description = (
         "Run a whole cell in the foreground until Ctrl-C (or SIGTERM): its Zenoh router and "
         "every service as a process of its own. One line, `cell NAME ready: ...` with its "
@@ -323,7 +323,9 @@ def router(args: argparse.Namespace) -> int:
 
 def main(argv: Sequence[str] | None = None) -> None:
     parser = argparse.ArgumentParser(
-        prog="python -m services.launcher", description="Run a whole cell.", allow_abbrev=False
+        prog="python -m motocell.services.launcher",
+        description="Run a whole cell.",
+        allow_abbrev=False,
     )
     add_arguments(parser)
     args = parser.parse_args(argv)

@@ -11,9 +11,9 @@ import subprocess
 import time
 from collections.abc import Callable
 
-from services.launcher.core import CONTROLLER, ChildSpec, Restart, RestartPolicy
-from shared.config import EXIT_CONFIG
-from shared.service import PARENT_PID_ENV, StopFlag
+from motocell.services.launcher.core import CONTROLLER, ChildSpec, Restart, RestartPolicy
+from motocell.shared.config import EXIT_CONFIG
+from motocell.shared.service import PARENT_PID_ENV, StopFlag
 
 log = logging.getLogger("motocell")
 

@@ -7,8 +7,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from enum import Enum
 
-from shared.config import EXIT_CONFIG, Cell
-from shared.service_names import (
+from motocell.shared.config import EXIT_CONFIG, Cell
+from motocell.shared.service_names import (
     PER_GROUP,
     ServiceName,
     UnknownServiceError,
@@ -84,7 +84,9 @@ def child_specs(
             extra = _port_options(options)
         else:
             extra = []
-        specs.append(ChildSpec(name, (*python, f"services.{name.service}", *common, *extra)))
+        specs.append(
+            ChildSpec(name, (*python, f"motocell.services.{name.service}", *common, *extra))
+        )
     return specs
 
 

@@ -9,7 +9,7 @@ import errno
 import socket
 from collections.abc import Sequence
 
-from services.launcher.core import MAX_PORT, TcpPort
+from motocell.services.launcher.core import MAX_PORT, TcpPort
 
 
 class PortError(Exception):

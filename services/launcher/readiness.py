@@ -14,11 +14,11 @@ from typing import Any
 
 import zenoh
 
-from services.launcher.core import TcpPort
-from services.launcher.ports import listening
-from shared.bus.channels import newest
-from shared.bus.keys import CellKeys
-from shared.bus.schemas import ControllerStatus, Decoder
+from motocell.services.launcher.core import TcpPort
+from motocell.services.launcher.ports import listening
+from motocell.shared.bus.channels import newest
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.schemas import ControllerStatus, Decoder
 
 log = logging.getLogger("motocell")
 

@@ -15,10 +15,10 @@ from typing import Any
 
 import zenoh
 
-from shared.bus.channels import newest
-from shared.bus.keys import CellKeys
-from shared.bus.schemas import Decoder, ExecutorMetrics
-from shared.realtime import ELSEWHERE, RT_PRIORITY, fix_command
+from motocell.shared.bus.channels import newest
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.schemas import Decoder, ExecutorMetrics
+from motocell.shared.realtime import ELSEWHERE, RT_PRIORITY, fix_command
 
 log = logging.getLogger("motocell")
 

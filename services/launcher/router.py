@@ -13,13 +13,13 @@ from pathlib import Path
 
 import zenoh
 
-from services.launcher.core import WELL_KNOWN_ENDPOINT, WELL_KNOWN_PORT, router_endpoints
-from shared.bus.access import cell_identities
-from shared.bus.router import router_settings, zenoh_config
-from shared.bus.session import zenoh_problem
-from shared.config import Cell
-from shared.ports import free_port, port_free
-from shared.service import StopFlag
+from motocell.services.launcher.core import WELL_KNOWN_ENDPOINT, WELL_KNOWN_PORT, router_endpoints
+from motocell.shared.bus.access import cell_identities
+from motocell.shared.bus.router import router_settings, zenoh_config
+from motocell.shared.bus.session import zenoh_problem
+from motocell.shared.config import Cell
+from motocell.shared.ports import free_port, port_free
+from motocell.shared.service import StopFlag
 
 log = logging.getLogger("motocell")
 

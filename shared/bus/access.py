@@ -16,8 +16,8 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from typing import Any
 
-from shared.bus.catalog import ROUTES, Op, Role, Route
-from shared.bus.keys import ALIVE_ROOT, ROOT
+from motocell.shared.bus.catalog import ROUTES, Op, Role, Route
+from motocell.shared.bus.keys import ALIVE_ROOT, ROOT
 
 INGRESS, EGRESS = "ingress", "egress"
 

@@ -13,7 +13,7 @@ from typing import Any
 
 import msgspec
 
-from shared.bus.schemas import (
+from motocell.shared.bus.schemas import (
     BroadcasterMetrics,
     CommandReply,
     CommandRequest,

@@ -18,9 +18,9 @@ from cryptography.hazmat.primitives import hashes, serialization
 from cryptography.hazmat.primitives.asymmetric import ec
 from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
 
-from shared.bus.access import Identity
-from shared.bus.credentials import CA_FILE, write_private
-from shared.bus.router import ROUTER_CERTIFICATE, ROUTER_KEY
+from motocell.shared.bus.access import Identity
+from motocell.shared.bus.credentials import CA_FILE, write_private
+from motocell.shared.bus.router import ROUTER_CERTIFICATE, ROUTER_KEY
 
 LIFETIME = datetime.timedelta(days=365)
 

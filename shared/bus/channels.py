@@ -14,7 +14,7 @@ from typing import TypeVar
 import msgspec
 import zenoh
 
-from shared.bus.schemas import Decoder
+from motocell.shared.bus.schemas import Decoder
 
 log = logging.getLogger("bus")
 

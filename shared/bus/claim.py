@@ -15,8 +15,8 @@ from collections.abc import Callable
 
 import zenoh
 
-from shared.bus.keys import CellKeys
-from shared.bus.schemas import Decoder, ServiceInfo
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.schemas import Decoder, ServiceInfo
 
 SETTLE_S = 0.05
 QUERY_TIMEOUT_S = 1.0

@@ -19,7 +19,7 @@ import secrets
 from dataclasses import dataclass
 from pathlib import Path
 
-from shared.bus.access import Identity
+from motocell.shared.bus.access import Identity
 
 USERS_FILE = "users"
 CA_FILE = "ca.pem"

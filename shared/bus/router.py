@@ -17,9 +17,9 @@ from typing import Any
 
 import zenoh
 
-from shared.bus.access import Identity, access_control
-from shared.bus.credentials import CA_FILE, USERS_FILE
-from shared.bus.session import LEASE_MS
+from motocell.shared.bus.access import Identity, access_control
+from motocell.shared.bus.credentials import CA_FILE, USERS_FILE
+from motocell.shared.bus.session import LEASE_MS
 
 ROUTER_CERTIFICATE, ROUTER_KEY = "router.pem", "router.key"
 

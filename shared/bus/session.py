@@ -21,9 +21,9 @@ from typing import Any
 import msgspec
 import zenoh
 
-from shared.bus.credentials import Credentials
-from shared.bus.liveness import Presence
-from shared.bus.schemas import CommandReply, CommandRequest, Decoder, encode
+from motocell.shared.bus.credentials import Credentials
+from motocell.shared.bus.liveness import Presence
+from motocell.shared.bus.schemas import CommandReply, CommandRequest, Decoder, encode
 
 log = logging.getLogger(__name__)
 

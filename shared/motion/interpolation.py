@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from shared.motion.kinematics import AxisMap, FloatArray, IntArray
+from motocell.shared.motion.kinematics import AxisMap, FloatArray, IntArray
 
 
 @dataclass(frozen=True)

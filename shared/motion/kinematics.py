@@ -12,8 +12,8 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
-from shared.config import Group
-from shared.protocol.constants import MAX_AXES
+from motocell.shared.config import Group
+from motocell.shared.protocol.constants import MAX_AXES
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]

@@ -16,11 +16,18 @@ from collections.abc import Mapping
 from enum import Enum
 from typing import Final
 
-from shared.protocol import layouts
-from shared.protocol.constants import HEADER_SIZE, PREFIX_SIZE, InvalidSubcode
-from shared.protocol.errors import LocalProtocolError, PeerProtocolError
-from shared.protocol.layouts import FRAME_HEAD, HEADER, PREFIX, ByteOrder, Direction, Encode
-from shared.protocol.messages import Message, UnknownMessage
+from motocell.shared.protocol import layouts
+from motocell.shared.protocol.constants import HEADER_SIZE, PREFIX_SIZE, InvalidSubcode
+from motocell.shared.protocol.errors import LocalProtocolError, PeerProtocolError
+from motocell.shared.protocol.layouts import (
+    FRAME_HEAD,
+    HEADER,
+    PREFIX,
+    ByteOrder,
+    Direction,
+    Encode,
+)
+from motocell.shared.protocol.messages import Message, UnknownMessage
 
 __all__ = [
     "CLOSED",

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Final
 
-from shared.protocol.constants import InvalidSubcode, Result
+from motocell.shared.protocol.constants import InvalidSubcode, Result
 
 
 class LocalProtocolError(Exception):

@@ -53,9 +53,15 @@ from typing import Any, Final
 
 import msgspec
 
-from shared.protocol.constants import DH_LINKS, MAX_GROUPS, MAX_JOINTS, InvalidSubcode, MsgType
-from shared.protocol.errors import LocalProtocolError, PeerProtocolError
-from shared.protocol.messages import (
+from motocell.shared.protocol.constants import (
+    DH_LINKS,
+    MAX_GROUPS,
+    MAX_JOINTS,
+    InvalidSubcode,
+    MsgType,
+)
+from motocell.shared.protocol.errors import LocalProtocolError, PeerProtocolError
+from motocell.shared.protocol.messages import (
     Body,
     DhLink,
     Empty,

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from shared.protocol.constants import (
+from motocell.shared.protocol.constants import (
     CommType,
     InvalidSubcode,
     MsgType,
@@ -18,9 +18,9 @@ from shared.protocol.constants import (
     Result,
     ValidFields,
 )
-from shared.protocol.errors import LocalProtocolError, PeerProtocolError
-from shared.protocol.layouts import ZERO_JOINTS, pad_joints
-from shared.protocol.messages import (
+from motocell.shared.protocol.errors import LocalProtocolError, PeerProtocolError
+from motocell.shared.protocol.layouts import ZERO_JOINTS, pad_joints
+from motocell.shared.protocol.messages import (
     Body,
     Empty,
     Floats,

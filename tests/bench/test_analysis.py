@@ -7,12 +7,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bench.bench_scale import cpu_limit, fits, next_count
-from bench.bench_streaming import empty_periods, slot_turnaround_ms
-from bench.harness import ExecutorModes, oscillations, write_cell_file
-from bench.run import conditions, load_limit, load_warning, warnings
-from bench.stream_client import stream_capacity
-from shared.config import load_cell
+from motocell.bench.bench_scale import cpu_limit, fits, next_count
+from motocell.bench.bench_streaming import empty_periods, slot_turnaround_ms
+from motocell.bench.harness import ExecutorModes, oscillations, write_cell_file
+from motocell.bench.run import conditions, load_limit, load_warning, warnings
+from motocell.bench.stream_client import stream_capacity
+from motocell.shared.config import load_cell
 
 # -- empty-queue periods ---------------------------------------------------------------------
 

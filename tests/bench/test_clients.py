@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bench.clients import StateClientProcess, StreamClientProcess, stream_bound_s
-from bench.harness import (
+from motocell.bench.clients import StateClientProcess, StreamClientProcess, stream_bound_s
+from motocell.bench.harness import (
     CHECK_MOTION_READY,
     Observer,
     positions_of,
@@ -17,9 +17,9 @@ from bench.harness import (
     wait_moving,
     write_cell_file,
 )
-from shared.protocol.constants import Result
-from testkit.cell import running_cell
-from testkit.client import point_messages
+from motocell.shared.protocol.constants import Result
+from motocell.testkit.cell import running_cell
+from motocell.testkit.client import point_messages
 
 pytestmark = pytest.mark.cell
 

@@ -6,15 +6,15 @@ from pathlib import Path
 
 import numpy as np
 
-from bench.harness import write_cell_file
-from bench.recording import Columns
-from bench.state_client import INCOMPLETE, StateRecorder, capacity
-from shared.config import load_cell
-from shared.motion.kinematics import AxisMap
-from shared.protocol.codec import ByteOrder, Role, SimpleMessageCodec
-from shared.protocol.constants import MsgType
-from shared.protocol.messages import JointFeedback, RobotStatus
-from shared.protocol.replies import state_message
+from motocell.bench.harness import write_cell_file
+from motocell.bench.recording import Columns
+from motocell.bench.state_client import INCOMPLETE, StateRecorder, capacity
+from motocell.shared.config import load_cell
+from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.protocol.codec import ByteOrder, Role, SimpleMessageCodec
+from motocell.shared.protocol.constants import MsgType
+from motocell.shared.protocol.messages import JointFeedback, RobotStatus
+from motocell.shared.protocol.replies import state_message
 
 STATUS = RobotStatus(1, 0, 0, 0, 1, 1, 1)
 

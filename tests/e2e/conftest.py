@@ -15,9 +15,9 @@ from pathlib import Path
 import pytest
 import zenoh
 
-from shared.bus.catalog import Role
-from testkit.cell import RunningCell, TickLog, running_cell
-from testkit.client import MotionClient, StateListener
+from motocell.shared.bus.catalog import Role
+from motocell.testkit.cell import RunningCell, TickLog, running_cell
+from motocell.testkit.client import MotionClient, StateListener
 
 
 @pytest.fixture(scope="session")
@@ -68,7 +68,7 @@ def motocell() -> Callable[..., subprocess.CompletedProcess[str]]:
     """Runs ``motocell <args>`` to the end, as an operator at a terminal would."""
 
     def run(*args: str, timeout: float = 30.0) -> subprocess.CompletedProcess[str]:
-        command = [sys.executable, "-m", "tools.cli", *args]
+        command = [sys.executable, "-m", "motocell.tools.cli", *args]
         return subprocess.run(command, capture_output=True, text=True, timeout=timeout, check=False)
 
     return run

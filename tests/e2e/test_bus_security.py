@@ -15,11 +15,11 @@ import numpy as np
 import pytest
 import zenoh
 
-from services.controller.core.dispatch import COMMANDS, FAULTS
-from shared.bus.access import Identity
-from shared.bus.catalog import Role
-from shared.bus.credentials import Credentials, load
-from shared.bus.schemas import (
+from motocell.services.controller.core.dispatch import COMMANDS, FAULTS
+from motocell.shared.bus.access import Identity
+from motocell.shared.bus.catalog import Role
+from motocell.shared.bus.credentials import Credentials, load
+from motocell.shared.bus.schemas import (
     Alarm,
     CommandReply,
     CommandRequest,
@@ -30,10 +30,10 @@ from shared.bus.schemas import (
     QueueState,
     encode,
 )
-from shared.bus.session import open_session
-from shared.protocol.constants import Command, Result
-from testkit.cell import RunningCell, TickLog
-from testkit.client import MotionClient, StateListener, smooth_move, stream
+from motocell.shared.bus.session import open_session
+from motocell.shared.protocol.constants import Command, Result
+from motocell.testkit.cell import RunningCell, TickLog
+from motocell.testkit.client import MotionClient, StateListener, smooth_move, stream
 
 pytestmark = pytest.mark.cell
 

@@ -6,13 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from shared.motion.kinematics import AxisMap
-from shared.protocol.codec import ByteOrder, Role, decode_frames
-from shared.protocol.constants import Command, InvalidSubcode, Result
-from shared.protocol.messages import MotoMotionReply
-from shared.protocol.replies import motion_ctrl
-from testkit.cell import RunningCell
-from testkit.client import MotionClient, smooth_move, stream
+from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.protocol.codec import ByteOrder, Role, decode_frames
+from motocell.shared.protocol.constants import Command, InvalidSubcode, Result
+from motocell.shared.protocol.messages import MotoMotionReply
+from motocell.shared.protocol.replies import motion_ctrl
+from motocell.testkit.cell import RunningCell
+from motocell.testkit.client import MotionClient, smooth_move, stream
 
 pytestmark = [
     pytest.mark.cell,

@@ -9,13 +9,13 @@ from collections.abc import Callable
 import pytest
 import zenoh
 
-from shared.bus.schemas import CommandRequest
-from shared.bus.session import call
-from shared.protocol.constants import Command, NotReadySubcode, Result
-from shared.protocol.replies import motion_ctrl
-from shared.registry import ENV as RUNTIME_DIR_ENV
-from testkit.cell import RunningCell
-from testkit.client import MotionClient, StateListener, smooth_move, stream
+from motocell.shared.bus.schemas import CommandRequest
+from motocell.shared.bus.session import call
+from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
+from motocell.shared.protocol.replies import motion_ctrl
+from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
+from motocell.testkit.cell import RunningCell
+from motocell.testkit.client import MotionClient, StateListener, smooth_move, stream
 
 pytestmark = pytest.mark.cell
 

@@ -17,18 +17,18 @@ import numpy as np
 import pytest
 import yaml
 
-from shared.bus.access import cell_identities
-from shared.bus.certificates import write_certificates
-from shared.bus.credentials import write_passwords
-from shared.config import load_cell
-from shared.motion.kinematics import AxisMap
-from shared.ports import free_port, free_port_block
-from shared.protocol.codec import ByteOrder
-from shared.protocol.constants import Command, Result
-from testkit.cell import wait_for_whole_cell, zenoh_router
-from testkit.client import MotionClient, StateListener, smooth_move, stream_ex
-from testkit.processes import alive, wait_until
-from tools.deploy import (
+from motocell.shared.bus.access import cell_identities
+from motocell.shared.bus.certificates import write_certificates
+from motocell.shared.bus.credentials import write_passwords
+from motocell.shared.config import load_cell
+from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.ports import free_port, free_port_block
+from motocell.shared.protocol.codec import ByteOrder
+from motocell.shared.protocol.constants import Command, Result
+from motocell.testkit.cell import wait_for_whole_cell, zenoh_router
+from motocell.testkit.client import MotionClient, StateListener, smooth_move, stream_ex
+from motocell.testkit.processes import alive, wait_until
+from motocell.tools.deploy import (
     COMPOSE_CELL,
     LISTEN,
     ROUTER_CONFIG,
@@ -147,13 +147,13 @@ def test_compose_file_runs_every_service_and_an_interpolator_per_group(repo: Pat
     commands = compose_commands(repo, "tls/127.0.0.1:1", 1, Path("/creds"))
     modules = sorted(command[2] for command in commands.values())
     assert modules == [
-        "services.broadcaster",
-        "services.controller",
-        "services.executor",
-        "services.gateway",
-        "services.interpolator",
-        "services.interpolator",
-        "services.interpolator",
+        "motocell.services.broadcaster",
+        "motocell.services.controller",
+        "motocell.services.executor",
+        "motocell.services.gateway",
+        "motocell.services.interpolator",
+        "motocell.services.interpolator",
+        "motocell.services.interpolator",
     ]
     groups = sorted(c[c.index("--group") + 1] for c in commands.values() if "--group" in c)
     assert groups == ["0", "1", "2"]
@@ -162,7 +162,8 @@ def test_compose_file_runs_every_service_and_an_interpolator_per_group(repo: Pat
 
 def test_the_router_config_is_the_one_the_key_map_generates(repo: Path) -> None:
     assert (repo / ROUTER_CONFIG).read_text() == router_config_text(repo), (
-        "deploy/zenoh/router.json5 is out of date: regenerate it with `python -m tools.deploy`"
+        "deploy/zenoh/router.json5 is out of date: "
+        "regenerate it with `python -m motocell.tools.deploy`"
     )
 
 

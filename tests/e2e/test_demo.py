@@ -8,7 +8,7 @@ from collections.abc import Callable
 
 import pytest
 
-from testkit.cell import RunningCell
+from motocell.testkit.cell import RunningCell
 
 pytestmark = [
     pytest.mark.cell,

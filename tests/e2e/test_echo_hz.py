@@ -16,11 +16,11 @@ from pathlib import Path
 import pytest
 import zenoh
 
-from shared.bus.catalog import ROUTES, Op, Role
-from shared.bus.session import ENCODING
-from shared.registry import ENV as RUNTIME_DIR_ENV
-from testkit.cell import RunningCell
-from testkit.processes import wait_until
+from motocell.shared.bus.catalog import ROUTES, Op, Role
+from motocell.shared.bus.session import ENCODING
+from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
+from motocell.testkit.cell import RunningCell
+from motocell.testkit.processes import wait_until
 
 pytestmark = pytest.mark.cell
 
@@ -79,7 +79,7 @@ def test_a_key_no_cell_publishes_is_refused_in_one_line(motocell: Motocell) -> N
 @pytest.mark.parametrize("command", ["echo", "hz"])
 def test_ctrl_c_ends_them_cleanly(command: str) -> None:
     process = subprocess.Popen(
-        [sys.executable, "-m", "tools.cli", command, "executor/tick"],
+        [sys.executable, "-m", "motocell.tools.cli", command, "executor/tick"],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,

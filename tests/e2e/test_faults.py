@@ -8,14 +8,14 @@ from dataclasses import dataclass
 import pytest
 import zenoh
 
-from shared.bus.keys import CellKeys
-from shared.bus.schemas import CommandRequest, Tick
-from shared.bus.session import call
-from shared.protocol.constants import Command, NotReadySubcode, Result
-from shared.protocol.replies import traj_point
-from testkit.cell import RunningCell, TickLog
-from testkit.client import MotionClient, StateListener, smooth_move, stream
-from testkit.processes import wait_until
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.schemas import CommandRequest, Tick
+from motocell.shared.bus.session import call
+from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
+from motocell.shared.protocol.replies import traj_point
+from motocell.testkit.cell import RunningCell, TickLog
+from motocell.testkit.client import MotionClient, StateListener, smooth_move, stream
+from motocell.testkit.processes import wait_until
 
 pytestmark = pytest.mark.cell
 

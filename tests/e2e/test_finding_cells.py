@@ -15,14 +15,14 @@ from pathlib import Path
 
 import pytest
 
-from shared import registry
-from shared.bus.access import cell_identities
-from shared.bus.credentials import write_passwords
-from shared.ports import free_port, free_port_block
-from shared.protocol.constants import Command, NotReadySubcode, Result
-from shared.registry import ENV as RUNTIME_DIR_ENV
-from testkit.cell import HOST, LAUNCHER, STOP_TIMEOUT_S, RunningCell, wait_for_whole_cell
-from testkit.client import MotionClient
+from motocell.shared import registry
+from motocell.shared.bus.access import cell_identities
+from motocell.shared.bus.credentials import write_passwords
+from motocell.shared.ports import free_port, free_port_block
+from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
+from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
+from motocell.testkit.cell import HOST, LAUNCHER, STOP_TIMEOUT_S, RunningCell, wait_for_whole_cell
+from motocell.testkit.client import MotionClient
 
 pytestmark = pytest.mark.cell
 

@@ -20,14 +20,19 @@ from pathlib import Path
 import pytest
 import zenoh
 
-from shared.bus.schemas import Decoder, GatewayMetrics
-from shared.protocol.constants import MAX_GROUPS, Command, InvalidSubcode, MsgType, Result
-from shared.protocol.layouts import JOINT_BLOCK, JOINT_BLOCK_SIZE
-from shared.protocol.messages import JointFeedback, JointFeedbackEx, Message, MotoMotionReply
-from shared.protocol.replies import read_io_bit, state_message
-from testkit.cell import RunningCell
-from testkit.client import ConnectionClosedError, MotionClient
-from testkit.processes import wait_until
+from motocell.shared.bus.schemas import Decoder, GatewayMetrics
+from motocell.shared.protocol.constants import MAX_GROUPS, Command, InvalidSubcode, MsgType, Result
+from motocell.shared.protocol.layouts import JOINT_BLOCK, JOINT_BLOCK_SIZE
+from motocell.shared.protocol.messages import (
+    JointFeedback,
+    JointFeedbackEx,
+    Message,
+    MotoMotionReply,
+)
+from motocell.shared.protocol.replies import read_io_bit, state_message
+from motocell.testkit.cell import RunningCell
+from motocell.testkit.client import ConnectionClosedError, MotionClient
+from motocell.testkit.processes import wait_until
 
 pytestmark = pytest.mark.cell
 

@@ -6,11 +6,11 @@ from __future__ import annotations
 
 import pytest
 
-from shared.config import load_catalogue
-from shared.protocol.constants import Command, NotReadySubcode, Result
-from shared.protocol.replies import traj_point
-from testkit.cell import TickLog
-from testkit.client import Feedback, MotionClient, StateListener, smooth_move, stream
+from motocell.shared.config import load_catalogue
+from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
+from motocell.shared.protocol.replies import traj_point
+from motocell.testkit.cell import TickLog
+from motocell.testkit.client import Feedback, MotionClient, StateListener, smooth_move, stream
 
 pytestmark = pytest.mark.cell
 

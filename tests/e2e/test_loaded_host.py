@@ -22,15 +22,15 @@ import numpy as np
 import pytest
 import zenoh
 
-from shared.bus.keys import CellKeys
-from shared.bus.schemas import ControllerStatus, Decoder
-from shared.bus.session import LEASE_MS
-from shared.motion.kinematics import AxisMap
-from shared.protocol.constants import Command, Result
-from shared.protocol.messages import MotoMotionReply
-from testkit.cell import RunningCell
-from testkit.client import Feedback, MotionClient, StateListener, smooth_move, stream_ex
-from testkit.processes import wait_until
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.schemas import ControllerStatus, Decoder
+from motocell.shared.bus.session import LEASE_MS
+from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.protocol.constants import Command, Result
+from motocell.shared.protocol.messages import MotoMotionReply
+from motocell.testkit.cell import RunningCell
+from motocell.testkit.client import Feedback, MotionClient, StateListener, smooth_move, stream_ex
+from motocell.testkit.processes import wait_until
 
 pytestmark = [
     pytest.mark.cell,

@@ -12,20 +12,20 @@ import numpy as np
 import pytest
 import zenoh
 
-from shared.bus.keys import CellKeys
-from shared.motion.kinematics import AxisMap
-from shared.protocol.codec import Role, decode_frames
-from shared.protocol.constants import (
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.protocol.codec import Role, decode_frames
+from motocell.shared.protocol.constants import (
     Command,
     InvalidSubcode,
     MsgType,
     NotReadySubcode,
     Result,
 )
-from shared.protocol.messages import JointFeedbackEx
-from shared.protocol.replies import ex_group, traj_point, traj_point_ex
-from testkit.cell import RunningCell, TickLog
-from testkit.client import (
+from motocell.shared.protocol.messages import JointFeedbackEx
+from motocell.shared.protocol.replies import ex_group, traj_point, traj_point_ex
+from motocell.testkit.cell import RunningCell, TickLog
+from motocell.testkit.client import (
     Feedback,
     MotionClient,
     PlannedPoint,
@@ -35,7 +35,7 @@ from testkit.client import (
     stream_ex,
     stream_messages,
 )
-from testkit.processes import wait_until
+from motocell.testkit.processes import wait_until
 
 pytestmark = [
     pytest.mark.cell,

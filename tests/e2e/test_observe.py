@@ -14,15 +14,15 @@ from typing import IO
 import pytest
 import zenoh
 
-from shared.bus import catalog
-from shared.bus.catalog import ROUTES, Op, Role
-from shared.bus.schemas import Decoder, QueueState
-from shared.ports import free_port
-from shared.protocol.constants import Command, Result
-from shared.registry import ENV as RUNTIME_DIR_ENV
-from testkit.cell import RunningCell, running_cell, zenoh_router
-from testkit.client import MotionClient, StateListener, point_messages, smooth_move, stream
-from testkit.processes import cmdline, wait_until
+from motocell.shared.bus import catalog
+from motocell.shared.bus.catalog import ROUTES, Op, Role
+from motocell.shared.bus.schemas import Decoder, QueueState
+from motocell.shared.ports import free_port
+from motocell.shared.protocol.constants import Command, Result
+from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
+from motocell.testkit.cell import RunningCell, running_cell, zenoh_router
+from motocell.testkit.client import MotionClient, StateListener, point_messages, smooth_move, stream
+from motocell.testkit.processes import cmdline, wait_until
 
 pytestmark = pytest.mark.cell
 
@@ -107,7 +107,7 @@ def test_ps_lists_every_live_service_with_its_details(
     }
     for (service, _group), row in rows.items():
         assert row[0] == cell.cell.name
-        assert f"services.{service}" in cmdline(int(row[4]))
+        assert f"motocell.services.{service}" in cmdline(int(row[4]))
         assert int(row[4]) in cell.children()
         assert row[6] == "0.1.0"
         assert row[7] == ("yes" if service == "executor" else "-")  # the tests run as root
@@ -228,7 +228,7 @@ class Output:
 
 def test_watch_waits_for_a_router_then_follows_its_cell_until_it_stops() -> None:
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    command = [sys.executable, "-m", "tools.cli", "watch", "--zenoh-connect", endpoint]
+    command = [sys.executable, "-m", "motocell.tools.cli", "watch", "--zenoh-connect", endpoint]
     watch = subprocess.Popen(
         [*command, "--interval", "0.2"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
     )

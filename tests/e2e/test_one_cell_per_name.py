@@ -14,13 +14,13 @@ from pathlib import Path
 
 import pytest
 
-from shared.ports import free_port, free_port_block
-from shared.protocol.codec import ByteOrder
-from shared.protocol.constants import Command, Result
-from shared.registry import ENV as RUNTIME_DIR_ENV
-from testkit.cell import LAUNCHER, RunningCell, wait_for_whole_cell
-from testkit.client import MotionClient, StateListener, smooth_move, stream
-from testkit.processes import wait_until
+from motocell.shared.ports import free_port, free_port_block
+from motocell.shared.protocol.codec import ByteOrder
+from motocell.shared.protocol.constants import Command, Result
+from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
+from motocell.testkit.cell import LAUNCHER, RunningCell, wait_for_whole_cell
+from motocell.testkit.client import MotionClient, StateListener, smooth_move, stream
+from motocell.testkit.processes import wait_until
 
 pytestmark = pytest.mark.cell
 
@@ -83,7 +83,13 @@ def test_a_second_gateway_on_the_cells_bus_is_refused(
 ) -> None:
     assert cell.credentials is not None
     command = [
-        *(sys.executable, "-m", "services.gateway", "--port-base", str(free_port_block(3))),
+        *(
+            sys.executable,
+            "-m",
+            "motocell.services.gateway",
+            "--port-base",
+            str(free_port_block(3)),
+        ),
         *("--zenoh-connect", cell.zenoh_endpoint, "--credentials", str(cell.credentials)),
     ]
     result = subprocess.run(

@@ -13,12 +13,12 @@ from pathlib import Path
 
 import pytest
 
-from shared.protocol.constants import Command, Result
-from shared.protocol.messages import Message
-from shared.protocol.replies import ex_group, traj_point, traj_point_ex
-from testkit.cell import RunningCell, running_cell
-from testkit.client import MotionClient, StateListener
-from testkit.processes import wait_until
+from motocell.shared.protocol.constants import Command, Result
+from motocell.shared.protocol.messages import Message
+from motocell.shared.protocol.replies import ex_group, traj_point, traj_point_ex
+from motocell.testkit.cell import RunningCell, running_cell
+from motocell.testkit.client import MotionClient, StateListener
+from motocell.testkit.processes import wait_until
 
 pytestmark = pytest.mark.cell
 

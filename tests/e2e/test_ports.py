@@ -7,7 +7,7 @@ import struct
 
 import pytest
 
-from shared.protocol.constants import (
+from motocell.shared.protocol.constants import (
     Command,
     CommType,
     InvalidSubcode,
@@ -16,7 +16,7 @@ from shared.protocol.constants import (
     ReplyType,
     Result,
 )
-from shared.protocol.messages import (
+from motocell.shared.protocol.messages import (
     Empty,
     GetDhParametersReply,
     Message,
@@ -29,7 +29,7 @@ from shared.protocol.messages import (
     WriteIOGroupReply,
     WriteMRegisterReply,
 )
-from shared.protocol.replies import (
+from motocell.shared.protocol.replies import (
     get_dh_parameters,
     motion_ctrl,
     ping,
@@ -42,9 +42,9 @@ from shared.protocol.replies import (
     write_io_group,
     write_mregister,
 )
-from testkit.cell import RunningCell
-from testkit.client import MotionClient, smooth_move, stream
-from testkit.processes import wait_until
+from motocell.testkit.cell import RunningCell
+from motocell.testkit.client import MotionClient, smooth_move, stream
+from motocell.testkit.processes import wait_until
 
 pytestmark = pytest.mark.cell
 

@@ -16,10 +16,10 @@ from pathlib import Path
 
 import pytest
 
-import testkit.cell
-from shared.registry import ENV as RUNTIME_DIR_ENV
-from testkit.cell import RunningCell, running_cell
-from testkit.processes import wait_until
+from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
+from motocell.testkit import cell as cell_module
+from motocell.testkit.cell import RunningCell, running_cell
+from motocell.testkit.processes import wait_until
 
 pytestmark = [
     pytest.mark.cell,
@@ -40,8 +40,8 @@ def log(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture(scope="module")
 def cell(log: Path) -> Iterator[RunningCell]:
     with pytest.MonkeyPatch.context() as patch:
-        unprivileged = ("setpriv", "--bounding-set", "-sys_nice", *testkit.cell.LAUNCHER)
-        patch.setattr(testkit.cell, "LAUNCHER", unprivileged)
+        unprivileged = ("setpriv", "--bounding-set", "-sys_nice", *cell_module.LAUNCHER)
+        patch.setattr(cell_module, "LAUNCHER", unprivileged)
         with running_cell(log=log, log_level="INFO") as running:
             yield running
 
@@ -58,7 +58,7 @@ def test_up_says_once_that_the_clock_runs_without_sched_fifo_and_how_to_allow_it
 
 def motocell(cell: RunningCell, *args: str) -> subprocess.CompletedProcess[str]:
     env = {**os.environ, RUNTIME_DIR_ENV: str(cell.runtime_dir)}
-    command = [sys.executable, "-m", "tools.cli", *args]
+    command = [sys.executable, "-m", "motocell.tools.cli", *args]
     return subprocess.run(command, capture_output=True, text=True, timeout=30, env=env, check=False)
 
 

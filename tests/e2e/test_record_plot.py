@@ -23,17 +23,17 @@ from matplotlib.image import imread
 from matplotlib.lines import Line2D
 from mcap.reader import make_reader
 
-from shared.bus.keys import CellKeys
-from shared.bus.session import open_session
-from shared.motion.kinematics import AxisMap
-from shared.ports import free_port
-from shared.protocol.constants import Command, Result
-from shared.registry import ENV as RUNTIME_DIR_ENV
-from testkit.cell import RunningCell, zenoh_router
-from testkit.client import smooth_move, stream
-from testkit.processes import connectable, wait_until
-from tools.plotting import plot_recording
-from tools.recording import read_recording
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.session import open_session
+from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.ports import free_port
+from motocell.shared.protocol.constants import Command, Result
+from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
+from motocell.testkit.cell import RunningCell, zenoh_router
+from motocell.testkit.client import smooth_move, stream
+from motocell.testkit.processes import connectable, wait_until
+from motocell.tools.plotting import plot_recording
+from motocell.tools.recording import read_recording
 
 pytestmark = pytest.mark.cell
 
@@ -45,7 +45,7 @@ TOLERANCE_RAD = 1e-4
 
 def record_command(out: Path, *extra: str) -> list[str]:
     # `motocell record`, with -W error so the recorder itself is warning-free too.
-    return [sys.executable, "-W", "error", "-m", "tools.cli", "record", str(out), *extra]
+    return [sys.executable, "-W", "error", "-m", "motocell.tools.cli", "record", str(out), *extra]
 
 
 @dataclass

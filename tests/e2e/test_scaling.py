@@ -17,13 +17,13 @@ import numpy as np
 import pytest
 import zenoh
 
-from shared.bus.session import open_session
-from shared.motion.kinematics import AxisMap
-from shared.ports import free_port
-from shared.protocol.constants import Command, NotReadySubcode, Result
-from testkit.cell import RunningCell, running_cell, zenoh_router
-from testkit.client import MotionClient, StateListener, smooth_move, stream, stream_ex
-from testkit.processes import alive, connectable, wait_until
+from motocell.shared.bus.session import open_session
+from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.ports import free_port
+from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
+from motocell.testkit.cell import RunningCell, running_cell, zenoh_router
+from motocell.testkit.client import MotionClient, StateListener, smooth_move, stream, stream_ex
+from motocell.testkit.processes import alive, connectable, wait_until
 
 pytestmark = pytest.mark.cell
 
@@ -146,7 +146,7 @@ def test_a_groups_interpolator_on_another_host_through_a_router(repo: Path) -> N
             namespace,
             sys.executable,
             "-m",
-            "services.interpolator",
+            "motocell.services.interpolator",
             "--group",
             "1",
             "--config",

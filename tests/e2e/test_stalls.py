@@ -18,12 +18,12 @@ from dataclasses import dataclass, field
 import numpy as np
 import pytest
 
-from shared.config import load_cell
-from shared.motion.kinematics import AxisMap
-from shared.protocol.constants import Command, Result
-from shared.protocol.messages import MotoMotionReply
-from testkit.cell import RunningCell, TickLog
-from testkit.client import (
+from motocell.shared.config import load_cell
+from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.protocol.constants import Command, Result
+from motocell.shared.protocol.messages import MotoMotionReply
+from motocell.testkit.cell import RunningCell, TickLog
+from motocell.testkit.client import (
     BUSY_RETRY_S,
     MotionClient,
     PlannedPoint,
@@ -31,7 +31,7 @@ from testkit.client import (
     point_messages,
     smooth_move,
 )
-from testkit.processes import wait_until
+from motocell.testkit.processes import wait_until
 
 pytestmark = pytest.mark.cell
 

@@ -23,16 +23,16 @@ from pathlib import Path
 
 import pytest
 
-from shared import registry
-from shared.bus.session import CONNECT_WAIT_S
-from shared.config import EXIT_CONFIG, load_cell
-from shared.ports import free_port, free_port_block
-from shared.registry import ENV as RUNTIME_DIR_ENV
-from testkit.processes import alive, connectable, wait_until
+from motocell.shared import registry
+from motocell.shared.bus.session import CONNECT_WAIT_S
+from motocell.shared.config import EXIT_CONFIG, load_cell
+from motocell.shared.ports import free_port, free_port_block
+from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
+from motocell.testkit.processes import alive, connectable, wait_until
 
 pytestmark = pytest.mark.cell
 
-MOTOCELL = (sys.executable, "-m", "tools")
+MOTOCELL = (sys.executable, "-m", "motocell.tools")
 """The ``motocell`` command, by the entry its console script runs."""
 MARK_ENV = "MOTOCELL_TEST_MARK"
 DEADLINE_S = 60.0

@@ -7,10 +7,10 @@ import signal
 
 import pytest
 
-from shared.protocol.constants import Command, NotReadySubcode, Result
-from testkit.cell import running_cell
-from testkit.client import smooth_move, stream
-from testkit.processes import wait_until
+from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
+from motocell.testkit.cell import running_cell
+from motocell.testkit.client import smooth_move, stream
+from motocell.testkit.processes import wait_until
 
 pytestmark = pytest.mark.cell
 

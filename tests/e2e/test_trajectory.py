@@ -7,12 +7,18 @@ import itertools
 import numpy as np
 import pytest
 
-from shared.motion.kinematics import AxisMap
-from shared.protocol.constants import Command, InvalidSubcode, MsgType, NotReadySubcode, Result
-from shared.protocol.messages import JointTrajPtFull, Message
-from shared.protocol.replies import traj_point
-from testkit.cell import RunningCell
-from testkit.client import (
+from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.protocol.constants import (
+    Command,
+    InvalidSubcode,
+    MsgType,
+    NotReadySubcode,
+    Result,
+)
+from motocell.shared.protocol.messages import JointTrajPtFull, Message
+from motocell.shared.protocol.replies import traj_point
+from motocell.testkit.cell import RunningCell
+from motocell.testkit.client import (
     MotionClient,
     PlannedPoint,
     StateListener,
@@ -20,7 +26,7 @@ from testkit.client import (
     stream,
     stream_messages,
 )
-from testkit.processes import wait_until
+from motocell.testkit.processes import wait_until
 
 pytestmark = pytest.mark.cell
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from shared.config import (
+from motocell.shared.config import (
     LOOK_AHEAD_POINTS,
     MAX_PENDING_POINTS,
     MAX_START_BUFFER_PERIODS,
@@ -24,7 +24,7 @@ from shared.config import (
     load_cell,
     sample_cells,
 )
-from shared.protocol.constants import MAX_AXES
+from motocell.shared.protocol.constants import MAX_AXES
 
 REPO = Path(__file__).resolve().parents[2]
 CELLS = REPO / "shared" / "cells"
@@ -564,7 +564,7 @@ def test_up_refuses_a_bad_file_with_status_2(tmp_path: Path) -> None:
         [
             sys.executable,
             "-m",
-            "tools.cli",
+            "motocell.tools.cli",
             "up",
             "--config",
             str(path),

@@ -10,7 +10,7 @@ import threading
 
 import pytest
 
-from shared.realtime import (
+from motocell.shared.realtime import (
     CAP_SYS_NICE,
     ELSEWHERE,
     clock_cpus,

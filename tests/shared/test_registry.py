@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from shared import registry
-from shared.registry import CellEntry, CellNameTakenError, NoSuchCellError
+from motocell.shared import registry
+from motocell.shared.registry import CellEntry, CellNameTakenError, NoSuchCellError
 
 
 @pytest.fixture(autouse=True)
@@ -73,8 +73,8 @@ def test_unregister_leaves_another_launchers_entry() -> None:
 
 CLAIM = """
 import os, sys, time
-from shared import registry
-from shared.registry import CellEntry, CellNameTakenError
+from motocell.shared import registry
+from motocell.shared.registry import CellEntry, CellNameTakenError
 entry = CellEntry(name="race", pid=os.getpid(), host="h", port_base=1, zenoh_endpoint="e")
 sys.stdin.readline()
 try:

@@ -15,7 +15,13 @@ from pathlib import Path
 
 import pytest
 
-from shared.service import StartError, StopFlag, freeze_what_lives_forever, listen, stop_on_signals
+from motocell.shared.service import (
+    StartError,
+    StopFlag,
+    freeze_what_lives_forever,
+    listen,
+    stop_on_signals,
+)
 
 REPO = Path(__file__).resolve().parents[2]
 DEADLINE_S = 20.0
@@ -45,7 +51,7 @@ def finish(child: subprocess.Popen[str]) -> str:
 
 WAIT_THEN_HOLD = """
 import sys
-from shared.service import stop_on_signals
+from motocell.shared.service import stop_on_signals
 
 with stop_on_signals() as stop:
     print("ready", flush=True)
@@ -69,7 +75,7 @@ def test_a_burst_of_signals_from_outside_stops_the_process_once() -> None:
 
 SELF_BURST = """
 import os, signal, threading
-from shared.service import stop_on_signals
+from motocell.shared.service import stop_on_signals
 
 def burst():
     for n in range(COUNT):
@@ -93,7 +99,7 @@ def test_signals_arriving_while_the_handler_runs_do_not_deadlock() -> None:
 
 SIGNAL_INSIDE_SET = """
 import signal, sys
-from shared.service import stop_on_signals
+from motocell.shared.service import stop_on_signals
 
 nested = []
 
@@ -128,7 +134,7 @@ def test_a_raised_signal_sets_the_flag_and_the_old_handlers_come_back() -> None:
 
 HELD_DURING_START_UP = """
 import os, signal
-from shared.service import stop_on_signals
+from motocell.shared.service import stop_on_signals
 signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})  # as `motocell service` starts it
 os.kill(os.getpid(), signal.SIGINT)  # a Ctrl-C while it loads: held
 with stop_on_signals() as stop:

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from shared.config import load_cell, parse_cell
-from shared.service_names import (
+from motocell.shared.config import load_cell, parse_cell
+from motocell.shared.service_names import (
     ServiceName,
     UnknownServiceError,
     cell_services,

@@ -8,12 +8,12 @@ from collections.abc import Iterator
 
 import pytest
 
-from shared.protocol.codec import ByteOrder, Role, encode
-from shared.protocol.constants import Command, Result
-from shared.protocol.errors import PeerProtocolError
-from shared.protocol.messages import RobotStatus
-from shared.protocol.replies import motion_ctrl, motion_reply, state_message
-from testkit.client import FrameReader, MotionClient, StateListener, WrongByteOrderError
+from motocell.shared.protocol.codec import ByteOrder, Role, encode
+from motocell.shared.protocol.constants import Command, Result
+from motocell.shared.protocol.errors import PeerProtocolError
+from motocell.shared.protocol.messages import RobotStatus
+from motocell.shared.protocol.replies import motion_ctrl, motion_reply, state_message
+from motocell.testkit.client import FrameReader, MotionClient, StateListener, WrongByteOrderError
 
 STATUS = state_message(13, RobotStatus(1, 0, 0, 0, 0, 2, 1))
 

@@ -11,7 +11,7 @@ from pathlib import Path
 
 def test_the_codec_figure_writes_its_results_to_out(tmp_path: Path) -> None:
     out = tmp_path / "results"
-    command = [sys.executable, "-m", "tools.cli", "bench", "--quick", "--only", "1"]
+    command = [sys.executable, "-m", "motocell.tools.cli", "bench", "--quick", "--only", "1"]
     done = subprocess.run(
         [*command, "--out", str(out)],
         cwd=tmp_path,

@@ -21,20 +21,20 @@ from pathlib import Path
 import pytest
 import zenoh
 
-from shared import registry
-from shared.bus.access import Identity, cell_identities
-from shared.bus.catalog import Role
-from shared.bus.credentials import load, write_passwords
-from shared.bus.keys import CellKeys
-from shared.bus.router import router_settings, zenoh_config
-from shared.bus.schemas import CommandReply, ServiceInfo, encode
-from shared.bus.session import answer, open_session
-from shared.ports import free_port
-from shared.registry import CellEntry
-from testkit.processes import wait_until
-from tools import cells
-from tools.cells import Target, TargetError
-from tools.cli import build_parser
+from motocell.shared import registry
+from motocell.shared.bus.access import Identity, cell_identities
+from motocell.shared.bus.catalog import Role
+from motocell.shared.bus.credentials import load, write_passwords
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.router import router_settings, zenoh_config
+from motocell.shared.bus.schemas import CommandReply, ServiceInfo, encode
+from motocell.shared.bus.session import answer, open_session
+from motocell.shared.ports import free_port
+from motocell.shared.registry import CellEntry
+from motocell.testkit.processes import wait_until
+from motocell.tools import cells
+from motocell.tools.cells import Target, TargetError
+from motocell.tools.cli import build_parser
 
 CELL = "c1"
 

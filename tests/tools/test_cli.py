@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from services.launcher.core import WELL_KNOWN_ENDPOINT
-from shared import registry
-from tools.cli import build_parser
+from motocell.services.launcher.core import WELL_KNOWN_ENDPOINT
+from motocell.shared import registry
+from motocell.tools.cli import build_parser
 
 HEAVY = ("matplotlib", "mcap")
 """The tools extra's libraries: only ``record`` and ``plot`` may import them."""
@@ -69,7 +69,7 @@ def test_help_imports_neither_mcap_nor_matplotlib(tmp_path: Path) -> None:
     # In a fresh interpreter and away from the source tree, as an installed motocell runs.
     probe = (
         "import contextlib, sys\n"
-        "from tools import cli\n"
+        "from motocell.tools import cli\n"
         "with contextlib.suppress(SystemExit):\n"
         "    cli.main(['--help'])\n"
         f"print(sorted({{name.split('.')[0] for name in sys.modules}} & {set(HEAVY)!r}))\n"
@@ -89,7 +89,7 @@ def test_up_imports_neither_numpy_nor_the_benchmarks_nor_cryptography(tmp_path: 
     # `motocell up` parses its arguments before it starts a single service.
     probe = (
         "import sys\n"
-        "from tools import cli\n"
+        "from motocell.tools import cli\n"
         "cli.build_parser().parse_args(['up', '--port-base', '51240'])\n"
         "loaded = {name.split('.')[0] for name in sys.modules}\n"
         "print(sorted(loaded & {'bench', 'cryptography', 'numpy'}))\n"

@@ -10,13 +10,13 @@ import pytest
 import zenoh
 from cryptography import x509
 
-from shared.bus.access import Identity, cell_identities
-from shared.bus.catalog import Role
-from shared.bus.credentials import load
-from shared.bus.router import router_settings, zenoh_config
-from shared.bus.session import open_session
-from shared.ports import free_port
-from tools.cli import build_parser
+from motocell.shared.bus.access import Identity, cell_identities
+from motocell.shared.bus.catalog import Role
+from motocell.shared.bus.credentials import load
+from motocell.shared.bus.router import router_settings, zenoh_config
+from motocell.shared.bus.session import open_session
+from motocell.shared.ports import free_port
+from motocell.tools.cli import build_parser
 
 DUAL_ARM = Path(__file__).resolve().parents[2] / "shared" / "cells" / "dual-arm-positioner.toml"
 

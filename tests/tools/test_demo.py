@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from tools import demo
-from tools.demo import OFFSETS, goal_within
+from motocell.tools import demo
+from motocell.tools.demo import OFFSETS, goal_within
 
 LIMITS = ((-1.0, 1.0), (-1.0, 1.0), (-0.1, 0.1))
 

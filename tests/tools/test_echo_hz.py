@@ -7,11 +7,11 @@ import json
 
 import pytest
 
-from shared.bus.schemas import Slot, encode
-from tools.cells import TargetError
-from tools.echo import as_json
-from tools.hz import Rate
-from tools.listen import PUBLISHED, Received, published_key
+from motocell.shared.bus.schemas import Slot, encode
+from motocell.tools.cells import TargetError
+from motocell.tools.echo import as_json
+from motocell.tools.hz import Rate
+from motocell.tools.listen import PUBLISHED, Received, published_key
 
 MS = 1_000_000
 

@@ -7,9 +7,9 @@ import argparse
 
 import pytest
 
-from shared.bus.schemas import CommandRequest
-from tools import fault
-from tools.fault import echo, request_for
+from motocell.shared.bus.schemas import CommandRequest
+from motocell.tools import fault
+from motocell.tools.fault import echo, request_for
 
 
 def parse(*argv: str) -> argparse.Namespace:

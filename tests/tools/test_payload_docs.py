@@ -6,9 +6,9 @@ from pathlib import Path
 
 import msgspec
 
-from shared.bus import schemas
-from shared.bus.catalog import ROUTES
-from tools import payload_docs
+from motocell.shared.bus import schemas
+from motocell.shared.bus.catalog import ROUTES
+from motocell.tools import payload_docs
 
 ARCHITECTURE = Path(__file__).resolve().parents[2] / "ARCHITECTURE.md"
 
@@ -18,7 +18,7 @@ def test_the_document_shows_the_schemas_as_they_are() -> None:
     start = text.index(payload_docs.BEGIN)
     end = text.index(payload_docs.END) + len(payload_docs.END)
     assert text[start:end] == payload_docs.generate(), (
-        "ARCHITECTURE.md's payload tables are stale: run `python -m tools.payload_docs`"
+        "ARCHITECTURE.md's payload tables are stale: run `python -m motocell.tools.payload_docs`"
     )
 
 

@@ -8,9 +8,9 @@ from pathlib import Path
 
 import pytest
 
-from shared.bus.schemas import GroupTick, Tick, encode
-from tools import plot
-from tools.recording import McapSink
+from motocell.shared.bus.schemas import GroupTick, Tick, encode
+from motocell.tools import plot
+from motocell.tools.recording import McapSink
 
 
 def plot_of(path: Path) -> int:

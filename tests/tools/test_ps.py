@@ -7,11 +7,11 @@ import os
 import socket
 from pathlib import Path
 
-from shared.bus.schemas import Listening, ServiceInfo
-from shared.realtime import ELSEWHERE, fix_command
-from tools.cells import Target
-from tools.ps import Row, render_cells, render_clock_warnings, render_ps
-from tools.realtime import fix_for
+from motocell.shared.bus.schemas import Listening, ServiceInfo
+from motocell.shared.realtime import ELSEWHERE, fix_command
+from motocell.tools.cells import Target
+from motocell.tools.ps import Row, render_cells, render_clock_warnings, render_ps
+from motocell.tools.realtime import fix_for
 
 NOW_NS = 10**18
 

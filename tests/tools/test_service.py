@@ -8,12 +8,12 @@ import sys
 
 import pytest
 
-import tools.__main__ as entry
-from shared.config import EXIT_CONFIG
-from shared.ports import free_port
-from shared.service_names import UnknownServiceError
-from tools import cli
-from tools.service import service_command
+import motocell.tools.__main__ as entry
+from motocell.shared.config import EXIT_CONFIG
+from motocell.shared.ports import free_port
+from motocell.shared.service_names import UnknownServiceError
+from motocell.tools import cli
+from motocell.tools.service import service_command
 
 PYTHON = sys.executable
 NOWHERE = f"tcp/127.0.0.1:{free_port()}"
@@ -29,13 +29,13 @@ def motocell(*args: str) -> subprocess.CompletedProcess[str]:
 @pytest.mark.parametrize("name", ["gateway", "gateway/0"])
 def test_a_service_runs_as_its_module_with_this_interpreter(name: str) -> None:
     assert service_command(name, ["--config", "c.toml"]) == [
-        *(PYTHON, "-m", "services.gateway", "--config", "c.toml")
+        *(PYTHON, "-m", "motocell.services.gateway", "--config", "c.toml")
     ]
 
 
 def test_an_interpolator_named_by_its_group_gets_the_group() -> None:
     assert service_command("interpolator/2", []) == [
-        *(PYTHON, "-m", "services.interpolator", "--group", "2")
+        *(PYTHON, "-m", "motocell.services.interpolator", "--group", "2")
     ]
     assert service_command("interpolator", ["--group", "1"])[-2:] == ["--group", "1"]
 

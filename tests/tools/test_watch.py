@@ -13,8 +13,8 @@ from pathlib import Path
 
 import msgspec
 
-from shared.bus.keys import CellKeys
-from shared.bus.schemas import (
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.schemas import (
     CommandRequest,
     ExecutorMetrics,
     GroupState,
@@ -24,11 +24,11 @@ from shared.bus.schemas import (
     State,
     encode,
 )
-from shared.ports import free_port
-from shared.protocol.constants import NotReadySubcode
-from shared.registry import ENV as RUNTIME_DIR_ENV
+from motocell.shared.ports import free_port
+from motocell.shared.protocol.constants import NotReadySubcode
+from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
+from motocell.tools.watch import STALE_S, Watcher, render
 from tests.statuses import ready_status
-from tools.watch import STALE_S, Watcher, render
 
 KEYS = CellKeys("arm")
 EVERY_SERVICE = ("controller", "executor", "broadcaster", "gateway")
@@ -156,7 +156,7 @@ def watch_until_it_says(argv: list[str], said: str, runtime: Path) -> tuple[int,
     """Run ``motocell watch`` until its stderr says ``said``, then Ctrl-C it: its exit status
     and everything it wrote to stderr."""
     env = {**os.environ, RUNTIME_DIR_ENV: str(runtime)}
-    command = [sys.executable, "-m", "tools.cli", "watch", *argv]
+    command = [sys.executable, "-m", "motocell.tools.cli", "watch", *argv]
     process = subprocess.Popen(
         command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
     )
@@ -190,7 +190,7 @@ def test_with_no_router_watch_waits_for_one_and_says_so_once(tmp_path: Path) -> 
 
 def test_watch_refuses_a_cell_name_not_running_at_once(tmp_path: Path) -> None:
     result = subprocess.run(
-        [sys.executable, "-m", "tools.cli", "watch", "--cell", "arm"],
+        [sys.executable, "-m", "motocell.tools.cli", "watch", "--cell", "arm"],
         env={**os.environ, RUNTIME_DIR_ENV: str(tmp_path)},
         capture_output=True,
         text=True,

@@ -14,12 +14,12 @@ from typing import Generic, TypeVar
 
 import msgspec
 
-from services.controller.core.io_table import IoTable
-from services.controller.core.model import OT_ROS_READY, START_TIMEOUT_S, Controller
-from shared.bus.keys import service_of_alive
-from shared.bus.liveness import HEARTBEAT_S
-from shared.bus.schemas import Alarm, CommandReply, CommandRequest, ControllerStatus
-from shared.protocol.constants import TOOL_NUMBERS, InvalidSubcode, Result
+from motocell.services.controller.core.io_table import IoTable
+from motocell.services.controller.core.model import OT_ROS_READY, START_TIMEOUT_S, Controller
+from motocell.shared.bus.keys import service_of_alive
+from motocell.shared.bus.liveness import HEARTBEAT_S
+from motocell.shared.bus.schemas import Alarm, CommandReply, CommandRequest, ControllerStatus
+from motocell.shared.protocol.constants import TOOL_NUMBERS, InvalidSubcode, Result
 
 log = logging.getLogger("controller")
 

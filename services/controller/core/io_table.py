@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from shared.config import ControllerModel
-from shared.protocol.constants import IoResult
+from motocell.shared.config import ControllerModel
+from motocell.shared.protocol.constants import IoResult
 
 M_REGISTER_BASE = 1_000_000
 M_REGISTER_READ_MAX = 999

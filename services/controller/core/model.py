@@ -10,9 +10,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from services.controller.core.job import Job, JobAction, JobEvent, step
-from shared.bus.schemas import Alarm, ControllerStatus
-from shared.protocol.constants import NotReadySubcode, Result
+from motocell.services.controller.core.job import Job, JobAction, JobEvent, step
+from motocell.shared.bus.schemas import Alarm, ControllerStatus
+from motocell.shared.protocol.constants import NotReadySubcode, Result
 
 OT_ROS_READY = 11120
 """OT#889, set by the INIT_ROS job just before its WAIT."""

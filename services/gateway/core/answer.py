@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from shared.protocol.messages import Message
+from motocell.shared.protocol.messages import Message
 
 
 @dataclass(frozen=True)

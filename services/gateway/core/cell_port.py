@@ -8,8 +8,8 @@ from collections.abc import Callable
 from contextlib import AbstractContextManager
 from typing import Protocol
 
-from services.gateway.core.cell_state import CellState
-from shared.bus.schemas import CommandReply, CommandRequest, Point
+from motocell.services.gateway.core.cell_state import CellState
+from motocell.shared.bus.schemas import CommandReply, CommandRequest, Point
 
 
 class CellPort(Protocol):

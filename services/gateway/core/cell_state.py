@@ -5,10 +5,10 @@ stops arriving is forgotten (``expire``)."""
 
 from __future__ import annotations
 
-from services.gateway.core.credits import GroupCredit
-from services.gateway.core.freshness import Freshness
-from shared.bus.schemas import ControllerStatus, QueueState, Slot
-from shared.protocol.constants import NotReadySubcode
+from motocell.services.gateway.core.credits import GroupCredit
+from motocell.services.gateway.core.freshness import Freshness
+from motocell.shared.bus.schemas import ControllerStatus, QueueState, Slot
+from motocell.shared.protocol.constants import NotReadySubcode
 
 EXECUTOR = "executor/0"
 INTERPOLATOR = "interpolator"

@@ -13,8 +13,8 @@ from dataclasses import dataclass, field
 
 import msgspec
 
-from shared.bus.schemas import Point, QueueState, Slot
-from shared.config import LOOK_AHEAD_POINTS
+from motocell.shared.bus.schemas import Point, QueueState, Slot
+from motocell.shared.config import LOOK_AHEAD_POINTS
 
 
 @dataclass

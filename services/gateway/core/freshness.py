@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import logging
 
-from shared.bus.liveness import HEARTBEAT_S
+from motocell.shared.bus.liveness import HEARTBEAT_S
 
 log = logging.getLogger("gateway")
 

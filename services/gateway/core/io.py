@@ -3,12 +3,12 @@ controller, which owns the I/O table; the reply carries its result code (motoros
 
 from __future__ import annotations
 
-from services.gateway.core.answer import Answer
-from services.gateway.core.cell_port import CellPort
-from shared.bus.schemas import CommandRequest
-from shared.protocol.constants import InvalidSubcode, IoResult, MsgType
-from shared.protocol.errors import PeerProtocolError
-from shared.protocol.messages import (
+from motocell.services.gateway.core.answer import Answer
+from motocell.services.gateway.core.cell_port import CellPort
+from motocell.shared.bus.schemas import CommandRequest
+from motocell.shared.protocol.constants import InvalidSubcode, IoResult, MsgType
+from motocell.shared.protocol.errors import PeerProtocolError
+from motocell.shared.protocol.messages import (
     Message,
     ReadIOBit,
     ReadIOGroup,
@@ -18,7 +18,7 @@ from shared.protocol.messages import (
     WriteIOGroup,
     WriteMRegister,
 )
-from shared.protocol.replies import io_error_reply, io_reply
+from motocell.shared.protocol.replies import io_error_reply, io_reply
 
 IO_TIMEOUT_S = 1.0
 WRITES = (MsgType.MOTO_WRITE_IO_BIT, MsgType.MOTO_WRITE_IO_GROUP, MsgType.MOTO_WRITE_MREGISTER)

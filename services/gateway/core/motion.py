@@ -6,14 +6,14 @@ from __future__ import annotations
 
 import logging
 
-from services.gateway.core.answer import Answer
-from services.gateway.core.cell_port import CellPort, readiness
-from services.gateway.core.io import IoHandler
-from services.gateway.core.points import Verdict, invalid
-from services.gateway.core.trajectories import Trajectories
-from shared.bus.schemas import CommandRequest
-from shared.config import Cell
-from shared.protocol.constants import (
+from motocell.services.gateway.core.answer import Answer
+from motocell.services.gateway.core.cell_port import CellPort, readiness
+from motocell.services.gateway.core.io import IoHandler
+from motocell.services.gateway.core.points import Verdict, invalid
+from motocell.services.gateway.core.trajectories import Trajectories
+from motocell.shared.bus.schemas import CommandRequest
+from motocell.shared.config import Cell
+from motocell.shared.protocol.constants import (
     DH_LINKS,
     MAX_GROUPS,
     TOOL_NUMBERS,
@@ -23,8 +23,8 @@ from shared.protocol.constants import (
     MsgType,
     Result,
 )
-from shared.protocol.errors import PeerProtocolError
-from shared.protocol.messages import (
+from motocell.shared.protocol.errors import PeerProtocolError
+from motocell.shared.protocol.messages import (
     DhLink,
     GetDhParametersReply,
     JointTrajPtFull,
@@ -40,7 +40,7 @@ from shared.protocol.messages import (
     WriteIOGroup,
     WriteMRegister,
 )
-from shared.protocol.replies import invalid_reply, motion_reply, service_reply
+from motocell.shared.protocol.replies import invalid_reply, motion_reply, service_reply
 
 log = logging.getLogger("gateway")
 

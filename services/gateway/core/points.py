@@ -13,8 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from shared.motion.kinematics import AxisMap
-from shared.protocol.constants import REQUIRED_POINT_FIELDS, InvalidSubcode, Result
+from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.protocol.constants import REQUIRED_POINT_FIELDS, InvalidSubcode, Result
 
 MAX_TRAJECTORY_TIME_S = 14400.0
 """4 h: beyond this float32 seconds lose millisecond precision (motoros1 §2.4 step 4, 3016)."""

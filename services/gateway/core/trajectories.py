@@ -6,8 +6,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from services.gateway.core.cell_port import CellPort, readiness
-from services.gateway.core.points import (
+from motocell.services.gateway.core.cell_port import CellPort, readiness
+from motocell.services.gateway.core.points import (
     OK,
     PointData,
     Verdict,
@@ -19,13 +19,13 @@ from services.gateway.core.points import (
     invalid,
     position_bounds,
 )
-from shared.bus.schemas import Point
-from shared.config import Cell
-from shared.motion.interpolation import max_segment_entries, time_to_ns
-from shared.motion.kinematics import AxisMap
-from shared.protocol.constants import InvalidSubcode, NotReadySubcode, Result
-from shared.protocol.messages import JointTrajPtFull, JointTrajPtFullEx, Message
-from shared.protocol.replies import motion_reply
+from motocell.shared.bus.schemas import Point
+from motocell.shared.config import Cell
+from motocell.shared.motion.interpolation import max_segment_entries, time_to_ns
+from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.protocol.constants import InvalidSubcode, NotReadySubcode, Result
+from motocell.shared.protocol.messages import JointTrajPtFull, JointTrajPtFullEx, Message
+from motocell.shared.protocol.replies import motion_reply
 
 Sync = tuple[int, tuple[int, ...]]
 """A 2016 sync id and the groups that start together; (0, ()) for none."""

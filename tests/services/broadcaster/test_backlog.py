@@ -3,7 +3,7 @@ and a client that takes nothing for STUCK_S is given up."""
 
 from __future__ import annotations
 
-from services.broadcaster.backlog import STUCK_S, Backlog
+from motocell.services.broadcaster.backlog import STUCK_S, Backlog
 
 
 class Socket:

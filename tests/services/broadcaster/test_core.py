@@ -8,7 +8,7 @@ from collections.abc import Sequence
 import msgspec
 import pytest
 
-from services.broadcaster.core import (
+from motocell.services.broadcaster.core import (
     IN_MOTION_PULSES,
     MAX_STATE_CLIENTS,
     Admission,
@@ -20,8 +20,8 @@ from services.broadcaster.core import (
     queued,
     robot_status,
 )
-from shared.bus.schemas import Alarm, ControllerStatus, GroupTick, Tick
-from shared.config import Cell, parse_cell
+from motocell.shared.bus.schemas import Alarm, ControllerStatus, GroupTick, Tick
+from motocell.shared.config import Cell, parse_cell
 from tests.statuses import ready_status
 
 MS = 1_000_000

@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import pytest
 
-from services.broadcaster.frames import FEEDBACK_FIELDS, state_frames
-from shared.bus.schemas import GroupState, RobotStatusFields, State
-from shared.protocol.codec import NEED_DATA, ByteOrder, Role, SimpleMessageCodec
-from shared.protocol.constants import CommType, MsgType, ReplyType
-from shared.protocol.messages import JointFeedback, JointFeedbackEx, Message, RobotStatus
+from motocell.services.broadcaster.frames import FEEDBACK_FIELDS, state_frames
+from motocell.shared.bus.schemas import GroupState, RobotStatusFields, State
+from motocell.shared.protocol.codec import NEED_DATA, ByteOrder, Role, SimpleMessageCodec
+from motocell.shared.protocol.constants import CommType, MsgType, ReplyType
+from motocell.shared.protocol.messages import JointFeedback, JointFeedbackEx, Message, RobotStatus
 
 STATUS = RobotStatusFields(
     drives_powered=1,

@@ -8,14 +8,14 @@ from collections.abc import Iterator
 
 import pytest
 
-from services.broadcaster.core import Broadcaster
-from services.broadcaster.loop import StateLoop
-from services.broadcaster.state_port import StatePort
-from shared.bus.schemas import Decoder, State, Tick
-from shared.protocol.codec import NEED_DATA, ByteOrder, Role, SimpleMessageCodec
-from shared.protocol.constants import MsgType
-from shared.protocol.messages import JointFeedback, Message
-from shared.service import listen
+from motocell.services.broadcaster.core import Broadcaster
+from motocell.services.broadcaster.loop import StateLoop
+from motocell.services.broadcaster.state_port import StatePort
+from motocell.shared.bus.schemas import Decoder, State, Tick
+from motocell.shared.protocol.codec import NEED_DATA, ByteOrder, Role, SimpleMessageCodec
+from motocell.shared.protocol.constants import MsgType
+from motocell.shared.protocol.messages import JointFeedback, Message
+from motocell.shared.service import listen
 from tests.services.broadcaster.test_core import MS, FakeController, cell, group_tick, tick
 
 PULSES_PER_RADIAN = 58670

@@ -9,11 +9,11 @@ from collections.abc import Iterator
 
 import pytest
 
-from services.broadcaster.backlog import STUCK_S
-from services.broadcaster.core import MAX_STATE_CLIENTS
-from services.broadcaster.state_port import StatePort
-from shared.service import listen
-from testkit.processes import wait_until
+from motocell.services.broadcaster.backlog import STUCK_S
+from motocell.services.broadcaster.core import MAX_STATE_CLIENTS
+from motocell.services.broadcaster.state_port import StatePort
+from motocell.shared.service import listen
+from motocell.testkit.processes import wait_until
 
 CYCLE_BYTES = 64 * 1024
 """Big enough that a client which does not read fills the kernel's buffers in a few cycles."""

@@ -11,17 +11,17 @@ from pathlib import Path
 import pytest
 import zenoh
 
-from services.broadcaster.ticks import TickSource
-from shared.bus.access import Identity, cell_identities
-from shared.bus.catalog import Role
-from shared.bus.credentials import load, write_passwords
-from shared.bus.keys import CellKeys
-from shared.bus.router import router_settings, zenoh_config
-from shared.bus.schemas import encode
-from shared.bus.session import open_session, publisher
-from shared.ports import free_port
-from shared.service import StopFlag
-from testkit.processes import wait_until
+from motocell.services.broadcaster.ticks import TickSource
+from motocell.shared.bus.access import Identity, cell_identities
+from motocell.shared.bus.catalog import Role
+from motocell.shared.bus.credentials import load, write_passwords
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.router import router_settings, zenoh_config
+from motocell.shared.bus.schemas import encode
+from motocell.shared.bus.session import open_session, publisher
+from motocell.shared.ports import free_port
+from motocell.shared.service import StopFlag
+from motocell.testkit.processes import wait_until
 from tests.services.broadcaster.test_core import tick
 
 CELL = "c1"

@@ -6,9 +6,9 @@ from __future__ import annotations
 import msgspec
 import pytest
 
-from services.controller.core.dispatch import COMMANDS, FAULTS, Dispatcher
-from services.controller.core.io_table import IoTable
-from services.controller.core.model import (
+from motocell.services.controller.core.dispatch import COMMANDS, FAULTS, Dispatcher
+from motocell.services.controller.core.io_table import IoTable
+from motocell.services.controller.core.model import (
     OT_IO_CONNECTED,
     OT_MOTION_CONNECTED,
     OT_ROS_DONE,
@@ -18,10 +18,10 @@ from services.controller.core.model import (
     START_TIMEOUT_S,
     Controller,
 )
-from shared.bus.liveness import HEARTBEAT_S
-from shared.bus.schemas import Alarm, CommandReply, CommandRequest
-from shared.config import ControllerModel
-from shared.protocol.constants import InvalidSubcode, IoResult, NotReadySubcode, Result
+from motocell.shared.bus.liveness import HEARTBEAT_S
+from motocell.shared.bus.schemas import Alarm, CommandReply, CommandRequest
+from motocell.shared.config import ControllerModel
+from motocell.shared.protocol.constants import InvalidSubcode, IoResult, NotReadySubcode, Result
 
 REQUIRED = ["@motocell/c/alive/executor/0", "@motocell/c/alive/gateway/0"]
 FIRST_SEQ = 1000

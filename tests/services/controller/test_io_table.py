@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import pytest
 
-from services.controller.core.io_table import IoTable
-from services.controller.core.job import Job
-from services.controller.core.model import OT_ROS_DONE, Controller
-from shared.config import ControllerModel
+from motocell.services.controller.core.io_table import IoTable
+from motocell.services.controller.core.job import Job
+from motocell.services.controller.core.model import OT_ROS_DONE, Controller
+from motocell.shared.config import ControllerModel
 
 OK, READ_BAD, WRITE_ADDRESS_BAD, WRITE_VALUE_BAD = 0, 1001, 1002, 1003
 

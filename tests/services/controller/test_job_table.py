@@ -10,8 +10,8 @@ import itertools
 
 import pytest
 
-from services.controller.core.job import TRANSITIONS, Job, JobAction, JobEvent, step
-from services.controller.core.model import OT_ROS_DONE, OT_ROS_READY, Controller
+from motocell.services.controller.core.job import TRANSITIONS, Job, JobAction, JobEvent, step
+from motocell.services.controller.core.model import OT_ROS_DONE, OT_ROS_READY, Controller
 
 IDLE, S, T, W = Job.IDLE, Job.STARTING, Job.TIMER, Job.WAITING
 START, SERVO, TIMER, DONE, HALT = (

@@ -9,8 +9,8 @@ from dataclasses import dataclass
 
 import pytest
 
-from services.controller.core.job import Job
-from services.controller.core.model import (
+from motocell.services.controller.core.job import Job
+from motocell.services.controller.core.model import (
     JOB_TIMER_S,
     OT_INIT_DONE,
     OT_ROS_DONE,
@@ -19,7 +19,7 @@ from services.controller.core.model import (
     SERVO_ON_DELAY_S,
     Controller,
 )
-from shared.bus.schemas import Alarm, ControllerStatus
+from motocell.shared.bus.schemas import Alarm, ControllerStatus
 
 SUCCESS = (0, 0)
 

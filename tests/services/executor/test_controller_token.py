@@ -7,10 +7,10 @@ from collections.abc import Iterator
 
 import pytest
 
-from services.executor.controller_token import ControllerToken
-from shared.bus.session import open_session
-from shared.ports import free_port
-from testkit.processes import wait_until
+from motocell.services.executor.controller_token import ControllerToken
+from motocell.shared.bus.session import open_session
+from motocell.shared.ports import free_port
+from motocell.testkit.processes import wait_until
 
 TOKEN = "@motocell/c/alive/controller/0"
 ASK_EVERY = 10

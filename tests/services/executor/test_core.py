@@ -11,7 +11,7 @@ from collections.abc import Sequence
 import msgspec
 import pytest
 
-from services.executor.core import (
+from motocell.services.executor.core import (
     BARRIER_TIMEOUT_TICKS,
     QUEUE_HEARTBEAT_TICKS,
     RING_CAPACITY,
@@ -23,9 +23,9 @@ from services.executor.core import (
     stalled,
     starting_pulses,
 )
-from shared.bus.schemas import CommandReply, GroupTick, IncrementBatch, QueueState
-from shared.config import parse_cell
-from shared.protocol.constants import Result
+from motocell.shared.bus.schemas import CommandReply, GroupTick, IncrementBatch, QueueState
+from motocell.shared.config import parse_cell
+from motocell.shared.protocol.constants import Result
 
 FIRST_EPOCH = 100
 START = [[10, 20, 30, 40, 50, 60, 0, 0], [-5, 5, 0, 0, 0, 0, 0, 0]]

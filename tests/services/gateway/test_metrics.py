@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-from services.gateway.metrics import OTHER_TYPES, GatewayStats, bucket
-from shared.bus.schemas import encode
-from shared.protocol.constants import Command, InvalidSubcode, MsgType, Result
-from shared.protocol.messages import Message
-from shared.protocol.replies import motion_ctrl, motion_reply
+from motocell.services.gateway.metrics import OTHER_TYPES, GatewayStats, bucket
+from motocell.shared.bus.schemas import encode
+from motocell.shared.protocol.constants import Command, InvalidSubcode, MsgType, Result
+from motocell.shared.protocol.messages import Message
+from motocell.shared.protocol.replies import motion_ctrl, motion_reply
 
 REQUEST = motion_ctrl(Command.CHECK_MOTION_READY)
 

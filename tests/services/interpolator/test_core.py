@@ -12,11 +12,11 @@ from collections.abc import Sequence
 import numpy as np
 import pytest
 
-from services.executor.core import BatchOutcome, ExecutorCore
-from services.interpolator.core import MAX_BATCH, Feeder, queue_point
-from shared.bus.schemas import ControllerStatus, IncrementBatch, Point, QueueState, Slot
-from shared.config import Group, load_cell, parse_cell
-from shared.motion.kinematics import IntArray
+from motocell.services.executor.core import BatchOutcome, ExecutorCore
+from motocell.services.interpolator.core import MAX_BATCH, Feeder, queue_point
+from motocell.shared.bus.schemas import ControllerStatus, IncrementBatch, Point, QueueState, Slot
+from motocell.shared.config import Group, load_cell, parse_cell
+from motocell.shared.motion.kinematics import IntArray
 from tests.statuses import ready_status
 
 PERIOD = 4_000_000

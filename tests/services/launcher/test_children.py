@@ -7,11 +7,11 @@ from __future__ import annotations
 import os
 import sys
 
-from services.launcher.children import Child, stop_children, supervise
-from services.launcher.core import ChildSpec, RestartPolicy
-from shared.config import EXIT_CONFIG
-from shared.service import StopFlag
-from shared.service_names import ServiceName
+from motocell.services.launcher.children import Child, stop_children, supervise
+from motocell.services.launcher.core import ChildSpec, RestartPolicy
+from motocell.shared.config import EXIT_CONFIG
+from motocell.shared.service import StopFlag
+from motocell.shared.service_names import ServiceName
 
 SLEEPER = (sys.executable, "-c", "import time; time.sleep(60)")
 

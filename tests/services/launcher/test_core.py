@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from services.launcher.core import (
+from motocell.services.launcher.core import (
     RESTART_DELAY_S,
     WELL_KNOWN_ENDPOINT,
     ChildSpec,
@@ -19,8 +19,8 @@ from services.launcher.core import (
     services_here,
     tcp_ports,
 )
-from shared.config import EXIT_CONFIG, Cell, load_cell, parse_cell
-from shared.service_names import UnknownServiceError
+from motocell.shared.config import EXIT_CONFIG, Cell, load_cell, parse_cell
+from motocell.shared.service_names import UnknownServiceError
 
 ENDPOINT = "tcp/127.0.0.1:7500"
 PYTHON = ("py", "-m")
@@ -108,12 +108,12 @@ def test_an_unknown_skip_is_refused_even_beside_a_known_one() -> None:
 def test_each_child_runs_its_service_module_connected_to_the_endpoint() -> None:
     for name, spec in specs().items():
         module = name.split("/")[0]
-        assert spec.argv[:3] == (*PYTHON, f"services.{module}")
+        assert spec.argv[:3] == (*PYTHON, f"motocell.services.{module}")
         assert spec.argv[spec.argv.index("--zenoh-connect") + 1] == ENDPOINT
 
 
 def test_without_options_children_get_only_the_endpoint() -> None:
-    assert argv() == [*PYTHON, "services.controller", "--zenoh-connect", ENDPOINT]
+    assert argv() == [*PYTHON, "motocell.services.controller", "--zenoh-connect", ENDPOINT]
 
 
 def test_config_name_and_credentials_go_to_every_child() -> None:

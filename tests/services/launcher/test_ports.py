@@ -8,9 +8,14 @@ from collections.abc import Iterator
 
 import pytest
 
-from services.launcher.core import TcpPort
-from services.launcher.ports import PortError, check_router_endpoints, check_tcp_ports, listening
-from shared.ports import free_port
+from motocell.services.launcher.core import TcpPort
+from motocell.services.launcher.ports import (
+    PortError,
+    check_router_endpoints,
+    check_tcp_ports,
+    listening,
+)
+from motocell.shared.ports import free_port
 
 HOST = "127.0.0.1"
 

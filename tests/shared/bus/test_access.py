@@ -15,12 +15,12 @@ from typing import Any
 import pytest
 import zenoh
 
-from shared.bus.access import Identity, access_control, cell_identities
-from shared.bus.catalog import Role
-from shared.bus.credentials import load, write_passwords
-from shared.bus.router import router_settings, zenoh_config
-from shared.ports import free_port
-from testkit.processes import wait_until
+from motocell.shared.bus.access import Identity, access_control, cell_identities
+from motocell.shared.bus.catalog import Role
+from motocell.shared.bus.credentials import load, write_passwords
+from motocell.shared.bus.router import router_settings, zenoh_config
+from motocell.shared.ports import free_port
+from motocell.testkit.processes import wait_until
 
 CELL = "c1"
 

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import pytest
 
-from shared.bus import catalog
-from shared.bus.catalog import Op, Role
-from shared.bus.keys import CellKeys
-from shared.bus.schemas import Point, encode
+from motocell.shared.bus import catalog
+from motocell.shared.bus.catalog import Op, Role
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.schemas import Point, encode
 
 KEYS = CellKeys("cell1")
 

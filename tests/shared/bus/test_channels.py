@@ -9,10 +9,10 @@ from collections.abc import Iterator
 import pytest
 import zenoh
 
-from shared.bus.channels import Doorbell, decoded, is_doorbell, newest
-from shared.bus.schemas import Decoder, Slot, encode
-from shared.bus.session import open_session
-from shared.ports import free_port
+from motocell.shared.bus.channels import Doorbell, decoded, is_doorbell, newest
+from motocell.shared.bus.schemas import Decoder, Slot, encode
+from motocell.shared.bus.session import open_session
+from motocell.shared.ports import free_port
 
 KEY = "motocell/test/channels"
 

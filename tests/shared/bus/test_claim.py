@@ -9,12 +9,12 @@ from collections.abc import Iterator
 import pytest
 import zenoh
 
-from shared.bus.claim import NameTakenError, claim_name, watch_claims
-from shared.bus.keys import CellKeys
-from shared.bus.router import router_settings, zenoh_config
-from shared.bus.session import open_session
-from shared.ports import free_port
-from testkit.processes import wait_until
+from motocell.shared.bus.claim import NameTakenError, claim_name, watch_claims
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.router import router_settings, zenoh_config
+from motocell.shared.bus.session import open_session
+from motocell.shared.ports import free_port
+from motocell.testkit.processes import wait_until
 
 KEYS = CellKeys("c1")
 

@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from shared.bus.access import Identity, cell_identities
-from shared.bus.catalog import Role
-from shared.bus.credentials import USERS_FILE, CredentialsError, load, write_passwords
+from motocell.shared.bus.access import Identity, cell_identities
+from motocell.shared.bus.catalog import Role
+from motocell.shared.bus.credentials import USERS_FILE, CredentialsError, load, write_passwords
 
 
 def mode(path: Path) -> int:

@@ -8,12 +8,12 @@ from collections.abc import Iterator
 import pytest
 import zenoh
 
-from shared.bus.router import router_settings, zenoh_config
-from shared.bus.schemas import CommandReply, CommandRequest, Slot, encode
-from shared.bus.session import ENCODING, answer, call, command_of, open_session, publisher
-from shared.ports import free_port
-from shared.protocol.constants import Result
-from testkit.processes import wait_until
+from motocell.shared.bus.router import router_settings, zenoh_config
+from motocell.shared.bus.schemas import CommandReply, CommandRequest, Slot, encode
+from motocell.shared.bus.session import ENCODING, answer, call, command_of, open_session, publisher
+from motocell.shared.ports import free_port
+from motocell.shared.protocol.constants import Result
+from motocell.testkit.processes import wait_until
 
 KEY = "motocell/c1/group/0/slot"
 

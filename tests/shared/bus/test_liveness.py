@@ -11,10 +11,10 @@ from collections.abc import Iterator
 import pytest
 import zenoh
 
-from shared.bus.liveness import Presence
-from shared.bus.session import Liveness, open_session
-from shared.ports import free_port
-from testkit.processes import wait_until
+from motocell.shared.bus.liveness import Presence
+from motocell.shared.bus.session import Liveness, open_session
+from motocell.shared.ports import free_port
+from motocell.testkit.processes import wait_until
 
 A = "@motocell/c/alive/executor/0"
 B = "@motocell/c/alive/gateway/0"

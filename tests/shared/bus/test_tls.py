@@ -10,14 +10,14 @@ from pathlib import Path
 import pytest
 import zenoh
 
-from shared.bus.access import Identity, cell_identities
-from shared.bus.catalog import Role
-from shared.bus.certificates import write_certificates
-from shared.bus.credentials import CA_FILE, load, write_passwords
-from shared.bus.router import router_settings, zenoh_config
-from shared.bus.session import open_session
-from shared.ports import free_port
-from testkit.processes import wait_until
+from motocell.shared.bus.access import Identity, cell_identities
+from motocell.shared.bus.catalog import Role
+from motocell.shared.bus.certificates import write_certificates
+from motocell.shared.bus.credentials import CA_FILE, load, write_passwords
+from motocell.shared.bus.router import router_settings, zenoh_config
+from motocell.shared.bus.session import open_session
+from motocell.shared.ports import free_port
+from motocell.testkit.processes import wait_until
 
 CELL = "c1"
 

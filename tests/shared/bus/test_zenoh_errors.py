@@ -10,9 +10,9 @@ from collections.abc import Iterator
 import pytest
 import zenoh
 
-from shared.bus.router import router_settings, zenoh_config
-from shared.bus.session import open_session, zenoh_problem, zenoh_reason
-from shared.ports import free_port
+from motocell.shared.bus.router import router_settings, zenoh_config
+from motocell.shared.bus.session import open_session, zenoh_problem, zenoh_reason
+from motocell.shared.ports import free_port
 
 
 @pytest.fixture

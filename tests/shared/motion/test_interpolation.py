@@ -19,9 +19,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from shared.config import Group, parse_cell
-from shared.motion.interpolation import Entries, Knot, Trajectory, time_to_ns
-from shared.motion.kinematics import AxisMap, FloatArray, IntArray
+from motocell.shared.config import Group, parse_cell
+from motocell.shared.motion.interpolation import Entries, Knot, Trajectory, time_to_ns
+from motocell.shared.motion.kinematics import AxisMap, FloatArray, IntArray
 
 MS = 1_000_000
 PERIOD = 4 * MS

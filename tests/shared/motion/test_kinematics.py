@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from shared.config import Group, parse_cell
-from shared.motion.kinematics import AxisMap
+from motocell.shared.config import Group, parse_cell
+from motocell.shared.motion.kinematics import AxisMap
 
 
 def group_of(model: str) -> Group:

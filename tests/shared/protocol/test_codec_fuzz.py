@@ -12,7 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from shared.protocol.codec import (
+from motocell.shared.protocol.codec import (
     NEED_DATA,
     ByteOrder,
     Closed,
@@ -23,16 +23,16 @@ from shared.protocol.codec import (
     decode_frames,
     encode,
 )
-from shared.protocol.constants import MAX_GROUPS, InvalidSubcode, MsgType
-from shared.protocol.errors import LocalProtocolError, PeerProtocolError
-from shared.protocol.layouts import (
+from motocell.shared.protocol.constants import MAX_GROUPS, InvalidSubcode, MsgType
+from motocell.shared.protocol.errors import LocalProtocolError, PeerProtocolError
+from motocell.shared.protocol.layouts import (
     JOINT_BLOCK,
     JOINT_BLOCK_SIZE,
     LAYOUTS,
     Direction,
     max_body_size,
 )
-from shared.protocol.messages import (
+from motocell.shared.protocol.messages import (
     Body,
     DhLink,
     Empty,

@@ -7,8 +7,8 @@ import struct
 import msgspec
 import pytest
 
-from shared.protocol import replies
-from shared.protocol.codec import (
+from motocell.shared.protocol import replies
+from motocell.shared.protocol.codec import (
     CLOSED,
     NEED_DATA,
     ByteOrder,
@@ -18,7 +18,7 @@ from shared.protocol.codec import (
     decode_frames,
     encode,
 )
-from shared.protocol.constants import (
+from motocell.shared.protocol.constants import (
     Command,
     CommType,
     InvalidSubcode,
@@ -28,9 +28,9 @@ from shared.protocol.constants import (
     ReplyType,
     Result,
 )
-from shared.protocol.errors import LocalProtocolError, PeerProtocolError
-from shared.protocol.layouts import LAYOUTS, Direction, max_body_size
-from shared.protocol.messages import (
+from motocell.shared.protocol.errors import LocalProtocolError, PeerProtocolError
+from motocell.shared.protocol.layouts import LAYOUTS, Direction, max_body_size
+from motocell.shared.protocol.messages import (
     DhLink,
     Empty,
     GetDhParametersReply,

@@ -4,17 +4,17 @@ from __future__ import annotations
 
 import pytest
 
-from shared.protocol.codec import ByteOrder, Role, encode, readable_byte_order
-from shared.protocol.constants import (
+from motocell.shared.protocol.codec import ByteOrder, Role, encode, readable_byte_order
+from motocell.shared.protocol.constants import (
     SUBCODE_MEANINGS,
     InvalidSubcode,
     NotReadySubcode,
     Result,
     describe_reply,
 )
-from shared.protocol.layouts import Direction
-from shared.protocol.messages import RobotStatus
-from shared.protocol.replies import motion_ctrl, state_message
+from motocell.shared.protocol.layouts import Direction
+from motocell.shared.protocol.messages import RobotStatus
+from motocell.shared.protocol.replies import motion_ctrl, state_message
 
 
 @pytest.mark.parametrize(

@@ -13,9 +13,9 @@ from typing import NamedTuple
 
 import pytest
 
-from shared.protocol.codec import NEED_DATA, ByteOrder, Role, SimpleMessageCodec, encode
-from shared.protocol.constants import Command, CommType, MsgType, Result
-from shared.protocol.messages import (
+from motocell.shared.protocol.codec import NEED_DATA, ByteOrder, Role, SimpleMessageCodec, encode
+from motocell.shared.protocol.constants import Command, CommType, MsgType, Result
+from motocell.shared.protocol.messages import (
     JointFeedback,
     JointTrajPtFull,
     Message,

@@ -12,10 +12,10 @@ from typing import NamedTuple
 
 import pytest
 
-from shared.protocol.codec import ByteOrder, Role, decode_frames, encode
-from shared.protocol.constants import InvalidSubcode, MsgType, Result
-from shared.protocol.layouts import LAYOUTS, Direction
-from shared.protocol.messages import (
+from motocell.shared.protocol.codec import ByteOrder, Role, decode_frames, encode
+from motocell.shared.protocol.constants import InvalidSubcode, MsgType, Result
+from motocell.shared.protocol.layouts import LAYOUTS, Direction
+from motocell.shared.protocol.messages import (
     Body,
     DhLink,
     Empty,
@@ -44,7 +44,7 @@ from shared.protocol.messages import (
     WriteMRegister,
     WriteMRegisterReply,
 )
-from shared.protocol.replies import invalid_reply, io_error_reply, motion_reply, traj_point
+from motocell.shared.protocol.replies import invalid_reply, io_error_reply, motion_reply, traj_point
 
 Z = "00000000"
 """One zero word."""

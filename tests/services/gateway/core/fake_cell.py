@@ -7,11 +7,11 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 
-from services.gateway.core.answer import Answer
-from services.gateway.core.cell_state import CellState
-from services.gateway.core.io import IoHandler
-from services.gateway.core.motion import MotionHandler
-from shared.bus.schemas import (
+from motocell.services.gateway.core.answer import Answer
+from motocell.services.gateway.core.cell_state import CellState
+from motocell.services.gateway.core.io import IoHandler
+from motocell.services.gateway.core.motion import MotionHandler
+from motocell.shared.bus.schemas import (
     CommandReply,
     CommandRequest,
     ControllerStatus,
@@ -19,9 +19,9 @@ from shared.bus.schemas import (
     QueueState,
     Slot,
 )
-from shared.config import Cell, parse_cell
-from shared.protocol.constants import Result
-from shared.protocol.messages import Message, MotoMotionReply, UnknownMessage
+from motocell.shared.config import Cell, parse_cell
+from motocell.shared.protocol.constants import Result
+from motocell.shared.protocol.messages import Message, MotoMotionReply, UnknownMessage
 from tests.statuses import ready_status
 
 INSTANCE = 7

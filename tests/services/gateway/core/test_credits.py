@@ -6,13 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from services.gateway.core.cell_state import CellState
-from services.gateway.core.credits import GroupCredit
-from shared.bus.schemas import Point
-from shared.config import LOOK_AHEAD_POINTS, parse_cell
-from shared.motion.interpolation import Knot, Trajectory, max_segment_entries
-from shared.motion.kinematics import AxisMap
-from shared.protocol.constants import NotReadySubcode
+from motocell.services.gateway.core.cell_state import CellState
+from motocell.services.gateway.core.credits import GroupCredit
+from motocell.shared.bus.schemas import Point
+from motocell.shared.config import LOOK_AHEAD_POINTS, parse_cell
+from motocell.shared.motion.interpolation import Knot, Trajectory, max_segment_entries
+from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.protocol.constants import NotReadySubcode
 from tests.services.gateway.core.fake_cell import CAPACITY, EPOCH, INSTANCE, queue, slot, status
 
 POINT = Point(0, 1, 0.1, [0.0] * 6, [0.0] * 6)

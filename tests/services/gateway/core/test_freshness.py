@@ -10,12 +10,12 @@ import logging
 
 import pytest
 
-from services.gateway.core.cell_port import readiness
-from services.gateway.core.cell_state import STATUS_STREAM, CellState, queue_stream
-from services.gateway.core.freshness import STALE_HEARTBEATS
-from shared.bus.liveness import HEARTBEAT_S
-from shared.protocol.constants import Command, NotReadySubcode, Result
-from shared.protocol.replies import motion_ctrl, traj_point
+from motocell.services.gateway.core.cell_port import readiness
+from motocell.services.gateway.core.cell_state import STATUS_STREAM, CellState, queue_stream
+from motocell.services.gateway.core.freshness import STALE_HEARTBEATS
+from motocell.shared.bus.liveness import HEARTBEAT_S
+from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
+from motocell.shared.protocol.replies import motion_ctrl, traj_point
 from tests.services.gateway.core.fake_cell import (
     FakeCell,
     exchange,

@@ -24,14 +24,14 @@ from dataclasses import dataclass
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from services.gateway.core.answer import Answer
-from services.gateway.core.motion import MotionHandler
-from services.gateway.tcp import serve_requests
-from shared.config import Cell, parse_cell
-from shared.protocol.codec import CLOSED, NEED_DATA, ByteOrder, Role, SimpleMessageCodec
-from shared.protocol.constants import MAX_GROUPS, InvalidSubcode, MsgType, Result
-from shared.protocol.layouts import JOINT_BLOCK, JOINT_BLOCK_SIZE
-from shared.protocol.messages import (
+from motocell.services.gateway.core.answer import Answer
+from motocell.services.gateway.core.motion import MotionHandler
+from motocell.services.gateway.tcp import serve_requests
+from motocell.shared.config import Cell, parse_cell
+from motocell.shared.protocol.codec import CLOSED, NEED_DATA, ByteOrder, Role, SimpleMessageCodec
+from motocell.shared.protocol.constants import MAX_GROUPS, InvalidSubcode, MsgType, Result
+from motocell.shared.protocol.layouts import JOINT_BLOCK, JOINT_BLOCK_SIZE
+from motocell.shared.protocol.messages import (
     JointFeedback,
     JointFeedbackEx,
     JointTrajPtExGroup,
@@ -41,7 +41,7 @@ from shared.protocol.messages import (
     MotoMotionReply,
     UnknownMessage,
 )
-from shared.protocol.replies import ex_group, state_message, traj_point_ex
+from motocell.shared.protocol.replies import ex_group, state_message, traj_point_ex
 from tests.services.gateway.core.fake_cell import FakeCell, exchange, gateway
 
 FUZZ = settings(max_examples=300, deadline=None)

@@ -7,11 +7,11 @@ from __future__ import annotations
 import msgspec
 import pytest
 
-from services.gateway.core.io import IO_TIMEOUT_S, IoHandler
-from shared.bus.schemas import CommandReply, CommandRequest
-from shared.protocol.constants import InvalidSubcode, IoResult, MsgType, ReplyType, Result
-from shared.protocol.errors import PeerProtocolError
-from shared.protocol.messages import (
+from motocell.services.gateway.core.io import IO_TIMEOUT_S, IoHandler
+from motocell.shared.bus.schemas import CommandReply, CommandRequest
+from motocell.shared.protocol.constants import InvalidSubcode, IoResult, MsgType, ReplyType, Result
+from motocell.shared.protocol.errors import PeerProtocolError
+from motocell.shared.protocol.messages import (
     Body,
     Message,
     MotoMotionReply,
@@ -23,7 +23,7 @@ from shared.protocol.messages import (
     WriteIOGroupReply,
     WriteMRegisterReply,
 )
-from shared.protocol.replies import (
+from motocell.shared.protocol.replies import (
     motion_ctrl,
     ping,
     read_io_bit,

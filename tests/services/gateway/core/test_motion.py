@@ -6,9 +6,13 @@ from __future__ import annotations
 import msgspec
 import pytest
 
-from services.gateway.core.motion import SLOTS_WAIT_S, START_TRAJ_MODE_TIMEOUT_S, STOP_WAIT_S
-from shared.bus.schemas import CommandReply, CommandRequest, QueueState
-from shared.protocol.constants import (
+from motocell.services.gateway.core.motion import (
+    SLOTS_WAIT_S,
+    START_TRAJ_MODE_TIMEOUT_S,
+    STOP_WAIT_S,
+)
+from motocell.shared.bus.schemas import CommandReply, CommandRequest, QueueState
+from motocell.shared.protocol.constants import (
     TOOL_NUMBERS,
     Command,
     CommType,
@@ -18,8 +22,8 @@ from shared.protocol.constants import (
     ReplyType,
     Result,
 )
-from shared.protocol.errors import PeerProtocolError
-from shared.protocol.messages import (
+from motocell.shared.protocol.errors import PeerProtocolError
+from motocell.shared.protocol.messages import (
     DhLink,
     Empty,
     GetDhParametersReply,
@@ -29,7 +33,7 @@ from shared.protocol.messages import (
     ReadIOBitReply,
     UnknownMessage,
 )
-from shared.protocol.replies import (
+from motocell.shared.protocol.replies import (
     get_dh_parameters,
     motion_ctrl,
     ping,

@@ -8,7 +8,7 @@ from collections.abc import Sequence
 
 import pytest
 
-from services.gateway.core.points import (
+from motocell.services.gateway.core.points import (
     MAX_ABS_PULSES,
     MAX_TRAJECTORY_TIME_S,
     OK,
@@ -23,9 +23,9 @@ from services.gateway.core.points import (
     invalid,
     position_bounds,
 )
-from shared.config import parse_cell
-from shared.motion.kinematics import AxisMap
-from shared.protocol.constants import InvalidSubcode
+from motocell.shared.config import parse_cell
+from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.protocol.constants import InvalidSubcode
 
 ARM6 = AxisMap(parse_cell({}).groups[0])
 ARM7 = AxisMap(parse_cell({"groups": [{"name": "R1", "model": "arm7"}]}).groups[0])

@@ -7,10 +7,10 @@ from __future__ import annotations
 import msgspec
 import pytest
 
-from shared.config import LOOK_AHEAD_POINTS, parse_cell
-from shared.protocol.constants import InvalidSubcode, NotReadySubcode, Result
-from shared.protocol.messages import JointTrajPtExGroup, Message
-from shared.protocol.replies import ex_group, traj_point, traj_point_ex
+from motocell.shared.config import LOOK_AHEAD_POINTS, parse_cell
+from motocell.shared.protocol.constants import InvalidSubcode, NotReadySubcode, Result
+from motocell.shared.protocol.messages import JointTrajPtExGroup, Message
+from motocell.shared.protocol.replies import ex_group, traj_point, traj_point_ex
 from tests.services.gateway.core.fake_cell import (
     CAPACITY,
     EPOCH,

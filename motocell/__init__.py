@@ -1,0 +1,1 @@
+"""motocell: a MotoROS-compatible robot controller for simulated Yaskawa Motoman cells."""
