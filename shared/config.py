@@ -22,7 +22,7 @@ from typing import Any, Literal
 
 import msgspec
 
-from motocell.shared.protocol.constants import MAX_AXES
+from motocell.shared.protocol.constants import MAX_AXES, TOOL_NUMBERS
 
 DEFAULT_MAX_LATENESS_PERIODS = 25
 """100 ms at 4 ms. Far shorter than the 0.4-0.5 s after which a client can be told NOT_READY
@@ -147,6 +147,10 @@ class CellFile(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
     zenoh: ZenohConfig = msgspec.field(default_factory=ZenohConfig)
     models: dict[str, RobotModel] = msgspec.field(default_factory=dict)
     """Extra robot models for this cell, added to (or replacing) the catalogue's."""
+    tools: list[list[float]] = msgspec.field(default_factory=list)
+    """The controller's tool files from tool 0 on: [x, y, z, rx, ry, rz] each, the tool centre
+    point in the flange frame (metres; roll-pitch-yaw in radians, ``forward_kinematics``).
+    Tools not listed are all zero: the TCP is the flange."""
 
 
 @dataclass(frozen=True)
@@ -180,6 +184,13 @@ class Cell:
     """The pending-point FIFO's depth per group (``CellFile.pending_points``)."""
     start_buffer_periods: int = 0
     """Hold entries before a trajectory's first segment (``CellFile.start_buffer_periods``)."""
+    tools: tuple[tuple[float, ...], ...] = ()
+    """The tool files MOTO_SELECT_TOOL chooses from (``CellFile.tools``); one table for every
+    group, as a controller has."""
+
+    def tool(self, number: int) -> tuple[float, ...]:
+        """Tool ``number``'s [x, y, z, rx, ry, rz]; an unlisted tool is all zero."""
+        return self.tools[number] if number < len(self.tools) else (0.0,) * 6
 
     @property
     def points_outstanding(self) -> int:
@@ -286,6 +297,14 @@ def _check_within(where: str, position: Sequence[float], limits: Sequence[Sequen
     for axis, (value, (lower, upper)) in enumerate(zip(position, limits, strict=True)):
         if not lower <= value <= upper:
             raise ConfigError(f"{where}[{axis}]: {value} is outside the range [{lower}, {upper}]")
+
+
+def _check_tools(where: str, tools: list[list[float]]) -> None:
+    if len(tools) > len(TOOL_NUMBERS):
+        raise ConfigError(f"{where}: {len(tools)} tools, a controller has {len(TOOL_NUMBERS)}")
+    for number, tool in enumerate(tools):
+        if len(tool) != 6 or not all(math.isfinite(v) for v in tool):
+            raise ConfigError(f"{where}[{number}]: needs 6 finite values [x, y, z, rx, ry, rz]")
 
 
 def _group_limits(
@@ -402,6 +421,7 @@ def resolve(
         raise ConfigError(f"{where}: start_buffer_periods: must be 0 to {MAX_START_BUFFER_PERIODS}")
     if not 1 <= cell_file.port_base <= 65533:
         raise ConfigError(f"{where}: port_base: must be 1 to 65533")
+    _check_tools(f"{where}: tools", cell_file.tools)
     groups = []
     names: set[str] = set()
     for index, group in enumerate(cell_file.groups):
@@ -436,4 +456,5 @@ def resolve(
         max_lateness_periods=cell_file.max_lateness_periods,
         pending_points=cell_file.pending_points,
         start_buffer_periods=cell_file.start_buffer_periods,
+        tools=tuple(tuple(tool) for tool in cell_file.tools),
     )

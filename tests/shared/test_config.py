@@ -233,6 +233,14 @@ def test_no_start_buffer_as_motoros_unless_set(tmp_path: Path) -> None:
     assert cell.start_buffer_periods == 3
 
 
+def test_tools_are_all_zero_unless_listed(tmp_path: Path) -> None:
+    """Tool files from tool 0 on, one table for the cell; an unlisted tool is the flange."""
+    assert load_cell().tool(0) == load_cell().tool(63) == (0.0,) * 6
+    cell = load_cell(write_cell(tmp_path, "tools = [[0, 0, 0, 0, 0, 0], [0, 0, 0.2, 0, 0, 1.5]]\n"))
+    assert cell.tool(1) == (0.0, 0.0, 0.2, 0.0, 0.0, 1.5)
+    assert cell.tool(2) == (0.0,) * 6
+
+
 # --- the catalogue ------------------------------------------------------------------------
 
 
@@ -434,6 +442,18 @@ BAD_FILES: dict[str, tuple[str, tuple[str, ...]]] = {
     "start buffer too long": (
         f"start_buffer_periods = {MAX_START_BUFFER_PERIODS + 1}\n",
         ("start_buffer_periods", f"must be 0 to {MAX_START_BUFFER_PERIODS}"),
+    ),
+    "a tool with 5 values": (
+        "tools = [[0, 0, 0.1, 0, 0]]\n",
+        ("tools[0]", "needs 6 finite values [x, y, z, rx, ry, rz]"),
+    ),
+    "a tool not finite": (
+        "tools = [[0, 0, 0, 0, 0, 0], [0, 0, nan, 0, 0, 0]]\n",
+        ("tools[1]", "needs 6 finite values"),
+    ),
+    "more tools than a controller has": (
+        f"tools = [{', '.join(['[0, 0, 0, 0, 0, 0]'] * 65)}]\n",
+        ("tools", "65 tools, a controller has 64"),
     ),
     "bad cell name": ('name = "a/b"\n', ("name", "'a/b'", "letters, digits, - or _")),
     "empty cell name": ('name = ""\n', ("name", "''", "letters, digits, - or _")),
