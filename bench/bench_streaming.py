@@ -18,9 +18,9 @@ every executed period moves every axis) from a motion client in its own process
 - paced 4 ms with ``pending_points = 4`` (a cell of its own; motocell's deeper pending-point
   FIFO, a cell-file setting). Goal: 0 empty-queue periods. Reported as not measured in a tree
   whose cell files do not have the setting;
-- the two paced goals again with ``start_buffer_periods = 3`` (motocell's start buffer: a
-  trajectory from rest waits 3 periods in the ring, a margin against late points for a client
-  without look-ahead, which no pending-point depth gives), each on a cell of its own.
+- paced 8 ms again with ``start_buffer_periods = 0`` (diagnostic, a cell of its own): MotoROS's
+  exact start timing, without the default 3-period start buffer that gives a client without
+  look-ahead its margin against late points (docs/behaviour.md, "Start buffer").
 
 From the ``executor/tick`` stream (``analyse``):
 
@@ -100,7 +100,7 @@ class Variant:
 
 
 PENDING_4 = (("pending_points", 4),)
-START_BUFFER = (("start_buffer_periods", 3),)
+NO_START_BUFFER = (("start_buffer_periods", 0),)
 VARIANTS = (
     Variant("motoman_driver", 0.004, 2000, empty_goal=True, finish_goal=True),
     Variant("paced 4 ms", 0.004, 2000, paced=True),
@@ -114,23 +114,7 @@ VARIANTS = (
         extensions=PENDING_4,
         empty_goal=True,
     ),
-    Variant(
-        "paced 8 ms, start buffer 3",
-        0.008,
-        1000,
-        paced=True,
-        extensions=START_BUFFER,
-        empty_goal=True,
-        turnaround=True,
-    ),
-    Variant(
-        "paced 4 ms, pending_points 4, start buffer 3",
-        0.004,
-        2000,
-        paced=True,
-        extensions=PENDING_4 + START_BUFFER,
-        empty_goal=True,
-    ),
+    Variant("paced 8 ms, no start buffer", 0.008, 1000, paced=True, extensions=NO_START_BUFFER),
 )
 
 

@@ -35,6 +35,10 @@ MAX_PENDING_POINTS = 32
 """The deepest pending-point FIFO a cell file may ask for (``pending_points``): ample for a
 client that streams a few points ahead (32 points 4 ms apart are 128 ms of motion), and a bound
 on what each interpolator holds."""
+DEFAULT_START_BUFFER_PERIODS = 3
+"""12 ms at 4 ms: the start buffer of a cell file that does not set one. A client that streams
+without look-ahead was measured to leave 6-8 periods empty per trajectory with 0 on this 2-core
+machine and none with 3 (figure 5); no client can see 12 ms more before the first move."""
 MAX_START_BUFFER_PERIODS = 50
 """The longest start buffer a cell file may ask for (``start_buffer_periods``): 200 ms at 4 ms,
 far beyond any latency a client's stream should have to absorb."""
@@ -105,6 +109,15 @@ class RobotModel(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
         return tuple((lower, upper) for lower, upper in self.joint_limits)
 
 
+class Placement(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
+    """Where a group's base frame sits in the cell's frame (z up), as URDF writes an origin."""
+
+    xyz: list[float] = msgspec.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    """Metres."""
+    rpy: list[float] = msgspec.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    """Roll, pitch, yaw in radians about the cell's fixed axes: R = Rz(yaw) Ry(pitch) Rx(roll)."""
+
+
 class GroupConfig(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
     name: str = "R1"
     model: str = "arm6"
@@ -112,6 +125,9 @@ class GroupConfig(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
     """Overrides the model's initial position (ROS order)."""
     joint_limits: list[list[float]] | None = None
     """Narrows the model's joint ranges ([lower, upper] per axis, ROS order); never widens."""
+    base: Placement = msgspec.field(default_factory=Placement)
+    """Where the group stands in the cell (``motocell view`` draws it there); the cell's origin
+    unless set."""
 
 
 class ZenohConfig(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
@@ -136,10 +152,10 @@ class CellFile(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
     """How many accepted points a group may hold waiting for its interpolator: 1 is MotoROS's
     single pending point (motoros1 §3.1); more is motocell's deeper pending-point FIFO
     (docs/behaviour.md, "Pending points")."""
-    start_buffer_periods: int = 0
-    """How many periods a new trajectory waits in the ring before it moves: 0 is MotoROS (the
-    first increment goes out at the next tick); more is motocell's start buffer, a margin
-    against late points for clients that stream without lookahead (docs/behaviour.md,
+    start_buffer_periods: int = DEFAULT_START_BUFFER_PERIODS
+    """How many periods a trajectory from rest waits in the ring before it moves: motocell's
+    start buffer, a margin against late points for clients that stream without lookahead; 0 is
+    MotoROS's timing (the first increment goes out at the next tick) (docs/behaviour.md,
     "Start buffer")."""
     host: str = "127.0.0.1"
     port_base: int = 50240
@@ -162,6 +178,8 @@ class Group:
     initial_position: tuple[float, ...]
     joint_limits: tuple[tuple[float, float], ...]
     """[lower, upper] per axis in ROS order: the model's, or the cell file's narrower ones."""
+    base: Placement = dataclasses.field(default_factory=Placement)
+    """Where the group stands in the cell (``GroupConfig.base``)."""
 
     @property
     def axes(self) -> int:
@@ -182,7 +200,7 @@ class Cell:
     max_lateness_periods: int = DEFAULT_MAX_LATENESS_PERIODS
     pending_points: int = 1
     """The pending-point FIFO's depth per group (``CellFile.pending_points``)."""
-    start_buffer_periods: int = 0
+    start_buffer_periods: int = DEFAULT_START_BUFFER_PERIODS
     """Hold entries before a trajectory's first segment (``CellFile.start_buffer_periods``)."""
     tools: tuple[tuple[float, ...], ...] = ()
     """The tool files MOTO_SELECT_TOOL chooses from (``CellFile.tools``); one table for every
@@ -305,6 +323,12 @@ def _check_tools(where: str, tools: list[list[float]]) -> None:
     for number, tool in enumerate(tools):
         if len(tool) != 6 or not all(math.isfinite(v) for v in tool):
             raise ConfigError(f"{where}[{number}]: needs 6 finite values [x, y, z, rx, ry, rz]")
+
+
+def _check_placement(where: str, placement: Placement) -> None:
+    for name, values in (("xyz", placement.xyz), ("rpy", placement.rpy)):
+        if len(values) != 3 or not all(math.isfinite(v) for v in values):
+            raise ConfigError(f"{where}.{name}: needs 3 finite values, got {values}")
 
 
 def _group_limits(
@@ -442,7 +466,10 @@ def resolve(
             )
         limits = _group_limits(field, group, model)
         _check_within(f"{field}.initial_position", initial, limits)
-        groups.append(Group(index, group.name, group.model, model, tuple(initial), limits))
+        _check_placement(f"{field}.base", group.base)
+        groups.append(
+            Group(index, group.name, group.model, model, tuple(initial), limits, group.base)
+        )
     return Cell(
         name=cell_file.name,
         controller=cell_file.controller,

@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from motocell.shared.config import (
+    DEFAULT_START_BUFFER_PERIODS,
     LOOK_AHEAD_POINTS,
     MAX_PENDING_POINTS,
     MAX_START_BUFFER_PERIODS,
@@ -227,10 +228,10 @@ def test_a_name_that_is_neither_a_file_nor_a_sample_lists_the_samples() -> None:
         load_cell("nosuch")
 
 
-def test_no_start_buffer_as_motoros_unless_set(tmp_path: Path) -> None:
-    assert load_cell().start_buffer_periods == 0
-    cell = load_cell(write_cell(tmp_path, "start_buffer_periods = 3\n"))
-    assert cell.start_buffer_periods == 3
+def test_a_start_buffer_of_3_periods_unless_set(tmp_path: Path) -> None:
+    assert load_cell().start_buffer_periods == DEFAULT_START_BUFFER_PERIODS == 3
+    cell = load_cell(write_cell(tmp_path, "start_buffer_periods = 0\n"))
+    assert cell.start_buffer_periods == 0
 
 
 def test_tools_are_all_zero_unless_listed(tmp_path: Path) -> None:
