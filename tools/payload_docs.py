@@ -58,8 +58,10 @@ def _section(
         lines[-1] += f" {summary[:1].upper()}{summary[1:]}"
     lines += ["", "| # | field | type | default | meaning |", "|---|---|---|---|---|"]
     for index, field in enumerate(msgspec.structs.fields(kind)):
+        # A union's "|" would end the table cell, even inside backticks (GitHub's tables).
+        annotation = annotations[field.name].replace("|", "\\|")
         lines.append(
-            f"| {index} | `{field.name}` | `{annotations[field.name]}` | {_default(field)} | "
+            f"| {index} | `{field.name}` | `{annotation}` | {_default(field)} | "
             f"{meanings.get(field.name, '')} |"
         )
     return "\n".join(lines)

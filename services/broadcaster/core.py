@@ -13,9 +13,21 @@ from __future__ import annotations
 from enum import Enum
 from typing import Protocol
 
-from motocell.shared.bus.schemas import ControllerStatus, GroupState, RobotStatusFields, State, Tick
+import msgspec
+import numpy as np
+
+from motocell.shared.bus.schemas import (
+    CartesianPose,
+    ControllerStatus,
+    GroupState,
+    RobotStatusFields,
+    State,
+    Tick,
+)
 from motocell.shared.config import Cell
+from motocell.shared.motion.forward_kinematics import Chain, pose, tool_transform
 from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.protocol.constants import TOOL_NUMBERS
 
 IN_MOTION_PULSES = 30
 """in_motion also while |feedback - command| exceeds 30 pulses on any axis (motoros1 §6,
@@ -112,6 +124,46 @@ class Feedback:
         return result
 
 
+class Poses:
+    """The flange and TCP poses of every arm group, at the feedback and the commanded position
+    (ARCHITECTURE.md, Poses). Positioners and tracks carry no tool, so get none."""
+
+    def __init__(self, cell: Cell) -> None:
+        self.chains = {
+            group.index: Chain(group.model) for group in cell.groups if group.model.kind == "robot"
+        }
+        self.tools = [tool_transform(cell.tool(number)) for number in TOOL_NUMBERS]
+
+    def add(self, state: State, tools: list[int]) -> State:
+        """``state`` with the poses of its arms; ``tools`` is the selected tool per group."""
+        groups = [
+            self._group(group, tools[group.group_no] if group.group_no < len(tools) else 0)
+            for group in state.groups
+        ]
+        return msgspec.structs.replace(state, groups=groups)
+
+    def _group(self, group: GroupState, tool: int) -> GroupState:
+        chain = self.chains.get(group.group_no)
+        if chain is None:
+            return group
+        # Both positions in one pass: 2 flanges, then 2 TCPs, then 4 poses at once.
+        flanges = chain.flange(np.array([group.positions, group.command_positions]))
+        frames = np.concatenate([flanges, flanges @ self.tools[tool]])
+        positions, orientations = pose(frames)
+        flange, command_flange, tcp, command_tcp = (
+            CartesianPose(position, orientation)
+            for position, orientation in zip(positions.tolist(), orientations.tolist(), strict=True)
+        )
+        return msgspec.structs.replace(
+            group,
+            tool=tool,
+            flange=flange,
+            tcp=tcp,
+            command_flange=command_flange,
+            command_tcp=command_tcp,
+        )
+
+
 class Schedule:
     """When to send state, on the executor's own clock: the first tick at or after each due
     time. Feedback then leaves the moment the tick that produced it arrives (no wait for a
@@ -145,6 +197,9 @@ class Broadcaster:
         tick, so clients see motion_possible drop instead of silence."""
         self.last: Tick | None = None
         self.seq = 0
+        self.poses = Poses(cell)
+        self.tools: list[int] = []
+        """The tool per group in the controller status the last snapshot read."""
 
     def on_tick(self, tick: Tick) -> State | None:
         """The snapshot to send now, if this tick is the first at or after the due time."""
@@ -163,12 +218,19 @@ class Broadcaster:
             return None
         return self._snapshot(self.last)
 
+    def with_poses(self, state: State) -> State:
+        """``state`` with its arms' poses, for observers: computed after the TCP clients have
+        their frames, which carry joints only."""
+        return self.poses.add(state, self.tools)
+
     def _snapshot(self, tick: Tick) -> State:
         self.seq += 1
+        status = self.controller.status()
+        self.tools = status.tools if status is not None else []
         return State(
             seq=self.seq,
             tick=tick.tick,
             tick_ns=tick.deadline_ns + tick.lateness_ns,
             groups=self.feedback.groups(tick),
-            status=robot_status(self.controller.status(), tick, self.controller.alive()),
+            status=robot_status(status, tick, self.controller.alive()),
         )

@@ -2,8 +2,9 @@
 
 Every cycle, in this order: the newest tick (or a wake-up without one), the snapshot if one is
 due, waiting connections taken, the frames encoded once and written to every client, then the
-``state`` sample for observers (after the sockets: the TCP clients are the ones a late frame
-hurts), then the reports. Nothing here blocks except the wait for the next tick.
+``state`` sample for observers with the arms' poses (after the sockets: the TCP clients are the
+ones a late frame hurts, and their frames carry no poses), then the reports. Nothing here
+blocks except the wait for the next tick.
 """
 
 from __future__ import annotations
@@ -62,7 +63,7 @@ class StateLoop:
         else:
             port.flush(now)
         if state is not None:
-            self.publish_state(encode(state))
+            self.publish_state(encode(broadcaster.with_poses(state)))
         self.reports.report(now, len(port.clients), port.replaced_total(), port.closed_stuck)
 
     def close(self) -> None:

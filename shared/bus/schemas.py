@@ -143,11 +143,31 @@ class Tick(msgspec.Struct, array_like=True, frozen=True):
     groups: list[GroupTick]
 
 
+class CartesianPose(msgspec.Struct, array_like=True, frozen=True):
+    """A frame of an arm in the arm's base frame, from its model's DH table (frames, units and
+    conventions: ARCHITECTURE.md, Poses)."""
+
+    position: list[float]
+    """x, y, z in metres."""
+    orientation: list[float]
+    """A unit quaternion in the order x, y, z, w, with w >= 0."""
+
+
 class GroupState(msgspec.Struct, array_like=True, frozen=True):
     group_no: int
     positions: list[float]
     velocities: list[float]
     command_positions: list[float]
+    tool: int = 0
+    """The tool selected for the group (MOTO_SELECT_TOOL) when the poses were computed."""
+    flange: CartesianPose | None = None
+    """The flange at ``positions``: arms only (None for positioners and tracks)."""
+    tcp: CartesianPose | None = None
+    """The tool centre point at ``positions``: the flange composed with ``tool``'s offset."""
+    command_flange: CartesianPose | None = None
+    """The flange at ``command_positions``."""
+    command_tcp: CartesianPose | None = None
+    """The tool centre point at ``command_positions``."""
 
 
 class RobotStatusFields(msgspec.Struct, array_like=True, frozen=True):

@@ -25,6 +25,7 @@ from mcap.reader import make_reader
 
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.session import open_session
+from motocell.shared.motion.forward_kinematics import Chain, pose
 from motocell.shared.motion.kinematics import AxisMap
 from motocell.shared.ports import free_port
 from motocell.shared.protocol.constants import Command, Result
@@ -199,6 +200,28 @@ def test_recording_is_a_valid_mcap_of_the_motion(recording: Recording) -> None:
     np.testing.assert_allclose(feedback[-1] - feedback[0], MOVE, rtol=0, atol=TOLERANCE_RAD)
     moving = np.unique(feedback, axis=0)
     assert len(moving) >= 50, "100 Hz state over a 1 s move records about 100 distinct positions"
+
+
+def test_the_recorded_state_carries_the_arm_poses(recording: Recording, cell: RunningCell) -> None:
+    """Every recorded state holds the arm's flange and TCP (tool 0, all zero: the flange) at the
+    feedback and at the commanded position, as the kinematics give them for its joints."""
+    chain = Chain(cell.cell.groups[0].model)
+    states = [p for key, _, p in read_recording(recording.path) if key == recording.keys.state]
+    for state in states:
+        group = state["groups"][0]
+        assert group["tool"] == 0
+        for joints, flange, tcp in (
+            (group["positions"], group["flange"], group["tcp"]),
+            (group["command_positions"], group["command_flange"], group["command_tcp"]),
+        ):
+            expected = pose(chain.flange(joints))
+            for recorded in (flange, tcp):
+                np.testing.assert_allclose(recorded["position"], expected.position, atol=1e-12)
+                np.testing.assert_allclose(
+                    recorded["orientation"], expected.orientation, atol=1e-12
+                )
+    first, last = states[0]["groups"][0]["tcp"], states[-1]["groups"][0]["tcp"]
+    assert np.linalg.norm(np.subtract(last["position"], first["position"])) > 0.05
 
 
 def lines_by_gid(figure: Figure) -> dict[str, Line2D]:

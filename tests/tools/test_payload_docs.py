@@ -38,3 +38,10 @@ def test_rewriting_replaces_only_the_block(tmp_path: Path) -> None:
     page.write_text(f"before\n{payload_docs.BEGIN}\nold\n{payload_docs.END}\nafter\n")
     assert payload_docs.main([str(page)]) == 0
     assert page.read_text() == f"before\n{payload_docs.generate()}\nafter\n"
+
+
+def test_a_union_does_not_split_its_table_cell() -> None:
+    """Every row of every table has the five cells of its header."""
+    for line in payload_docs.generate().splitlines():
+        if line.startswith("| "):
+            assert len(line.replace("\\|", "").split("|")) == 7, line
