@@ -563,6 +563,9 @@ def test_unknown_top_level_key_message_is_well_formed(tmp_path: Path) -> None:
         ('[[groups]]\nmodle = "arm6"\n', "groups[0]: Object contains unknown field `modle`; "),
         ("[zenoh]\nconect = []\n", "zenoh: Object contains unknown field `conect`; did you"),
         ('[models.x]\nkind = "robot"\naxis_typs = []\n', "did you mean `axis_types`?"),
+        ("[[groups]]\nbsae = {}\n", "did you mean `base`?"),
+        ("[[groups]]\nbase = { xzy = [0, 0, 0] }\n", "groups[0].base: Object contains unknown"),
+        ("[[groups]]\nbase = { xzy = [0, 0, 0] }\n", "did you mean `xyz`?"),
     ],
 )
 def test_a_misspelt_field_gets_the_nearest_one_of_its_table(
@@ -573,6 +576,21 @@ def test_a_misspelt_field_gets_the_nearest_one_of_its_table(
 
 def test_a_field_like_no_other_gets_no_suggestion(tmp_path: Path) -> None:
     assert "did you mean" not in refused(tmp_path, "colour = 1\n")
+
+
+def test_a_group_stands_at_the_cells_origin_unless_placed(tmp_path: Path) -> None:
+    assert (load_cell().groups[0].base.xyz, load_cell().groups[0].base.rpy) == ([0, 0, 0],) * 2
+    text = '[[groups]]\nmodel = "arm6"\nbase = { xyz = [1.0, -0.5, 0.2], rpy = [0, 0, 1.57] }\n'
+    base = load_cell(write_cell(tmp_path, text)).groups[0].base
+    assert (base.xyz, base.rpy) == ([1.0, -0.5, 0.2], [0, 0, 1.57])
+
+
+@pytest.mark.parametrize(
+    "base", ["{ xyz = [1.0, 2.0] }", "{ rpy = [0, 0, 0, 1] }", "{ xyz = [nan, 0, 0] }"]
+)
+def test_a_placement_needs_three_finite_values(tmp_path: Path, base: str) -> None:
+    message = refused(tmp_path, f'[[groups]]\nmodel = "arm6"\nbase = {base}\n')
+    assert "groups[0].base." in message and "needs 3 finite values" in message
 
 
 # --- motocell up ----------------------------------------------------------------------------
