@@ -30,6 +30,9 @@ class CellEntry(msgspec.Struct, frozen=True, kw_only=True):
     zenoh_endpoint: str
     credentials: str = ""
     """The cell's credentials directory; empty for an open bus."""
+    config: str = ""
+    """The cell file it runs, as any process finds it: a file by its absolute path, a sample
+    cell by its name; empty for the default cell (``motocell view`` draws the cell from it)."""
 
     def describe(self) -> str:
         return (

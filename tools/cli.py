@@ -11,7 +11,18 @@ from typing import Any, cast
 
 from motocell.services.launcher import __main__ as launcher
 from motocell.shared.service import version
-from motocell.tools import bench, credentials, echo, fault, hz, observe, plot, record, service
+from motocell.tools import (
+    bench,
+    credentials,
+    echo,
+    fault,
+    hz,
+    observe,
+    plot,
+    record,
+    service,
+    view,
+)
 
 
 class CommandParser(argparse.ArgumentParser):
@@ -74,6 +85,7 @@ def build_parser() -> argparse.ArgumentParser:
     echo.add_parser(commands)
     hz.add_parser(commands)
     record.add_parser(commands)
+    view.add_parser(commands)
     plot.add_parser(commands)
     bench.add_parser(commands)
     credentials.add_parser(commands)

@@ -19,19 +19,30 @@ import queue
 import sys
 import threading
 import time
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 import zenoh
 
 from motocell.shared.bus.access import Identity
 from motocell.shared.bus.catalog import ROUTES, Op, Role
 from motocell.shared.bus.keys import ROOT
+from motocell.shared.config import Cell, ConfigError
 from motocell.shared.service import StopFlag, stop_on_signals
-from motocell.tools import cells
+from motocell.tools import cell_files, cells
 from motocell.tools.cells import CellsError, Target
 
 if TYPE_CHECKING:
     from motocell.tools.recording import McapSink
+
+
+class Sink(Protocol):
+    """Where the recorder's writer thread puts each sample: an MCAP file (``McapSink``), or
+    Foxglove's live view (``tools.view``)."""
+
+    def write(self, received_ns: int, key: str, data: bytes) -> None: ...
+
+    def finish(self) -> None: ...
+
 
 QUEUE_SIZE = 100_000
 """Samples waiting for the writer: about 100 s of one busy cell, a few tens of MB at most. A
@@ -53,7 +64,7 @@ class Recorder:
     A writing error (a full disk) sets ``stop``: the recording ends and the command fails.
     """
 
-    def __init__(self, sink: McapSink, stop: StopFlag) -> None:
+    def __init__(self, sink: Sink, stop: StopFlag) -> None:
         self.sink = sink
         self.stop = stop
         self.queue: queue.Queue[tuple[int, str, bytes] | None] = queue.Queue(QUEUE_SIZE)
@@ -103,6 +114,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--duration", type=float, metavar="S", help="stop after S seconds (default: at Ctrl-C)"
     )
     cells.add_arguments(parser, several=True)
+    cell_files.add_arguments(parser)
 
 
 def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -131,12 +143,18 @@ def run(args: argparse.Namespace) -> int:
     except CellsError as exc:
         return cells.failed("record", exc)
     try:
-        return _record(joined, args)
+        known = cell_files.known((target for target, _ in joined), args.config, "record")
+        return _record(joined, known, args)
+    except ConfigError as exc:
+        print(f"motocell record: {exc}", file=sys.stderr)
+        return 2
     finally:
         cells.close_all(joined)
 
 
-def _record(joined: list[tuple[Target, zenoh.Session]], args: argparse.Namespace) -> int:
+def _record(
+    joined: list[tuple[Target, zenoh.Session]], known: dict[str, Cell], args: argparse.Namespace
+) -> int:
     # mcap is in the tools extra: imported by this command only, not by every `motocell`.
     from motocell.tools.recording import McapSink  # noqa: PLC0415
 
@@ -152,7 +170,7 @@ def _record(joined: list[tuple[Target, zenoh.Session]], args: argparse.Namespace
             # Runs on the writer thread; tells an operator (and tests) what is arriving.
             print(f"+ {key} ({encoding}, {payload})", flush=True)
 
-        sink = McapSink(stream, on_new_channel=announce)
+        sink = McapSink(stream, on_new_channel=announce, cells=known)
         exprs = [(session, expr) for target, session in joined for expr in key_exprs(target)]
         sink.metadata(
             "motocell.recording",
@@ -188,6 +206,9 @@ def _report(out: str, sink: McapSink, dropped: int, elapsed: float) -> None:
     print(f"wrote {out}: {total} messages on {len(channels)} channels in {elapsed:.1f} s")
     for channel in channels:
         print(f"{channel.count:>9}  {channel.topic}")
+    shown = sink.view.topics()
+    if shown:
+        print(f"and for Foxglove (as `motocell view` serves them): {', '.join(shown)}")
     if dropped:
         print(
             f"motocell record: {dropped} samples dropped (the writer fell behind)",

@@ -207,6 +207,14 @@ class CellBus:
     """The launcher's own: its router, or an observer's session on the router it joined."""
 
 
+def _config_reference(config: str | None) -> str:
+    """The cell file as another process finds it from anywhere (``CellEntry.config``)."""
+    if config is None:
+        return ""
+    path = Path(config)
+    return str(path.resolve()) if path.is_file() else config
+
+
 @contextmanager
 def _cell_bus(
     cell: Cell, args: argparse.Namespace, this_host: ThisHost, stop: StopFlag
@@ -227,6 +235,7 @@ def _cell_bus(
         port_base=this_host.port_base,
         zenoh_endpoint=listen[0],
         credentials=str(credentials or ""),
+        config=_config_reference(args.config),
     )
     # The name first: a second start of a running cell is told that, not that its ports
     # are taken.

@@ -179,7 +179,23 @@ def test_recording_is_a_valid_mcap_of_the_motion(recording: Recording) -> None:
             assert schema.encoding == "jsonschema"
             assert json.loads(schema.data)["type"] == "object"
         # A secured cell carries only the catalogue's keys: nobody may put anything else.
-        assert {channel.message_encoding for channel in channels.values()} == {"json"}
+        on_keys = [c for c in channels.values() if c.topic.startswith("motocell/")]
+        assert {channel.message_encoding for channel in on_keys} == {"json"}
+        # Beside the keys, what `motocell view` serves, for Foxglove's panels.
+        cell, group = keys.cell, "R1"
+        view = {
+            f"/{cell}/{group}/joints": ("json", "motocell.GroupState"),
+            f"/{cell}/{group}/tcp": ("protobuf", "foxglove.PoseInFrame"),
+            f"/{cell}/status": ("json", "motocell.ControllerStatus"),
+            f"/{cell}/executor": ("json", "motocell.ExecutorTick"),
+            f"/{cell}/transforms": ("protobuf", "foxglove.FrameTransforms"),
+            f"/{cell}/scene": ("protobuf", "foxglove.SceneUpdate"),
+        }
+        for topic, (encoding, schema_name) in view.items():
+            assert topic in channels, sorted(channels)
+            channel = channels[topic]
+            schema = summary.schemas[channel.schema_id]
+            assert (channel.message_encoding, schema.name) == (encoding, schema_name)
 
         last_log_time: dict[int, int] = {}
         counts: dict[int, int] = {}
@@ -190,6 +206,8 @@ def test_recording_is_a_valid_mcap_of_the_motion(recording: Recording) -> None:
             last_log_time[channel.id] = message.log_time
             counts[channel.id] = counts.get(channel.id, 0) + 1
             assert schema_ is not None
+            if channel.message_encoding != "json":
+                continue
             payload = json.loads(message.data)
             assert set(payload) == set(json.loads(schema_.data)["properties"]), channel.topic
         assert counts == dict(summary.statistics.channel_message_counts)
@@ -310,10 +328,8 @@ def test_an_open_bus_is_recorded_whole_keys_outside_the_catalogue_too(tmp_path: 
         reader = make_reader(file, validate_crcs=True)
         messages = list(reader.iter_messages())
     assert messages, "the unknown key was recorded"
-    for _, channel, message in messages:
-        assert (channel.topic, channel.message_encoding, channel.schema_id) == (
-            unknown_key,
-            "msgpack",
-            0,
-        )
+    for schema, channel, message in messages:
+        assert (channel.topic, channel.message_encoding) == (unknown_key, "msgpack")
+        # No schema: MCAP's empty schema encoding, for a self-describing message encoding.
+        assert schema is not None and (schema.encoding, schema.data) == ("", b"")
         assert message.data == UNKNOWN_PAYLOAD

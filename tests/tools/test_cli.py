@@ -120,7 +120,7 @@ def test_abbreviated_options_are_refused(capsys: pytest.CaptureFixture[str]) -> 
     assert "unrecognized arguments: --port-bas" in capsys.readouterr().err
 
 
-EVERY_COMMAND = ["up", "fault", "ps", "watch", "echo", "hz", "record", "plot", "bench"]
+EVERY_COMMAND = ["up", "fault", "ps", "watch", "echo", "hz", "record", "view", "plot", "bench"]
 EVERY_COMMAND += ["credentials", "service", "router", "demo"]
 
 

@@ -1,0 +1,256 @@
+"""``motocell view`` against a real cell: a Foxglove WebSocket client (``tests.foxglove_ws``,
+written from the protocol's specification) connects, subscribes and decodes what the view
+serves, and compares it with the state port; clients that never read or vanish do not hurt it."""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import socket
+import struct
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from typing import Any
+
+import numpy as np
+import pytest
+
+from motocell.shared.motion.forward_kinematics import Chain, tool_transform
+from motocell.shared.ports import free_port
+from motocell.shared.protocol.constants import Command, Result
+from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
+from motocell.testkit.cell import RunningCell
+from motocell.testkit.client import Feedback, smooth_move, stream
+from motocell.testkit.processes import wait_until
+from tests.foxglove_ws import FoxgloveClient
+
+pytestmark = pytest.mark.cell
+
+FLOAT32_RAD = 2e-7
+"""The state port carries float32 (motoros1 §6); the view the float64 the state holds."""
+POSE_TOLERANCE_M = 1e-5
+"""A flange pose from float32 joints, about a metre from the base: 1e-7 rad x 1 m, and margin."""
+MOVE = (0.4, -0.3, 0.3, 0.5, -0.4, 0.6)
+READY = re.compile(r"ws://(?P<host>[\d.]+):(?P<port>\d+)")
+
+
+class View:
+    """``motocell view`` as a process: the URL it serves, and its output lines."""
+
+    def __init__(self, cell: RunningCell) -> None:
+        env = {**os.environ, RUNTIME_DIR_ENV: str(cell.runtime_dir)}
+        command = [sys.executable, "-W", "error", "-m", "motocell.tools.cli", "view"]
+        command += ["--port", str(free_port()), "--cell", cell.cell.name]
+        self.process = subprocess.Popen(
+            command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env
+        )
+        self.lines: list[str] = []
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+        wait_until(lambda: self.url is not None, 20.0, "the view to serve")
+
+    def _read(self) -> None:
+        assert self.process.stdout is not None
+        for line in self.process.stdout:
+            self.lines.append(line.rstrip("\n"))
+
+    @property
+    def url(self) -> str | None:
+        if self.process.poll() is not None:
+            raise ChildProcessError(f"the view exited: {self.lines}")
+        found = [READY.search(line) for line in list(self.lines)]
+        return next((match.group(0) for match in found if match), None)
+
+    def client(self, max_queue: int | None = None) -> FoxgloveClient:
+        assert self.url is not None
+        return FoxgloveClient(self.url, max_queue=max_queue)
+
+    def stop(self) -> int:
+        if self.process.poll() is None:
+            self.process.send_signal(signal.SIGINT)
+        try:
+            return self.process.wait(timeout=10)
+        finally:
+            if self.process.poll() is None:
+                self.process.kill()
+                self.process.wait()
+            self._reader.join(timeout=5)
+            assert self.process.stdout is not None
+            self.process.stdout.close()
+
+
+@pytest.fixture(scope="module")
+def view(cell: RunningCell) -> Iterator[View]:
+    served = View(cell)
+    yield served
+    assert served.stop() == 0, served.lines
+
+
+def topics(cell: RunningCell) -> dict[str, str]:
+    name, group = cell.cell.name, cell.cell.groups[0].name
+    return {
+        "joints": f"/{name}/{group}/joints",
+        "transforms": f"/{name}/transforms",
+        "scene": f"/{name}/scene",
+        "status": f"/{name}/status",
+        "robot_status": f"/{name}/robot_status",
+        "executor": f"/{name}/executor",
+        "tcp": f"/{name}/{group}/tcp",
+    }
+
+
+def subscribed(
+    view: View, cell: RunningCell, *kinds: str, max_queue: int | None = None
+) -> FoxgloveClient:
+    client = view.client(max_queue)
+    wanted = {topics(cell)[kind] for kind in kinds}
+    advertised = client.wait_for_topics(wanted, 20.0)
+    client.subscribe([advertised[topic] for topic in sorted(wanted)])
+    return client
+
+
+def test_it_offers_the_cells_topics_and_nothing_to_command(view: View, cell: RunningCell) -> None:
+    with view.client() as client:
+        advertised = client.wait_for_topics(set(topics(cell).values()), 20.0)
+        assert client.server_info["capabilities"] == []
+        assert not {"services", "parameters", "clientPublish"} & set(client.server_info)
+    joints = advertised[topics(cell)["joints"]]
+    assert (joints.encoding, joints.schema_name) == ("json", "motocell.GroupState")
+    transforms = advertised[topics(cell)["transforms"]]
+    assert (transforms.encoding, transforms.schema_name) == (
+        "protobuf",
+        "foxglove.FrameTransforms",
+    )
+    assert advertised[topics(cell)["scene"]].schema_name == "foxglove.SceneUpdate"
+
+
+def test_the_scene_draws_every_link_on_its_frame(view: View, cell: RunningCell) -> None:
+    group = cell.cell.groups[0]
+    with subscribed(view, cell, "scene") as client:
+        scene = client.next_message(topics(cell)["scene"], 10.0).protobuf()
+    frames = {entity.frame_id for entity in scene.entities}  # type: ignore[attr-defined]
+    prefix = f"{cell.cell.name}/{group.name}"
+    # The last link's length lies along the one before (its d), so link6 carries nothing.
+    assert frames == {
+        f"{prefix}/base",
+        *(f"{prefix}/link{n}" for n in range(1, 6)),
+        f"{prefix}/flange",
+    }
+    assert all(entity.frame_locked for entity in scene.entities)  # type: ignore[attr-defined]
+
+
+def in_cell(transforms: Any, cell: str, group: str, frame_name: str) -> np.ndarray[Any, Any]:
+    """A group's frame as a 4x4 pose in the cell's frame, composed from a FrameTransforms
+    message."""
+    parents = {t.child_frame_id: t for t in transforms.transforms}
+    frame, pose = f"{cell}/{group}/{frame_name}", np.eye(4)
+    while frame != cell:
+        step = parents[frame]
+        pose = _matrix(step.translation, step.rotation) @ pose
+        frame = step.parent_frame_id
+    return pose
+
+
+def _matrix(translation: Any, rotation: Any) -> np.ndarray[Any, Any]:
+    x, y, z, w = rotation.x, rotation.y, rotation.z, rotation.w
+    matrix = np.eye(4)
+    matrix[:3, :3] = [
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ]
+    matrix[:3, 3] = [translation.x, translation.y, translation.z]
+    return matrix
+
+
+def same_joints(cycle: Feedback, positions: list[float], axes: int) -> bool:
+    port = np.array(cycle.groups[0].positions[:axes])
+    return bool(np.allclose(port, positions, rtol=0, atol=FLOAT32_RAD))
+
+
+def test_joints_and_tool_pose_agree_with_the_state_port(view: View, cell: RunningCell) -> None:
+    """Each joint state the view sends while the arm moves is one the state port sent (the same
+    snapshot, so zero periods apart), in the same order; each tool pose, and each transform
+    tree's flange, is where the kinematics of one of those state port snapshots puts it."""
+    group = cell.cell.groups[0]
+    axes = group.axes
+    with cell.state() as state, cell.motion() as motion:
+        state.wait_for(lambda f: f.status is not None, 10.0)
+        with subscribed(view, cell, "joints", "transforms", "tcp") as client:
+            reply = motion.command(Command.START_TRAJ_MODE)
+            assert (reply.result, reply.subcode) == (Result.SUCCESS, 0)
+            start = np.array(state.wait_still().groups[0].positions[:axes])
+            trajectory = smooth_move(tuple(start), tuple(start + MOVE), duration=1.0, points=11)
+            assert stream(motion, trajectory).points == len(trajectory)
+            state.wait_for(lambda f: not same_joints(f, list(start), axes), 10.0)
+            received = client.messages(until=time.monotonic() + 1.5)
+        cycles = [c for c in state.cycles if 0 in c.groups]
+    joints = [m for m in received if m.topic == topics(cell)["joints"]]
+    moving = [m for m in joints if not np.allclose(m.json()["positions"], start, atol=1e-3)]
+    assert len(moving) >= 20, f"{len(joints)} joint states, {len(moving)} while moving"
+    matched = [_match(cycles, m.json()["positions"], axes) for m in moving]
+    assert matched == sorted(matched), "the view's joint states came out of order"
+
+    # The tool 0 of a cell file without tools is all zero: the TCP is the flange.
+    chain = Chain(group.model)
+    flanges = chain.flange(np.array([c.groups[0].positions[:axes] for c in cycles]))
+    placement = tool_transform([*group.base.xyz, *group.base.rpy])
+    tcps = [m for m in received if m.topic == topics(cell)["tcp"]]
+    trees = [m for m in received if m.topic == topics(cell)["transforms"]]
+    assert len(tcps) >= 20 and len(trees) >= 20, (len(tcps), len(trees))
+    for message in tcps[-50:]:
+        pose = message.protobuf()
+        assert pose.frame_id == f"{cell.cell.name}/{group.name}/base"  # type: ignore[attr-defined]
+        _assert_near_one(flanges, _matrix(pose.pose.position, pose.pose.orientation))  # type: ignore[attr-defined]
+    for message in trees[-50:]:
+        tree = message.protobuf()
+        _assert_near_one(placement @ flanges, in_cell(tree, cell.cell.name, group.name, "flange"))
+        _assert_near_one(placement @ flanges, in_cell(tree, cell.cell.name, group.name, "tcp"))
+
+
+def _match(cycles: list[Feedback], positions: list[float], axes: int) -> int:
+    for index, cycle in enumerate(cycles):
+        if same_joints(cycle, positions, axes):
+            return index
+    raise AssertionError(f"no state port cycle had the joints {positions}")
+
+
+def _assert_near_one(candidates: np.ndarray[Any, Any], pose: np.ndarray[Any, Any]) -> None:
+    """``pose`` is within the tolerance of one of the ``candidates`` (n, 4, 4)."""
+    best = np.abs(candidates - pose).max(axis=(1, 2)).min()
+    assert best < POSE_TOLERANCE_M, f"no state port snapshot puts the frame at {pose[:3, 3]}"
+
+
+def test_it_outlives_clients_that_never_read_or_vanish(view: View, cell: RunningCell) -> None:
+    joints = topics(cell)["joints"]
+    # A client that stops reading its socket once one message waits (websockets' max_queue):
+    # the server's queue for it fills while the others go on.
+    stalled = subscribed(view, cell, "joints", "transforms", "executor", max_queue=1)
+    try:
+        with subscribed(view, cell, "joints") as reader:
+            reader.next_message(joints, 10.0)
+            until = time.monotonic() + 1.0
+            count = len([m for m in reader.messages(until) if m.topic == joints])
+            assert count >= 20, f"{count} joint states in a second beside a stalled client"
+    finally:
+        # Gone without a close frame: a reset, as when a laptop drops off the network.
+        raw: socket.socket = stalled.connection.socket
+        raw.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
+        raw.close()
+        stalled.close()
+    with socket.create_connection(view_address(view)):
+        pass  # hung up before the WebSocket handshake
+    with subscribed(view, cell, "joints") as again:
+        assert again.next_message(joints, 10.0).json()["group_no"] == 0
+    assert view.process.poll() is None
+
+
+def view_address(view: View) -> tuple[str, int]:
+    assert view.url is not None
+    match = READY.search(view.url)
+    assert match is not None
+    return match.group("host"), int(match.group("port"))
