@@ -17,7 +17,8 @@ import numpy as np
 import pytest
 import yaml
 
-from motocell.shared.bus.access import cell_identities
+from motocell.shared.bus.access import Identity, cell_identities
+from motocell.shared.bus.catalog import SERVICES, Role
 from motocell.shared.bus.certificates import write_certificates
 from motocell.shared.bus.credentials import write_passwords
 from motocell.shared.config import load_cell
@@ -158,6 +159,26 @@ def test_compose_file_runs_every_service_and_an_interpolator_per_group(repo: Pat
     groups = sorted(c[c.index("--group") + 1] for c in commands.values() if "--group" in c)
     assert groups == ["0", "1", "2"]
     assert (repo / "deploy" / "Dockerfile").exists()
+
+
+def test_compose_runs_one_container_per_service_identity_of_its_cell(repo: Path) -> None:
+    """Derived from the identities the router's ACL is made for, not from a list of our own:
+    a service the cell gains, or a group, fails here until compose runs it."""
+    cell = load_cell(repo / COMPOSE_CELL)
+    router_port = LISTEN.rpartition(":")[2]
+    compose = yaml.safe_load((repo / "compose.yaml").read_text())
+    running = []
+    for name, service in compose["services"].items():
+        if name == "zenohd":
+            continue
+        command = [str(part) for part in service["command"]]
+        role = Role(command[2].removeprefix("motocell.services."))
+        group = command[command.index("--group") + 1] if "--group" in command else "0"
+        running.append(Identity(role, group))
+        assert command[command.index("--config") + 1].endswith(Path(COMPOSE_CELL).name), name
+        assert command[command.index("--zenoh-connect") + 1] == f"tls/zenohd:{router_port}", name
+    services = [i for i in cell_identities(len(cell.groups)) if i.role in SERVICES]
+    assert sorted(i.name for i in running) == sorted(i.name for i in services)
 
 
 def test_the_router_config_is_the_one_the_key_map_generates(repo: Path) -> None:
