@@ -84,6 +84,35 @@ PROFILES: dict[ControllerModel, ControllerProfile] = {
 }
 
 
+class IdealServo(
+    msgspec.Struct, frozen=True, forbid_unknown_fields=True, tag="ideal", tag_field="kind"
+):
+    """Feedback is the commanded position at the end of every period: no following error,
+    stops in one period. For tests and benchmarks that check exact feedback during motion."""
+
+
+class PositionLoop(
+    msgspec.Struct, frozen=True, forbid_unknown_fields=True, tag="position_loop", tag_field="kind"
+):
+    """A position loop with velocity feed-forward behind a first-order command filter, as
+    industrial servo drives run (``shared.motion.servo`` steps it; docs/servo.md derives it and
+    the defaults, a lag of about 22 ms behind a steady command)."""
+
+    gain: float = 40.0
+    """Position loop gain, 1/s: the error left after a stop decays as exp(-gain * t)."""
+    feed_forward: float = 0.5
+    """Velocity feed-forward, 0 to 1: the share of the commanded velocity fed past the loop;
+    1 leaves only the filter's lag, 0 is a plain proportional loop."""
+    filter_ms: float = 12.0
+    """Time constant of the first-order command filter ahead of the loop (the controller's
+    command smoothing), ms; 0 for none. It keeps the feedback's velocity continuous at a
+    stop."""
+
+
+ServoSettings = IdealServo | PositionLoop
+"""What a robot model's or a group's ``servo`` table decodes to (``kind`` chooses)."""
+
+
 class RobotModel(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
     """One mechanism type. Lists are in ROS joint order."""
 
@@ -98,6 +127,8 @@ class RobotModel(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
     dh: list[list[float]]
     seven_axis: bool = False
     description: str = ""
+    servo: ServoSettings = msgspec.field(default_factory=PositionLoop)
+    """How each axis's feedback follows its command (``shared.motion.servo``, docs/servo.md)."""
 
     @property
     def axes(self) -> int:
@@ -128,6 +159,8 @@ class GroupConfig(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
     base: Placement = msgspec.field(default_factory=Placement)
     """Where the group stands in the cell (``motocell view`` draws it there); the cell's origin
     unless set."""
+    servo: ServoSettings | None = None
+    """Replaces the model's servo for this group (``{ kind = "ideal" }``: feedback = command)."""
 
 
 class ZenohConfig(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
@@ -180,10 +213,17 @@ class Group:
     """[lower, upper] per axis in ROS order: the model's, or the cell file's narrower ones."""
     base: Placement = dataclasses.field(default_factory=Placement)
     """Where the group stands in the cell (``GroupConfig.base``)."""
+    own_servo: ServoSettings | None = None
+    """The cell file's servo for this group (``GroupConfig.servo``), if it names one."""
 
     @property
     def axes(self) -> int:
         return self.model.axes
+
+    @property
+    def servo(self) -> ServoSettings:
+        """The group's servo: the cell file's, else the model's."""
+        return self.model.servo if self.own_servo is None else self.own_servo
 
 
 @dataclass(frozen=True)
@@ -276,7 +316,15 @@ def _did_you_mean(problem: str, path: str, within: type[msgspec.Struct]) -> str:
             (table,) = typing.get_args(table)
         else:
             table = {field.name: field.type for field in msgspec.structs.fields(table)}[step]
-    names = [field.name for field in msgspec.structs.fields(table)]
+    # A union (``servo``) offers the fields of each of its tables but the one that failed.
+    tables = [t for t in typing.get_args(table) or (table,) if isinstance(t, type)]
+    names = [
+        field.name
+        for t in tables
+        if issubclass(t, msgspec.Struct)
+        for field in msgspec.structs.fields(t)
+        if field.name != unknown[1]
+    ]
     close = difflib.get_close_matches(unknown[1], names, n=1)
     return f"; did you mean `{close[0]}`?" if close else ""
 
@@ -300,6 +348,18 @@ def _check_model(where: str, model: RobotModel) -> None:
         raise ConfigError(f"{where}.dh: at most {n} links of [theta, d, a, alpha]")
     _check_limits(f"{where}.joint_limits", model.joint_limits, n)
     _check_within(f"{where}.initial_position", model.initial_position, model.joint_limits)
+    _check_servo(f"{where}.servo", model.servo)
+
+
+def _check_servo(where: str, servo: ServoSettings) -> None:
+    if not isinstance(servo, PositionLoop):
+        return
+    if not (math.isfinite(servo.gain) and servo.gain > 0):
+        raise ConfigError(f"{where}.gain: {servo.gain} must be a number above 0 (1/s)")
+    if not 0 <= servo.feed_forward <= 1:
+        raise ConfigError(f"{where}.feed_forward: {servo.feed_forward} must be 0 to 1")
+    if not (math.isfinite(servo.filter_ms) and servo.filter_ms >= 0):
+        raise ConfigError(f"{where}.filter_ms: {servo.filter_ms} must be a number from 0 (ms)")
 
 
 def _check_limits(where: str, limits: list[list[float]], axes: int) -> None:
@@ -414,6 +474,29 @@ def parse_cell(raw: dict[str, Any], where: str = "cell") -> Cell:
     return resolve(cell_file, extra_models, where)
 
 
+def _resolve_group(
+    index: int, group: GroupConfig, models: dict[str, RobotModel], field: str
+) -> Group:
+    model = models.get(group.model)
+    if model is None:
+        known = ", ".join(sorted(models))
+        raise ConfigError(f"{field}.model: unknown model {group.model!r} (known: {known})")
+    initial = model.initial_position if group.initial_position is None else group.initial_position
+    if len(initial) != model.axes or not all(math.isfinite(v) for v in initial):
+        raise ConfigError(
+            f"{field}.initial_position: needs {model.axes} finite values, got {initial}"
+        )
+    limits = _group_limits(field, group, model)
+    _check_within(f"{field}.initial_position", initial, limits)
+    _check_placement(f"{field}.base", group.base)
+    if group.servo is not None:
+        _check_servo(f"{field}.servo", group.servo)
+    return Group(
+        *(index, group.name, group.model, model, tuple(initial), limits, group.base),
+        own_servo=group.servo,
+    )
+
+
 def resolve(
     cell_file: CellFile, extra_models: dict[str, RobotModel] | None = None, where: str = "cell"
 ) -> Cell:
@@ -446,30 +529,12 @@ def resolve(
     if not 1 <= cell_file.port_base <= 65533:
         raise ConfigError(f"{where}: port_base: must be 1 to 65533")
     _check_tools(f"{where}: tools", cell_file.tools)
-    groups = []
-    names: set[str] = set()
+    groups: list[Group] = []
     for index, group in enumerate(cell_file.groups):
         field = f"{where}: groups[{index}]"
-        if group.name in names:
+        if any(group.name == other.name for other in groups):
             raise ConfigError(f"{field}.name: {group.name!r} is used twice")
-        names.add(group.name)
-        model = models.get(group.model)
-        if model is None:
-            known = ", ".join(sorted(models))
-            raise ConfigError(f"{field}.model: unknown model {group.model!r} (known: {known})")
-        initial = (
-            model.initial_position if group.initial_position is None else group.initial_position
-        )
-        if len(initial) != model.axes or not all(math.isfinite(v) for v in initial):
-            raise ConfigError(
-                f"{field}.initial_position: needs {model.axes} finite values, got {initial}"
-            )
-        limits = _group_limits(field, group, model)
-        _check_within(f"{field}.initial_position", initial, limits)
-        _check_placement(f"{field}.base", group.base)
-        groups.append(
-            Group(index, group.name, group.model, model, tuple(initial), limits, group.base)
-        )
+        groups.append(_resolve_group(index, group, models, field))
     return Cell(
         name=cell_file.name,
         controller=cell_file.controller,

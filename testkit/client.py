@@ -215,8 +215,18 @@ class StateListener:
                 self.changed.wait(remaining)
 
     def wait_still(self, timeout: float = 5.0) -> Feedback:
-        """The first state cycle, from now on, in which the robot is not moving."""
-        return self.wait_for(lambda f: f.status is not None and f.status.in_motion == 0, timeout)
+        """The first state cycle, from now on, in which the robot is at rest: not in motion
+        (nothing queued, the feedback within 30 pulses of the command) and no axis moving, so
+        the feedback is the commanded position exactly (a servo settles after in_motion
+        drops, docs/servo.md)."""
+        return self.wait_for(
+            lambda f: (
+                f.status is not None
+                and f.status.in_motion == 0
+                and not any(any(g.velocities) for g in f.groups.values())
+            ),
+            timeout,
+        )
 
     def close(self) -> None:
         with contextlib.suppress(OSError):

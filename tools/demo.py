@@ -2,9 +2,11 @@
 
 START_TRAJ_MODE (robot_enable), CHECK_MOTION_READY, stream a trajectory that starts at the
 current position (resending on BUSY after 5 ms), wait until the robot has arrived (feedback
-at the goal and in_motion false, as joint_trajectory_action judges it), STOP_TRAJ_MODE.
-A cell of one group gets JOINT_TRAJ_PT_FULL (14); on a cell of several, every group moves and
-each point is one MOTO_JOINT_TRAJ_PT_FULL_EX (2016), as motoman_driver streams such a cell.
+at the goal and in_motion false, as joint_trajectory_action judges it, and the servos at rest),
+STOP_TRAJ_MODE. A cell of one group gets JOINT_TRAJ_PT_FULL (14); on a cell of several, every
+group moves and each point is one MOTO_JOINT_TRAJ_PT_FULL_EX (2016), as motoman_driver streams
+such a cell. The following error (commanded - feedback while moving, max and RMS per axis)
+comes from the executor's ticks on the cell's Zenoh bus, next to the final error.
 """
 
 from __future__ import annotations
@@ -18,14 +20,19 @@ from contextlib import ExitStack
 from pathlib import Path
 
 import numpy as np
+import zenoh
 
+from motocell.shared import registry
+from motocell.shared.bus.access import Identity
+from motocell.shared.bus.catalog import Role
+from motocell.shared.bus.keys import CellKeys
 from motocell.shared.config import Cell, ConfigError, Group, load_cell
 from motocell.shared.motion.kinematics import AxisMap
 from motocell.shared.protocol.codec import ByteOrder
 from motocell.shared.protocol.constants import Command, Result, describe_reply
 from motocell.shared.protocol.errors import PeerProtocolError
 from motocell.shared.protocol.messages import MotoMotionReply
-from motocell.testkit.cell import running_cell
+from motocell.testkit.cell import TickLog, running_cell
 from motocell.testkit.client import (
     Feedback,
     MotionClient,
@@ -37,7 +44,9 @@ from motocell.testkit.client import (
     stream,
     stream_ex,
 )
+from motocell.testkit.following import FollowingError, following_errors
 from motocell.testkit.processes import connectable, wait_until
+from motocell.tools.cells import JoinError, Target, join
 
 GOAL_TOLERANCE_RAD = 1e-4
 READY_TIMEOUT_S = 120.0
@@ -77,7 +86,11 @@ def run(args: argparse.Namespace) -> int:
         return _failed(str(exc), status=2)
     byte_order = ByteOrder(args.byte_order or cell.byte_order)
     if args.port_base:
-        return _reported(cell, args.host, args.port_base, byte_order, args)
+        with ExitStack() as stack:
+            bus = _running_cell_bus(cell, args.port_base)
+            if bus is not None:
+                stack.callback(bus.close)
+            return _reported(cell, args.host, args.port_base, byte_order, args, bus=bus)
     print("starting a cell ...", flush=True)
     with tempfile.TemporaryDirectory(prefix="motocell-demo-") as scratch:
         log = Path(scratch) / "cell.log"
@@ -93,7 +106,13 @@ def run(args: argparse.Namespace) -> int:
                     f"cell {cell.name} up on {started.host}:{started.port_base}-"
                     f"{started.port_base + 2}"
                 )
-                status = _reported(cell, started.host, started.port_base, byte_order, args)
+                bus = started.session()
+                try:
+                    status = _reported(
+                        cell, started.host, started.port_base, byte_order, args, bus=bus
+                    )
+                finally:
+                    bus.close()
         except (TimeoutError, ChildProcessError, OSError) as exc:
             status = _failed(f"the cell did not start: {exc}")
         if status != 0:
@@ -101,13 +120,43 @@ def run(args: argparse.Namespace) -> int:
         return status
 
 
+def _running_cell_bus(cell: Cell, port_base: int) -> zenoh.Session | None:
+    """The Zenoh bus of the cell at ``port_base`` if it runs on this machine (the registry of
+    running cells), as its read-only observer; None (no following error then) otherwise."""
+    try:
+        entry = registry.find(cell.name)
+    except registry.NoSuchCellError:
+        return None
+    if entry.port_base != port_base:
+        return None
+    credentials = Path(entry.credentials) if entry.credentials else None
+    try:
+        return join(
+            Target(entry.zenoh_endpoint, (entry.name,), credentials), Identity(Role.OBSERVER)
+        )
+    except JoinError:
+        return None
+
+
 def _reported(
-    cell: Cell, host: str, port_base: int, byte_order: ByteOrder, args: argparse.Namespace
+    cell: Cell,
+    host: str,
+    port_base: int,
+    byte_order: ByteOrder,
+    args: argparse.Namespace,
+    *,
+    bus: zenoh.Session | None,
 ) -> int:
     """``drive``, with what stopped it said in one line."""
     try:
         return drive(
-            cell, host, port_base, byte_order=byte_order, points=args.points, duration=args.duration
+            cell,
+            host,
+            port_base,
+            byte_order=byte_order,
+            points=args.points,
+            duration=args.duration,
+            bus=bus,
         )
     except WrongByteOrderError as exc:
         order = exc.byte_order.value
@@ -134,8 +183,16 @@ def _print_tail(log: Path) -> None:
 
 
 def drive(
-    cell: Cell, host: str, port_base: int, *, byte_order: ByteOrder, points: int, duration: float
+    cell: Cell,
+    host: str,
+    port_base: int,
+    *,
+    byte_order: ByteOrder,
+    points: int,
+    duration: float,
+    bus: zenoh.Session | None = None,
 ) -> int:
+    """``bus``: the cell's Zenoh bus, for the following error (not reported without it)."""
     wait_until(
         lambda: connectable(host, port_base + 1),
         READY_TIMEOUT_S,
@@ -158,6 +215,9 @@ def drive(
             f"the motion port {host}:{port_base}",
         )
         motion = stack.enter_context(MotionClient(host, port_base, byte_order))
+        ticks = None if bus is None else TickLog(bus, CellKeys(cell.name))
+        if ticks is not None:
+            stack.callback(ticks.subscriber.undeclare)
         started = time.monotonic()
         reply = motion.command(Command.START_TRAJ_MODE)
         _show("START_TRAJ_MODE", reply, f" ({(time.monotonic() - started) * 1e3:.0f} ms)")
@@ -191,8 +251,33 @@ def drive(
             f"{(elapsed - duration) * 1e3:+.0f} ms incl. state sampling)"
         )
         print(f"final error:      {error} pulse(s) (max over {axes} axes)")
+        if ticks is None:
+            print("following error:  not measured (the cell's Zenoh bus is not known here)")
+        else:
+            _print_following(following_errors(cell, ticks.since(0)))
         _show("STOP_TRAJ_MODE", reply)
         return 0 if reply.result == Result.SUCCESS and error == 0 else 1
+
+
+def _print_following(errors: list[FollowingError]) -> None:
+    print("following error:  commanded - feedback while moving, per axis (ROS order)")
+    for found in errors:
+        name = found.group.name
+        linear = "linear" in found.group.model.axis_types
+        unit = (
+            "mm"
+            if linear and found.group.axes == 1
+            else "mrad (mm if linear)"
+            if linear
+            else "mrad"
+        )
+        for kind, pulses, units in (
+            ("max", found.max_pulses, found.max_units),
+            ("RMS", found.rms_pulses, found.rms_units),
+        ):
+            counts = " ".join(f"{p:.0f}" for p in pulses)
+            milli = " ".join(f"{u * 1e3:.2f}" for u in units)
+            print(f"  {name} {kind}: {counts} pulses = {milli} {unit}")
 
 
 def _show(command: str, reply: MotoMotionReply, extra: str = "") -> None:
@@ -230,6 +315,8 @@ def _arrived(feedback: Feedback, cell: Cell, goals: dict[int, tuple[float, ...]]
     return (
         feedback.status is not None
         and feedback.status.in_motion == 0
+        # At rest: in_motion drops within 30 pulses of the command; the servo settles after.
+        and not any(any(g.velocities) for g in feedback.groups.values())
         and all(
             group.index in feedback.groups
             and all(

@@ -111,14 +111,20 @@ class Feedback:
     def groups(self, tick: Tick) -> list[GroupState]:
         result = []
         for index, (axis_map, group) in enumerate(zip(self.maps, tick.groups, strict=True)):
-            # The increment is what the axis moved this period: pulses per period to rad/s.
-            velocity = axis_map.pulses_to_ros(group.increment) * self.per_second
+            # What an axis moved this period, pulses per period to rad/s: the servo's feedback
+            # (MotoROS sends the servo's speed feedback, motoros1 §6), and the command. A tick
+            # of an executor older than the servo model carries no feedback_moved: then the
+            # feedback was the command.
+            moved = group.feedback_moved or group.increment
             result.append(
                 GroupState(
                     group_no=index,
                     positions=axis_map.pulses_to_ros(group.feedback_pulses).tolist(),
-                    velocities=velocity.tolist(),
+                    velocities=(axis_map.pulses_to_ros(moved) * self.per_second).tolist(),
                     command_positions=axis_map.pulses_to_ros(group.command_pulses).tolist(),
+                    command_velocities=(
+                        axis_map.pulses_to_ros(group.increment) * self.per_second
+                    ).tolist(),
                 )
             )
         return result

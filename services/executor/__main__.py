@@ -41,6 +41,7 @@ from motocell.shared.bus.session import ENCODING, answer, call, publisher
 from motocell.shared.config import Cell
 from motocell.shared.metrics import Window
 from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.motion.servo import Servos
 from motocell.shared.protocol.constants import Result
 from motocell.shared.realtime import RT_PRIORITY, clock_cpus, fix_command, tighten_timer_slack
 from motocell.shared.service import ServiceContext, argument_parser, running_service
@@ -102,12 +103,14 @@ class Executor:
         self.period_ns = cell.period_ns
         self.max_lateness_periods = cell.max_lateness_periods
         remembered = call(ctx.session, ctx.keys.controller_cmd("positions"), timeout=1.0)
+        start = starting_pulses(cell, remembered)
         self.core = ExecutorCore(
-            starting_pulses(cell, remembered),
+            start,
             first_epoch=time.time_ns() // 1000,
             max_increments=[AxisMap(group).max_increments(cell.period_s) for group in cell.groups],
             heartbeat_ticks=heartbeat_ticks(cell.period_ns),
             ranges=pulse_ranges(cell),
+            servos=Servos([group.servo for group in cell.groups], cell.period_s, start),
         )
         session = ctx.session
         keys = ctx.keys
@@ -144,11 +147,11 @@ class Executor:
             # Every status is applied in order, so a not-ready blip between two ticks still
             # clears the rings.
             try:
-                motion_ready = _status.decode(sample.payload.to_bytes()).motion_ready
+                status = _status.decode(sample.payload.to_bytes())
             except msgspec.DecodeError:
                 log.warning("undecodable controller status ignored")
                 continue
-            core.on_status(motion_ready)
+            core.on_status(status.motion_ready, status.servo_on and not status.eco)
         core.update_ready()
         for group, channel in enumerate(self.batches):
             while (sample := channel.try_recv()) is not None:

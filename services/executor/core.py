@@ -16,8 +16,9 @@ import numpy as np
 
 from motocell.shared.bus.liveness import HEARTBEAT_S
 from motocell.shared.bus.schemas import CommandReply, GroupTick, IncrementBatch, QueueState, Tick
-from motocell.shared.config import Cell
+from motocell.shared.config import Cell, IdealServo
 from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.motion.servo import Servos
 from motocell.shared.protocol.constants import MAX_AXES, Result
 
 log = logging.getLogger("executor")
@@ -140,11 +141,19 @@ class ExecutorCore:
         max_increments: list[list[int]] | None = None,
         heartbeat_ticks: int = QUEUE_HEARTBEAT_TICKS,
         ranges: list[tuple[list[int], list[int]]] | None = None,
+        *,
+        servos: Servos | None = None,
     ) -> None:
         """``max_increments``: per group and Motoman axis, the most pulses the motion system
         takes in one period (None: no limit). ``heartbeat_ticks``: how often an unchanged queue
-        state is published all the same, and the controller's status arrives at least."""
+        state is published all the same, and the controller's status arrives at least.
+        ``servos``: how the feedback follows the command, resting at ``command_pulses``
+        (None: ideal, feedback = command)."""
         self.command = [list(p) for p in command_pulses]
+        self.servos = servos or Servos([IdealServo()] * len(command_pulses), 1.0, command_pulses)
+        self.servo_powered = True
+        """The controller's last status had the servo on (and not in eco mode); assumed until
+        the first status, which changes nothing at rest."""
         self.heartbeat_ticks = heartbeat_ticks
         self.max_increments = max_increments
         self.ranges = ranges
@@ -223,9 +232,10 @@ class ExecutorCore:
             self.clear_all()
         self.ready = ready
 
-    def on_status(self, motion_ready: bool) -> None:
+    def on_status(self, motion_ready: bool, servo_powered: bool) -> None:
         """A controller status, in the order they were published."""
         self._silent_ticks = 0
+        self.servo_powered = servo_powered
         if self.awaiting_not_ready and motion_ready:
             return
         self.awaiting_not_ready = False
@@ -283,7 +293,17 @@ class ExecutorCore:
                 command = self.command[group]
                 for axis in range(MAX_AXES):
                     command[axis] += increment[axis]
+        self._drive()
         return broken
+
+    def _drive(self) -> None:
+        """The servos follow this period's command; with the servo off every axis stands where
+        its feedback is and the command is set to it, as a controller does, so the next
+        servo-on moves nothing. Nothing moves then anyway: servo off is never motion-ready."""
+        if self.servo_powered:
+            self.servos.step(self.command)
+        else:
+            self.command = self.servos.brake().tolist()
 
     def _within_limits(self, group: int, increment: tuple[int, ...]) -> bool:
         if self.max_increments is None or increment is ZERO:
@@ -362,13 +382,15 @@ class ExecutorCore:
         )
 
     def group_ticks(self) -> list[GroupTick]:
-        # The simulated servo is ideal: feedback equals command at the end of the tick.
+        feedback = self.servos.feedback_pulses().tolist()
+        moved = self.servos.moved.tolist()
         return [
             GroupTick(
                 command_pulses=list(self.command[g]),
-                feedback_pulses=list(self.command[g]),
+                feedback_pulses=feedback[g],
                 increment=list(self.last_increment[g]),
                 depth=len(ring.entries),
+                feedback_moved=moved[g],
             )
             for g, ring in enumerate(self.rings)
         ]

@@ -125,9 +125,16 @@ class QueueState(msgspec.Struct, array_like=True, frozen=True):
 
 class GroupTick(msgspec.Struct, array_like=True, frozen=True):
     command_pulses: list[int]
+    """The commanded position: every increment applied so far (what MotoROS's start-position
+    check and the interpolators use)."""
     feedback_pulses: list[int]
+    """The encoder: where the servo has taken each axis (docs/servo.md)."""
     increment: list[int]
+    """What the command moved this period."""
     depth: int
+    feedback_moved: list[float] = msgspec.field(default_factory=list)
+    """What the feedback moved this period, in pulses (a fraction of a pulse too: the servo's
+    position is finer than the encoder's): its velocity times the period."""
 
 
 class Tick(msgspec.Struct, array_like=True, frozen=True):
@@ -168,6 +175,8 @@ class GroupState(msgspec.Struct, array_like=True, frozen=True):
     """The flange at ``command_positions``."""
     command_tcp: CartesianPose | None = None
     """The tool centre point at ``command_positions``."""
+    command_velocities: list[float] = msgspec.field(default_factory=list)
+    """The commanded velocity (this period's increment); ``velocities`` is the feedback's."""
 
 
 class RobotStatusFields(msgspec.Struct, array_like=True, frozen=True):

@@ -46,8 +46,9 @@ class AxisMap:
         moto = ros[..., self.ros_index_of_moto] * self.pulses_per_unit_moto
         return np.rint(moto).astype(np.int64)
 
-    def pulses_to_ros(self, pulses: Sequence[int] | IntArray) -> FloatArray:
-        """ROS-order positions (rad or m) for Motoman-order pulses (the first ``axes`` used)."""
+    def pulses_to_ros(self, pulses: Sequence[float] | IntArray | FloatArray) -> FloatArray:
+        """ROS-order positions (rad or m) for Motoman-order pulses (the first ``axes`` used);
+        fractional pulses too (what a servo's feedback moved in a period)."""
         moto = np.asarray(pulses[: self.axes], dtype=np.float64) / self.pulses_per_unit_moto
         result: FloatArray = moto[self.moto_index_of_ros]
         return result

@@ -1,8 +1,9 @@
 """Fixtures the end-to-end modules share.
 
-``cell`` is one running cell per module: the default cell, or the file of ``shared/cells`` that
-the module names with ``pytest.mark.parametrize("cell", ["fs100.toml"], indirect=True)`` in its
-``pytestmark``. The other fixtures are clients of that cell, opened for one test and closed after.
+``cell`` is one running cell per module: the default cell, or the file of ``tests/e2e/cells``
+(cells only tests need) or ``shared/cells`` (the samples) that the module names with
+``pytest.mark.parametrize("cell", ["fs100.toml"], indirect=True)`` in its ``pytestmark``. The
+other fixtures are clients of that cell, opened for one test and closed after.
 """
 
 from __future__ import annotations
@@ -19,6 +20,8 @@ from motocell.shared.bus.catalog import Role
 from motocell.testkit.cell import RunningCell, TickLog, running_cell
 from motocell.testkit.client import MotionClient, StateListener
 
+TEST_CELLS = Path(__file__).parent / "cells"
+
 
 @pytest.fixture(scope="session")
 def repo() -> Path:
@@ -29,7 +32,13 @@ def repo() -> Path:
 @pytest.fixture(scope="module")
 def cell(request: pytest.FixtureRequest, repo: Path) -> Iterator[RunningCell]:
     name: str | None = getattr(request, "param", None)
-    with running_cell(None if name is None else repo / "shared" / "cells" / name) as running:
+    if name is None:
+        path = None
+    elif (TEST_CELLS / name).exists():
+        path = TEST_CELLS / name
+    else:
+        path = repo / "shared" / "cells" / name
+    with running_cell(path) as running:
         yield running
 
 

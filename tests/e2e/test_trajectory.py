@@ -28,7 +28,11 @@ from motocell.testkit.client import (
 )
 from motocell.testkit.processes import wait_until
 
-pytestmark = pytest.mark.cell
+pytestmark = [
+    pytest.mark.cell,
+    # Every feedback sample is checked against the cubic's grid instants: the ideal servo.
+    pytest.mark.parametrize("cell", ["ideal-servo.toml"], indirect=True),
+]
 
 PERIOD_S = 0.004
 

@@ -245,8 +245,14 @@ def test_step_applies_one_entry_per_group_per_tick() -> None:
     assert core.last_increment == [(0,) * 8, (0,) * 8]
     assert core.command[0] == [21, 42, 63, 84, 105, 126, 0, 0]
     assert core.group_ticks() == [
-        GroupTick([21, 42, 63, 84, 105, 126, 0, 0], [21, 42, 63, 84, 105, 126, 0, 0], [0] * 8, 0),
-        GroupTick([-6, 6, 0, 0, 0, 0, 0, 0], [-6, 6, 0, 0, 0, 0, 0, 0], [0] * 8, 0),
+        GroupTick(
+            [21, 42, 63, 84, 105, 126, 0, 0],
+            [21, 42, 63, 84, 105, 126, 0, 0],
+            [0] * 8,
+            0,
+            [0.0] * 8,
+        ),
+        GroupTick([-6, 6, 0, 0, 0, 0, 0, 0], [-6, 6, 0, 0, 0, 0, 0, 0], [0] * 8, 0, [0.0] * 8),
     ]
 
 
@@ -604,7 +610,7 @@ def test_a_tick_later_than_the_bound_is_a_stall() -> None:
 def stalled_core() -> ExecutorCore:
     core = ready_core()
     core.controller_present = True
-    core.on_status(True)
+    core.on_status(True, True)
     core.accept(0, batch(FIRST_EPOCH, 0, [unit(1)] * 5))
     core.stop_for_stall()
     return core
@@ -621,11 +627,11 @@ def test_a_stall_clears_every_ring_and_applies_nothing() -> None:
 
 def test_after_a_stall_ready_statuses_are_old_news_until_a_not_ready_one() -> None:
     core = stalled_core()
-    core.on_status(True)
+    core.on_status(True, True)
     assert not core.ready
-    core.on_status(False)
+    core.on_status(False, True)
     assert not core.awaiting_not_ready
-    core.on_status(True)
+    core.on_status(True, True)
     assert core.ready
 
 
@@ -636,7 +642,7 @@ def test_an_unconfirmed_stall_is_reported_again_every_second() -> None:
         core.step()
         due.append(core.stall_notice_due(250))
     assert due.count(True) == 2
-    core.on_status(False)
+    core.on_status(False, True)
     core.step()
     assert not any(core.stall_notice_due(1) for _ in range(3))
 
@@ -644,11 +650,11 @@ def test_an_unconfirmed_stall_is_reported_again_every_second() -> None:
 def test_a_silent_controller_stops_a_ready_executor() -> None:
     core = ExecutorCore(START, FIRST_EPOCH, heartbeat_ticks=25)
     core.controller_present = True
-    core.on_status(True)
+    core.on_status(True, True)
     limit = STATUS_SILENCE_HEARTBEATS * 25
     assert not any(core.controller_silent() for _ in range(limit))
     assert core.controller_silent()
-    core.on_status(True)
+    core.on_status(True, True)
     assert not core.controller_silent()
 
 

@@ -1,0 +1,129 @@
+"""How each axis's feedback follows its commanded position: a servo model per axis, pure numpy.
+
+The executor applies one increment per axis per period to the commanded position (what MotoROS
+reads with ``mpGetPulsePos``); the motion system's servo drives the motor after it, and the
+encoder (``mpGetFBPulsePos``) lags behind. ``Servos`` is that servo for every axis of a cell, one
+row per group, one column per Motoman axis, stepped once per period. docs/servo.md derives the
+model, its defaults and each stop's profile.
+
+A ``position_loop`` axis, per period ``T`` (``c`` the commanded pulses after the period's
+increment):
+
+    s_k = a_f * s_(k-1) + (1 - a_f) * c_k      command filter, a_f = exp(-T / filter)
+    l_k = a_p * l_(k-1) + (1 - a_p) * s_k      the loop's lag,  a_p = exp(-gain * T)
+    y_k = ff * s_k + (1 - ff) * l_k            feedback
+
+The last two lines are the exact solution of a position loop with velocity feed-forward,
+``y' = ff * s' + gain * (s - y)``, for a command that steps at the start of each period. Every
+stage is a weighted average of earlier inputs with non-negative weights that sum to 1, so the
+feedback is always within the range of the commanded positions so far: it never overshoots a
+command, never passes a joint limit the command respects, and after a stop it comes to rest on
+the frozen command from behind. Once every stage of an axis whose command did not move is
+within half a pulse of it, the axis snaps onto the command, so a robot at rest reads exactly
+its commanded pulses (final error 0).
+
+An ``ideal`` axis has ``a_f = a_p = 0`` and ``ff = 1``: every stage is the command, exactly.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+import numpy.typing as npt
+
+from motocell.shared.config import IdealServo, ServoSettings
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+
+SNAP_PULSES = 0.5
+"""An axis at rest whose stages are all closer than this to the command reads the command: the
+encoder's resolution is one pulse, so the rest of an exponential tail is below it."""
+
+
+def coefficients(settings: ServoSettings, period_s: float) -> tuple[float, float, float]:
+    """(a_f, a_p, ff) of one axis's servo for a period of ``period_s``."""
+    if isinstance(settings, IdealServo):
+        return 0.0, 0.0, 1.0
+    a_filter = math.exp(-period_s * 1e3 / settings.filter_ms) if settings.filter_ms > 0 else 0.0
+    return a_filter, math.exp(-settings.gain * period_s), settings.feed_forward
+
+
+def ramp_following_error(
+    settings: ServoSettings, period_s: float, pulses_per_period: float
+) -> float:
+    """The steady following error (pulses) of a command moving ``pulses_per_period`` every
+    period, as ``Servos`` computes it: each first-order stage lags a ramp by
+    ``step * a / (1 - a)``, and the loop's stage counts with its weight ``1 - ff``."""
+    a_filter, a_loop, feed_forward = coefficients(settings, period_s)
+    return pulses_per_period * (
+        a_filter / (1.0 - a_filter) + (1.0 - feed_forward) * a_loop / (1.0 - a_loop)
+    )
+
+
+class Servos:
+    """The servos of a cell: row g is group g, column i its Motoman axis i (unused axes are
+    commanded 0 and stay there). ``step`` once per period with the commanded pulses; read
+    ``feedback_pulses`` (what the encoder shows) and ``moved`` (what the feedback moved in the
+    last period, in pulses: its velocity times the period)."""
+
+    def __init__(
+        self,
+        settings: Sequence[ServoSettings],
+        period_s: float,
+        command: Sequence[Sequence[int]],
+    ) -> None:
+        """``settings`` per group; ``command``: the commanded pulses the axes rest at."""
+        rows = np.array([coefficients(s, period_s) for s in settings], dtype=np.float64)
+        self._a_filter = rows[:, 0:1]
+        self._a_loop = rows[:, 1:2]
+        self._feed_forward = rows[:, 2:3]
+        self.command: FloatArray = np.array(command, dtype=np.float64)
+        self.filtered = self.command.copy()
+        self.lagged = self.command.copy()
+        self.position = self.command.copy()
+        """The feedback, to a fraction of a pulse."""
+        self.moved: FloatArray = np.zeros_like(self.command)
+        self._at_rest = True
+
+    def step(self, command: Sequence[Sequence[int]]) -> None:
+        """One period: the feedback moves toward ``command`` (the commanded pulses after this
+        period's increments)."""
+        target = np.array(command, dtype=np.float64)
+        still = target == self.command
+        if self._at_rest and still.all():
+            self.moved.fill(0.0)
+            return
+        self.command = target
+        self.filtered *= self._a_filter
+        self.filtered += (1.0 - self._a_filter) * target
+        self.lagged *= self._a_loop
+        self.lagged += (1.0 - self._a_loop) * self.filtered
+        position = self._feed_forward * self.filtered + (1.0 - self._feed_forward) * self.lagged
+        settled = (
+            still
+            & (np.abs(self.filtered - target) < SNAP_PULSES)
+            & (np.abs(self.lagged - target) < SNAP_PULSES)
+        )
+        for stage in (self.filtered, self.lagged, position):
+            np.copyto(stage, target, where=settled)
+        self.moved = position - self.position
+        self.position = position
+        self._at_rest = bool(settled.all())
+
+    def brake(self) -> IntArray:
+        """Servo off (E-stop, STOP_SERVOS, eco): every axis stops where its feedback is, and the
+        commanded position becomes the feedback, so switching the servo on again moves
+        nothing. Returns the commanded pulses now."""
+        held = np.rint(self.position)
+        for stage in (self.command, self.filtered, self.lagged, self.position):
+            stage[...] = held
+        self.moved.fill(0.0)
+        self._at_rest = True
+        return held.astype(np.int64)
+
+    def feedback_pulses(self) -> IntArray:
+        """The encoder's whole pulses."""
+        return np.rint(self.position).astype(np.int64)
