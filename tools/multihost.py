@@ -6,10 +6,11 @@
 - ``drive`` is host C: the demo trajectory (``tools.demo.drive``, the same report as
   ``scripts/demo``) while an observer on the cell's bus records ticks, states and the gateway's
   metrics; then the reply latency this host sees, the state's age here and the empty-queue
-  periods. With ``--fault`` it first runs a longer trajectory, asks the script for the fault
+  periods. With ``--fault`` it runs a longer trajectory instead, asks the script for the fault
   in its middle (a file ``begin`` in ``--signals``; the script answers ``end`` once the link or
   the router is back), and reports what the cell told the client and whether anything moved
-  after that; then the demo trajectory again, which must arrive exact.
+  after that; then START_TRAJ_MODE until it succeeds, and a new trajectory, which must arrive
+  exact.
 
 Host C measures ages with CLOCK_MONOTONIC against the executor's ``tick_ns``: the namespaces
 share one kernel, so one clock (real hosts would need a synchronized one).
@@ -318,8 +319,11 @@ def _arrives_exact(cell: Cell, motion: MotionClient, state: StateListener) -> bo
     trajectories = _trajectories(cell, here, NEW_DURATION_S, NEW_POINTS)
     streamed = stream_until_refused(motion, ex_messages(trajectories), FAULT_WAIT_S)
     maps = {group.index: AxisMap(group) for group in cell.groups}
+    # The goal as the cell gets it: Simple Message carries float32 (motoros1 §1.2), which can
+    # round a position to the neighbouring pulse.
     goals = {
-        g: maps[g].ros_to_pulses(np.array(plan[-1].positions)) for g, plan in trajectories.items()
+        g: maps[g].ros_to_pulses(np.array(plan[-1].positions, dtype=np.float32).astype(float))
+        for g, plan in trajectories.items()
     }
 
     def error(feedback: Feedback) -> int:
