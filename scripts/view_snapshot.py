@@ -31,6 +31,7 @@ from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
 from motocell.testkit.cell import running_cell
 from motocell.testkit.client import smooth_move, stream_ex
 from tests.foxglove_ws import protobuf_class
+from tests.frames import foxglove_steps, in_root, pose_matrix, rotation, vector
 
 GOALS = {
     0: (0.6, 0.5, 0.3, 0.0, -0.6, 0.0),
@@ -77,43 +78,23 @@ def last_scene(path: Path, cell: str) -> tuple[Any, Any]:
     return found[f"/{cell}/transforms"], found[f"/{cell}/scene"]
 
 
-def matrix(translation: Any, rotation: Any) -> np.ndarray[Any, Any]:
-    x, y, z, w = rotation.x, rotation.y, rotation.z, rotation.w
-    result = np.eye(4)
-    result[:3, :3] = [
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-    ]
-    result[:3, 3] = [translation.x, translation.y, translation.z]
-    return result
-
-
-def in_cell(transforms: Any, cell: str) -> dict[str, np.ndarray[Any, Any]]:
-    parents = {t.child_frame_id: t for t in transforms.transforms}
-
-    def pose(frame: str) -> np.ndarray[Any, Any]:
-        if frame == cell:
-            return np.eye(4)
-        step = parents[frame]
-        return pose(step.parent_frame_id) @ matrix(step.translation, step.rotation)
-
-    return {frame: pose(frame) for frame in [*parents, cell]}
-
-
 def cylinder(ax: Any, pose: np.ndarray[Any, Any], primitive: Any, colour: Any) -> None:
     """A cylinder about its own z, ``size`` its bounding box, drawn as a surface."""
     radius, length = primitive.size.x / 2, primitive.size.z
     theta, height = np.meshgrid(np.linspace(0, 2 * np.pi, 24), np.array([-0.5, 0.5]) * length)
     local = np.stack([radius * np.cos(theta), radius * np.sin(theta), height, np.ones_like(height)])
-    world = pose @ matrix(primitive.pose.position, primitive.pose.orientation)
+    world = pose @ pose_matrix(
+        vector(primitive.pose.position), rotation(primitive.pose.orientation)
+    )
     points = np.tensordot(world, local, axes=1)
     ax.plot_surface(points[0], points[1], points[2], color=colour, shade=True, linewidth=0)
 
 
 def cube(ax: Any, pose: np.ndarray[Any, Any], primitive: Any, colour: Any) -> None:
     half = np.array([primitive.size.x, primitive.size.y, primitive.size.z]) / 2
-    world = pose @ matrix(primitive.pose.position, primitive.pose.orientation)
+    world = pose @ pose_matrix(
+        vector(primitive.pose.position), rotation(primitive.pose.orientation)
+    )
     for axis in range(3):
         for sign in (-1, 1):
             u, v = [a for a in range(3) if a != axis]
@@ -127,7 +108,7 @@ def cube(ax: Any, pose: np.ndarray[Any, Any], primitive: Any, colour: Any) -> No
 
 
 def render(transforms: Any, scene: Any, cell: str, out: Path) -> None:
-    poses = in_cell(transforms, cell)
+    poses = in_root(foxglove_steps(transforms), cell)
     figure = Figure(figsize=(8, 6.5), dpi=110, layout="tight")
     FigureCanvasAgg(figure)
     ax = figure.add_subplot(projection="3d")

@@ -11,29 +11,13 @@ import pytest
 from motocell.shared.config import Cell, load_cell
 from motocell.shared.motion.forward_kinematics import Chain, tool_transform
 from motocell.tools.view_scene import LINK_COLOUR, CellScene, Transform, flange_frame
-
-
-def matrix(transform: Transform) -> np.ndarray[Any, Any]:
-    x, y, z, w = transform.rotation
-    result = np.eye(4)
-    result[:3, :3] = [
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-    ]
-    result[:3, 3] = transform.translation
-    return result
+from tests.frames import in_root
 
 
 def in_cell(transforms: list[Transform], frame: str, cell: str) -> np.ndarray[Any, Any]:
     """``frame``'s pose in the cell's frame, composed up the tree."""
-    parents = {t.child: t for t in transforms}
-    pose = np.eye(4)
-    while frame != cell:
-        step = parents[frame]
-        pose = matrix(step) @ pose
-        frame = step.parent
-    return pose
+    steps = [(t.parent, t.child, t.translation, t.rotation) for t in transforms]
+    return in_root(steps, cell)[frame]
 
 
 @pytest.fixture

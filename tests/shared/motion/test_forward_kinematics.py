@@ -19,6 +19,7 @@ from motocell.shared.motion.forward_kinematics import (
     tool_pose,
     tool_transform,
 )
+from tests.frames import rotation_matrix
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -268,19 +269,7 @@ def test_tool_pose_composes_tool_on_flange() -> None:
     tcp = tool_pose(MODELS["arm6"], [0, 0, 0.100, 0, 0, HALF], [0, 0, 0, 0, 0, 0])
     np.testing.assert_allclose(tcp.position, [0.660, 0.0, 0.815], atol=METRES)
     expected = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
-    np.testing.assert_allclose(quaternion_matrix(tcp.orientation), expected, atol=RADIANS)
-
-
-def quaternion_matrix(q: FloatArray) -> FloatArray:
-    """The rotation of a unit quaternion (x, y, z, w): the textbook formula."""
-    x, y, z, w = q
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )
+    np.testing.assert_allclose(rotation_matrix(tcp.orientation), expected, atol=RADIANS)
 
 
 def test_home_quaternion() -> None:
@@ -330,8 +319,8 @@ def test_matrix_quaternion_round_trip() -> None:
         axis /= np.linalg.norm(axis)
         rotation = rodrigues(axis, rng.uniform(-math.pi, math.pi))
         q = quaternion(rotation)
-        np.testing.assert_allclose(quaternion_matrix(q), rotation, atol=1e-12)
-        np.testing.assert_allclose(quaternion(quaternion_matrix(q)), q, atol=1e-12)
+        np.testing.assert_allclose(rotation_matrix(q), rotation, atol=1e-12)
+        np.testing.assert_allclose(quaternion(rotation_matrix(q)), q, atol=1e-12)
 
 
 def test_quaternion_of_a_stack_keeps_its_shape() -> None:
