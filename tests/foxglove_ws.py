@@ -16,10 +16,12 @@ import base64
 import contextlib
 import functools
 import json
+import socket
 import struct
 import time
 from dataclasses import dataclass
 from typing import Any
+from urllib.parse import urlsplit
 
 from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 from google.protobuf.message import Message
@@ -27,6 +29,7 @@ from websockets.sync.client import ClientConnection, connect
 
 SUBPROTOCOL = "foxglove.sdk.v1"
 MESSAGE_DATA = 0x01
+ETHERNET_MSS = 1460
 HEADER = struct.Struct("<BIQ")
 """Opcode, subscription id, log time."""
 
@@ -39,6 +42,24 @@ class Channel:
     schema_name: str
     schema: str
     schema_encoding: str
+
+
+def _socket_to(url: str, receive_buffer: int) -> socket.socket:
+    """A TCP connection to ``url``'s host and port whose receive buffer was set before the
+    handshake (the window it advertises is fixed then)."""
+    address = urlsplit(url)
+    assert address.hostname is not None and address.port is not None, url
+    connection = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    try:
+        connection.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, receive_buffer)
+        # Ethernet's segment size: on loopback it is 64 kB, and the kernel sizes the server's
+        # send buffer from it, to megabytes.
+        connection.setsockopt(socket.IPPROTO_TCP, socket.TCP_MAXSEG, ETHERNET_MSS)
+        connection.connect((address.hostname, address.port))
+    except OSError:
+        connection.close()
+        raise
+    return connection
 
 
 @dataclass(frozen=True)
@@ -72,13 +93,21 @@ def protobuf_class(name: str, descriptors: bytes) -> type[Message]:
 class FoxgloveClient:
     """One connection to a Foxglove WebSocket server."""
 
-    def __init__(self, url: str, timeout: float = 10.0, max_queue: int | None = None) -> None:
+    def __init__(
+        self,
+        url: str,
+        timeout: float = 10.0,
+        max_queue: int | None = None,
+        receive_buffer: int | None = None,
+    ) -> None:
         """``max_queue``: how many received messages websockets holds before it stops reading
-        the socket (its default, 16, when None)."""
+        the socket (its default, 16, when None); ``receive_buffer``: the socket's receive
+        buffer in bytes (the kernel's default, which grows to megabytes, when None)."""
         self._stack = contextlib.ExitStack()
         self.connection: ClientConnection = self._stack.enter_context(
             connect(
                 url,
+                sock=None if receive_buffer is None else _socket_to(url, receive_buffer),
                 subprotocols=[SUBPROTOCOL],  # type: ignore[list-item]
                 open_timeout=timeout,
                 max_queue=16 if max_queue is None else max_queue,

@@ -23,13 +23,13 @@ from typing import TYPE_CHECKING, Protocol
 
 import zenoh
 
-from motocell.shared.bus.access import Identity
 from motocell.shared.bus.catalog import ROUTES, Op, Role
 from motocell.shared.bus.keys import ROOT
-from motocell.shared.config import Cell, ConfigError
+from motocell.shared.config import Cell
 from motocell.shared.service import StopFlag, stop_on_signals
 from motocell.tools import cell_files, cells
-from motocell.tools.cells import CellsError, Target
+from motocell.tools.cell_files import Joined
+from motocell.tools.cells import Target
 
 if TYPE_CHECKING:
     from motocell.tools.recording import McapSink
@@ -48,7 +48,6 @@ QUEUE_SIZE = 100_000
 """Samples waiting for the writer: about 100 s of one busy cell, a few tens of MB at most. A
 writer that falls further behind than that loses samples (counted) instead of memory."""
 
-OBSERVER = Identity(Role.OBSERVER)
 OBSERVED = tuple(
     route.suffix for route in ROUTES if route.op is Op.PUT and Role.OBSERVER in route.receivers
 )
@@ -70,7 +69,7 @@ class Recorder:
         self.queue: queue.Queue[tuple[int, str, bytes] | None] = queue.Queue(QUEUE_SIZE)
         self.dropped = 0
         self.error: Exception | None = None
-        self._thread = threading.Thread(target=self._drain, name="mcap-writer", daemon=True)
+        self._thread = threading.Thread(target=self._drain, name="recorder", daemon=True)
         self._thread.start()
 
     def on_sample(self, sample: zenoh.Sample) -> None:
@@ -105,16 +104,33 @@ class Recorder:
                 self.error = exc
 
 
+def run_recorder(
+    sink: Sink, subscriptions: list[tuple[zenoh.Session, str]], duration: float | None, ready: str
+) -> Recorder:
+    """Every sample on ``subscriptions`` (session, key expression) into ``sink`` until Ctrl-C,
+    SIGTERM, ``duration`` seconds or a failed write; ``ready`` printed once subscribed. The
+    recorder returned, closed, says what went wrong (``error``) and what was lost (``dropped``).
+    Outside the main thread (a caller's thread) no signal stops it; ``duration`` does."""
+    with stop_on_signals() as stop:
+        recorder = Recorder(sink, stop)
+        try:
+            subscribers = [s.declare_subscriber(e, recorder.on_sample) for s, e in subscriptions]
+            print(ready, flush=True)
+            stop.wait(duration)
+            for subscriber in subscribers:
+                subscriber.undeclare()
+        finally:
+            recorder.close()
+    return recorder
+
+
 # --------------------------------------------------------------------------- the command
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("out", metavar="OUT", help="the MCAP file to write (replaced if present)")
-    parser.add_argument(
-        "--duration", type=float, metavar="S", help="stop after S seconds (default: at Ctrl-C)"
-    )
-    cells.add_arguments(parser, several=True)
     cell_files.add_arguments(parser)
+    cells.add_arguments(parser, several=True)
 
 
 def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -135,26 +151,10 @@ def key_exprs(target: Target) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.duration is not None and not args.duration > 0:
-        print("motocell record: --duration must be positive", file=sys.stderr)
-        return 2
-    try:
-        joined = cells.join_all(cells.some_targets(args), OBSERVER)
-    except CellsError as exc:
-        return cells.failed("record", exc)
-    try:
-        known = cell_files.known((target for target, _ in joined), args.config, "record")
-        return _record(joined, known, args)
-    except ConfigError as exc:
-        print(f"motocell record: {exc}", file=sys.stderr)
-        return 2
-    finally:
-        cells.close_all(joined)
+    return cell_files.observe(args, "record", lambda joined, known: _record(joined, known, args))
 
 
-def _record(
-    joined: list[tuple[Target, zenoh.Session]], known: dict[str, Cell], args: argparse.Namespace
-) -> int:
+def _record(joined: Joined, known: dict[str, Cell], args: argparse.Namespace) -> int:
     # mcap is in the tools extra: imported by this command only, not by every `motocell`.
     from motocell.tools.recording import McapSink  # noqa: PLC0415
 
@@ -180,18 +180,9 @@ def _record(
                 "started_unix_ns": str(time.time_ns()),
             },
         )
-        # Outside the main thread (a caller's thread) no signal stops it; --duration does.
-        with stop_on_signals() as stop:
-            recorder = Recorder(sink, stop)
-            try:
-                where = ", ".join(target.describe() for target, _ in joined)
-                print(f"recording {where} into {args.out}; Ctrl-C to stop", flush=True)
-                subscribers = [s.declare_subscriber(e, recorder.on_sample) for s, e in exprs]
-                stop.wait(args.duration)
-                for subscriber in subscribers:
-                    subscriber.undeclare()
-            finally:
-                recorder.close()
+        where = ", ".join(target.describe() for target, _ in joined)
+        ready = f"recording {where} into {args.out}; Ctrl-C to stop"
+        recorder = run_recorder(sink, exprs, args.duration, ready)
     elapsed = time.monotonic() - started
     if recorder.error is not None:
         print(f"motocell record: writing {args.out} failed: {recorder.error}", file=sys.stderr)

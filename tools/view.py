@@ -24,24 +24,24 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import msgspec
-import zenoh
 
+from motocell.services.launcher.ports import NOT_HERE, TAKEN, bind_problem
 from motocell.shared.bus import catalog
-from motocell.shared.bus.access import Identity
-from motocell.shared.bus.catalog import Role
 from motocell.shared.bus.keys import ROOT
-from motocell.shared.config import Cell, ConfigError
-from motocell.shared.service import stop_on_signals
+from motocell.shared.config import Cell
 from motocell.tools import cell_files, cells
-from motocell.tools.cells import CellsError, Target
-from motocell.tools.record import Recorder
+from motocell.tools.cell_files import Joined
+from motocell.tools.record import run_recorder
 
 if TYPE_CHECKING:
     from motocell.tools.view_channels import ViewChannels
 
-OBSERVER = Identity(Role.OBSERVER)
 DEFAULT_PORT = 8765
 """The port Foxglove's "Open connection" proposes for a Foxglove WebSocket."""
+MESSAGE_BACKLOG = 1024
+"""Messages the server holds for a client that does not read (a stalled or slow Foxglove):
+past that the oldest are dropped, so such a client costs a few MB (a frame tree is ~3 kB),
+never memory without bound. Two to three seconds of one cell."""
 SUBSCRIBED = ("state", "controller/status", "executor/tick", "executor/metrics")
 """The keys the view shows (``tools.view_channels``)."""
 
@@ -67,55 +67,74 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=DEFAULT_PORT,
         help="the WebSocket port (default: %(default)s; 0: any free port)",
     )
-    cell_files.add_arguments(parser)
     parser.add_argument(
         "--layout", metavar="FILE", help="write a Foxglove layout for the cells viewed to FILE"
     )
-    parser.add_argument(
-        "--duration", type=float, metavar="S", help="stop after S seconds (default: at Ctrl-C)"
-    )
+    cell_files.add_arguments(parser)
     cells.add_arguments(parser, several=True)
 
 
 def run(args: argparse.Namespace) -> int:
-    try:
-        joined = cells.join_all(cells.some_targets(args), OBSERVER)
-    except CellsError as exc:
-        return cells.failed("view", exc)
-    try:
-        known = cell_files.known((target for target, _ in joined), args.config, "view")
-        return _serve(joined, known, args)
-    except ConfigError as exc:
-        print(f"motocell view: {exc}", file=sys.stderr)
+    # Before any cell is joined: a port that cannot be served is one line, as for `motocell up`.
+    problem = None if args.port == 0 else bind_problem(args.host, args.port)
+    if problem is not None:
+        print(f"motocell view: {_cannot_serve(args, problem)}", file=sys.stderr)
         return 2
-    finally:
-        cells.close_all(joined)
+    return cell_files.observe(args, "view", lambda joined, known: _serve(joined, known, args))
 
 
-def _serve(
-    joined: list[tuple[Target, zenoh.Session]], known: dict[str, Cell], args: argparse.Namespace
-) -> int:
+_ADVICE = {
+    TAKEN: " (stop that process, or choose --port N; 0 takes any free port)",
+    NOT_HERE: " (--host takes 127.0.0.1, 0.0.0.0 or an address of this host)",
+}
+
+
+def _cannot_serve(args: argparse.Namespace, problem: str) -> str:
+    return f"cannot serve Foxglove on {args.host}:{args.port}: {problem}{_ADVICE.get(problem, '')}"
+
+
+def _serve(joined: Joined, known: dict[str, Cell], args: argparse.Namespace) -> int:
     # foxglove-sdk is in the tools extra: imported by this command only.
     import foxglove  # noqa: PLC0415
 
     from motocell.tools.view_channels import ViewChannels  # noqa: PLC0415
-    from motocell.tools.view_layout import layout_text  # noqa: PLC0415
 
     if args.layout is not None:
-        Path(args.layout).write_text(layout_text(list(known.values())))
-        print(f"wrote the Foxglove layout {args.layout}", flush=True)
+        problem = _write_layout(args.layout, list(known.values()))
+        if problem is not None:
+            print(f"motocell view: --layout {args.layout}: {problem}", file=sys.stderr)
+            return 2
     context = foxglove.Context()
     try:
         server = foxglove.start_server(
-            name="motocell view", host=args.host, port=args.port, capabilities=[], context=context
+            name="motocell view",
+            host=args.host,
+            port=args.port,
+            capabilities=[],
+            context=context,
+            message_backlog_size=MESSAGE_BACKLOG,
         )
-    except RuntimeError as exc:
-        print(f"motocell view: cannot serve on {args.host}:{args.port}: {exc}", file=sys.stderr)
+    except RuntimeError as exc:  # the port taken since it was tried
+        print(f"motocell view: {_cannot_serve(args, str(exc))}", file=sys.stderr)
         return 2
     try:
         return _forward(joined, ViewSink(ViewChannels(context, known)), server.port, args)
     finally:
         server.stop()
+
+
+def _write_layout(path: str, known: list[Cell]) -> str | None:
+    """Writes the layout of the cells ``known``; what stopped it, if anything."""
+    from motocell.tools.view_layout import layout_text  # noqa: PLC0415
+
+    if not known:
+        return "no cell file for the cells viewed (--config FILE gives one)"
+    try:
+        Path(path).write_text(layout_text(known))
+    except OSError as exc:
+        return f"cannot write it: {exc.strerror}"
+    print(f"wrote the Foxglove layout {path}", flush=True)
+    return None
 
 
 class ViewSink:
@@ -136,33 +155,17 @@ class ViewSink:
         """Nothing kept, nothing to finish."""
 
 
-def _forward(
-    joined: list[tuple[Target, zenoh.Session]],
-    sink: ViewSink,
-    port: int,
-    args: argparse.Namespace,
-) -> int:
-    with stop_on_signals() as stop:
-        # The Recorder's queue keeps Zenoh's threads free: they only stamp and queue.
-        forwarder = Recorder(sink, stop)
-        try:
-            subscribers = [
-                session.declare_subscriber(f"{ROOT}/{name}/{suffix}", forwarder.on_sample)
-                for target, session in joined
-                for name in target.names
-                for suffix in SUBSCRIBED
-            ]
-            where = ", ".join(target.describe() for target, _ in joined)
-            print(
-                f"serving {where} to Foxglove at ws://{args.host}:{port} (read-only); "
-                "Ctrl-C to stop",
-                flush=True,
-            )
-            stop.wait(args.duration)
-            for subscriber in subscribers:
-                subscriber.undeclare()
-        finally:
-            forwarder.close()
+def _forward(joined: Joined, sink: ViewSink, port: int, args: argparse.Namespace) -> int:
+    # The Recorder's queue keeps Zenoh's threads free: they only stamp and queue.
+    subscriptions = [
+        (session, f"{ROOT}/{name}/{suffix}")
+        for target, session in joined
+        for name in target.names
+        for suffix in SUBSCRIBED
+    ]
+    where = ", ".join(target.describe() for target, _ in joined)
+    ready = f"serving {where} to Foxglove at ws://{args.host}:{port} (read-only); Ctrl-C to stop"
+    forwarder = run_recorder(sink, subscriptions, args.duration, ready)
     if forwarder.error is not None:
         print(f"motocell view: {forwarder.error}", file=sys.stderr)
         return 1

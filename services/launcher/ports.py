@@ -19,7 +19,7 @@ class PortError(Exception):
 def check_tcp_ports(host: str, ports: Sequence[TcpPort]) -> None:
     """PortError unless every one of ``ports`` can be listened on at ``host``."""
     for wanted in ports:
-        problem = _bind_problem(host, wanted.port)
+        problem = bind_problem(host, wanted.port)
         if problem is not None:
             raise PortError(
                 f"cannot listen on the {wanted.use} port {host}:{wanted.port}: {problem}"
@@ -44,7 +44,7 @@ def check_router_endpoints(endpoints: Sequence[str]) -> None:
         host, _, port = address.rpartition(":")
         if protocol not in ("tcp", "tls") or not port.isdigit():
             continue
-        problem = _bind_problem(host.strip("[]"), int(port))
+        problem = bind_problem(host.strip("[]"), int(port))
         if problem is not None:
             raise PortError(
                 f"the cell's Zenoh router cannot listen on {endpoint}: {problem} "
@@ -54,10 +54,10 @@ def check_router_endpoints(endpoints: Sequence[str]) -> None:
 
 def listening(host: str, ports: Sequence[TcpPort]) -> bool:
     """Every one of ``ports`` is taken at ``host``: after ``check_tcp_ports``, by the cell."""
-    return all(_bind_problem(host, wanted.port) is not None for wanted in ports)
+    return all(bind_problem(host, wanted.port) is not None for wanted in ports)
 
 
-def _bind_problem(host: str, port: int) -> str | None:
+def bind_problem(host: str, port: int) -> str | None:
     """Why a server socket cannot listen on ``host:port`` now, as the services bind (with
     SO_REUSEADDR); None when it can."""
     if not 1 <= port <= MAX_PORT:

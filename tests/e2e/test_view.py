@@ -14,6 +14,7 @@ import sys
 import threading
 import time
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -26,7 +27,9 @@ from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
 from motocell.testkit.cell import RunningCell
 from motocell.testkit.client import Feedback, smooth_move, stream
 from motocell.testkit.processes import wait_until
+from motocell.tools.view_layout import layout_text
 from tests.foxglove_ws import FoxgloveClient
+from tests.frames import foxglove_steps, in_root, pose_matrix, rotation, vector
 
 pytestmark = pytest.mark.cell
 
@@ -35,16 +38,20 @@ FLOAT32_RAD = 2e-7
 POSE_TOLERANCE_M = 1e-5
 """A flange pose from float32 joints, about a metre from the base: 1e-7 rad x 1 m, and margin."""
 MOVE = (0.4, -0.3, 0.3, 0.5, -0.4, 0.6)
+STALLED_TICKS = 1000
+"""Executor ticks (4 s) a client does not read: with the other topics it subscribed, the
+server has more than twice ``tools.view.MESSAGE_BACKLOG`` messages for it, more than its queue
+and the sockets' buffers hold."""
 READY = re.compile(r"ws://(?P<host>[\d.]+):(?P<port>\d+)")
 
 
 class View:
     """``motocell view`` as a process: the URL it serves, and its output lines."""
 
-    def __init__(self, cell: RunningCell) -> None:
+    def __init__(self, cell: RunningCell, *options: str) -> None:
         env = {**os.environ, RUNTIME_DIR_ENV: str(cell.runtime_dir)}
         command = [sys.executable, "-W", "error", "-m", "motocell.tools.cli", "view"]
-        command += ["--port", str(free_port()), "--cell", cell.cell.name]
+        command += ["--port", str(free_port()), "--cell", cell.cell.name, *options]
         self.process = subprocess.Popen(
             command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env
         )
@@ -65,9 +72,11 @@ class View:
         found = [READY.search(line) for line in list(self.lines)]
         return next((match.group(0) for match in found if match), None)
 
-    def client(self, max_queue: int | None = None) -> FoxgloveClient:
+    def client(
+        self, max_queue: int | None = None, receive_buffer: int | None = None
+    ) -> FoxgloveClient:
         assert self.url is not None
-        return FoxgloveClient(self.url, max_queue=max_queue)
+        return FoxgloveClient(self.url, max_queue=max_queue, receive_buffer=receive_buffer)
 
     def stop(self) -> int:
         if self.process.poll() is None:
@@ -84,10 +93,33 @@ class View:
 
 
 @pytest.fixture(scope="module")
-def view(cell: RunningCell) -> Iterator[View]:
-    served = View(cell)
+def layout_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return tmp_path_factory.mktemp("view") / "layout.json"
+
+
+@pytest.fixture(scope="module")
+def view(cell: RunningCell, layout_file: Path) -> Iterator[View]:
+    served = View(cell, "--layout", str(layout_file))
     yield served
     assert served.stop() == 0, served.lines
+
+
+def test_it_writes_the_layout_of_the_cell_it_views(
+    view: View, cell: RunningCell, layout_file: Path
+) -> None:
+    assert layout_file.read_text() == layout_text([cell.cell])
+    assert f"wrote the Foxglove layout {layout_file}" in view.lines
+
+
+def test_a_second_view_on_its_port_is_one_line_and_status_2(view: View) -> None:
+    host, port = view_address(view)
+    command = [sys.executable, "-m", "motocell.tools.cli", "view", "--port", str(port)]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=30, check=False)
+    assert (done.returncode, done.stdout) == (2, "")
+    assert done.stderr.splitlines() == [
+        f"motocell view: cannot serve Foxglove on {host}:{port}: it is taken by another "
+        "process (stop that process, or choose --port N; 0 takes any free port)"
+    ]
 
 
 def topics(cell: RunningCell) -> dict[str, str]:
@@ -104,9 +136,13 @@ def topics(cell: RunningCell) -> dict[str, str]:
 
 
 def subscribed(
-    view: View, cell: RunningCell, *kinds: str, max_queue: int | None = None
+    view: View,
+    cell: RunningCell,
+    *kinds: str,
+    max_queue: int | None = None,
+    receive_buffer: int | None = None,
 ) -> FoxgloveClient:
-    client = view.client(max_queue)
+    client = view.client(max_queue, receive_buffer)
     wanted = {topics(cell)[kind] for kind in kinds}
     advertised = client.wait_for_topics(wanted, 20.0)
     client.subscribe([advertised[topic] for topic in sorted(wanted)])
@@ -144,27 +180,8 @@ def test_the_scene_draws_every_link_on_its_frame(view: View, cell: RunningCell) 
 
 
 def in_cell(transforms: Any, cell: str, group: str, frame_name: str) -> np.ndarray[Any, Any]:
-    """A group's frame as a 4x4 pose in the cell's frame, composed from a FrameTransforms
-    message."""
-    parents = {t.child_frame_id: t for t in transforms.transforms}
-    frame, pose = f"{cell}/{group}/{frame_name}", np.eye(4)
-    while frame != cell:
-        step = parents[frame]
-        pose = _matrix(step.translation, step.rotation) @ pose
-        frame = step.parent_frame_id
-    return pose
-
-
-def _matrix(translation: Any, rotation: Any) -> np.ndarray[Any, Any]:
-    x, y, z, w = rotation.x, rotation.y, rotation.z, rotation.w
-    matrix = np.eye(4)
-    matrix[:3, :3] = [
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-    ]
-    matrix[:3, 3] = [translation.x, translation.y, translation.z]
-    return matrix
+    """A group's frame as a 4x4 pose in the cell's frame, from a FrameTransforms message."""
+    return in_root(foxglove_steps(transforms), cell)[f"{cell}/{group}/{frame_name}"]
 
 
 def same_joints(cycle: Feedback, positions: list[float], axes: int) -> bool:
@@ -203,9 +220,10 @@ def test_joints_and_tool_pose_agree_with_the_state_port(view: View, cell: Runnin
     trees = [m for m in received if m.topic == topics(cell)["transforms"]]
     assert len(tcps) >= 20 and len(trees) >= 20, (len(tcps), len(trees))
     for message in tcps[-50:]:
-        pose = message.protobuf()
-        assert pose.frame_id == f"{cell.cell.name}/{group.name}/base"  # type: ignore[attr-defined]
-        _assert_near_one(flanges, _matrix(pose.pose.position, pose.pose.orientation))  # type: ignore[attr-defined]
+        pose: Any = message.protobuf()
+        assert pose.frame_id == f"{cell.cell.name}/{group.name}/base"
+        found = pose_matrix(vector(pose.pose.position), rotation(pose.pose.orientation))
+        _assert_near_one(flanges, found)
     for message in trees[-50:]:
         tree = message.protobuf()
         _assert_near_one(placement @ flanges, in_cell(tree, cell.cell.name, group.name, "flange"))
@@ -246,6 +264,30 @@ def test_it_outlives_clients_that_never_read_or_vanish(view: View, cell: Running
         pass  # hung up before the WebSocket handshake
     with subscribed(view, cell, "joints") as again:
         assert again.next_message(joints, 10.0).json()["group_no"] == 0
+    assert view.process.poll() is None
+
+
+def test_a_client_that_never_reads_is_held_a_bounded_backlog(view: View, cell: RunningCell) -> None:
+    """The server holds at most ``tools.view.MESSAGE_BACKLOG`` messages for a client that
+    stopped reading and drops the oldest past that: once it reads again, ticks the server sent
+    meanwhile are missing. A server that kept them all would show none, and grow without
+    bound."""
+    executor = topics(cell)["executor"]
+    # A small receive buffer: the kernel holds little for it, the server's queue fills.
+    stalled = subscribed(
+        view, cell, "executor", "transforms", "joints", "tcp", max_queue=1, receive_buffer=4096
+    )
+    try:
+        with subscribed(view, cell, "executor") as reader:
+            sent: list[int] = []
+            while len(sent) < STALLED_TICKS:
+                sent.append(reader.next_message(executor, 10.0).json()["tick"])
+        kept: list[int] = []
+        while not kept or kept[-1] < sent[-1]:
+            kept.append(stalled.next_message(executor, 10.0).json()["tick"])
+    finally:
+        stalled.close()
+    assert set(sent) - set(kept), f"all {len(sent)} ticks kept for a client that did not read"
     assert view.process.poll() is None
 
 

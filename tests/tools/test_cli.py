@@ -13,8 +13,8 @@ from motocell.services.launcher.core import WELL_KNOWN_ENDPOINT
 from motocell.shared import registry
 from motocell.tools.cli import build_parser
 
-HEAVY = ("matplotlib", "mcap")
-"""The tools extra's libraries: only ``record`` and ``plot`` may import them."""
+HEAVY = ("matplotlib", "mcap", "foxglove")
+"""The tools extra's libraries: only ``record``, ``view`` and ``plot`` may import them."""
 
 COMMANDS = (
     "up",
@@ -24,6 +24,7 @@ COMMANDS = (
     "echo",
     "hz",
     "record",
+    "view",
     "plot",
     "bench",
     "credentials",
@@ -65,7 +66,7 @@ def test_observers_say_where_they_look_by_default(
     assert WELL_KNOWN_ENDPOINT in text
 
 
-def test_help_imports_neither_mcap_nor_matplotlib(tmp_path: Path) -> None:
+def test_help_imports_none_of_the_tools_extra(tmp_path: Path) -> None:
     # In a fresh interpreter and away from the source tree, as an installed motocell runs.
     probe = (
         "import contextlib, sys\n"
