@@ -67,8 +67,14 @@ def layout_text(cells: list[Cell]) -> str:
 
 
 def _add(panels: dict[str, dict[str, Any]], kind: str, name: str, config: Any) -> str:
-    """``config`` (a ``foxglove.layouts`` configuration or a dict) under a new panel id."""
-    panel_id = f"{kind}!{re.sub(r'[^A-Za-z0-9]', '', name)}"
+    """``config`` (a ``foxglove.layouts`` configuration or a dict) under a new panel id: the
+    name's letters and digits, numbered when two names keep the same ones (cells ``a-1`` and
+    ``a1``), or the second panel would replace the first."""
+    readable = f"{kind}!{re.sub(r'[^A-Za-z0-9]', '', name)}"
+    panel_id, copies = readable, 1
+    while panel_id in panels:
+        copies += 1
+        panel_id = f"{readable}{copies}"
     panels[panel_id] = json.loads(config.to_json()) if hasattr(config, "to_json") else config
     return panel_id
 

@@ -3,6 +3,7 @@ placed panel configured, and every path a panel reads is a field the view publis
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 from pathlib import Path
@@ -54,6 +55,15 @@ def test_every_panel_is_placed_and_configured() -> None:
     assert [tab["title"] for tab in panels["Tab!cells"]["tabs"]] == ["cell1", "dual"]
     assert set(panels["3D!scene"]["topics"]) == {"/cell1/scene", "/dual/scene"}
     assert panels["3D!scene"]["followTf"] == "cell1"
+
+
+def test_cells_whose_names_differ_only_in_punctuation_keep_every_panel() -> None:
+    cell = load_cell()
+    made = layout([dataclasses.replace(cell, name="a-1"), dataclasses.replace(cell, name="a1")])
+    panels = made["configById"]
+    assert placed(made["layout"], panels) == set(panels)
+    one_cell = len(layout([cell])["configById"]) - 2  # less the 3D panel and the tabs
+    assert len(panels) == 2 + 2 * one_cell
 
 
 def paths(config: Any) -> list[str]:
