@@ -175,11 +175,12 @@ class CellScene:
 
     def transforms(self, joints: Mapping[int, Sequence[float]]) -> list[Transform]:
         """The frames of the groups in ``joints`` (group index -> positions); a group the cell
-        does not have is left out."""
+        does not have, or with another number of axes (a ``--config`` file that is not the
+        running cell's), is left out rather than stopping the view."""
         return [
             transform
             for index, positions in joints.items()
-            if index in self.groups
+            if index in self.groups and len(positions) == self.groups[index].group.axes
             for transform in self.groups[index].transforms(positions)
         ]
 

@@ -48,6 +48,12 @@ def test_a_group_with_no_joints_given_is_left_out(dual: Cell) -> None:
     assert {t.child.split("/")[1] for t in transforms} == {"R1"}
 
 
+def test_a_group_with_other_axes_than_its_cell_file_says_is_left_out(dual: Cell) -> None:
+    """The state of a cell that is not the one the ``--config`` file describes."""
+    transforms = CellScene(dual).transforms({0: [0.0] * 6, 1: [0.0] * 2})
+    assert {t.child.split("/")[1] for t in transforms} == {"R1"}
+
+
 def test_the_links_are_drawn_as_long_as_the_table_says() -> None:
     cell = load_cell()
     shapes = CellScene(cell).shapes()
