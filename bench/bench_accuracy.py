@@ -17,7 +17,10 @@ End-to-end part: one real 4-group cell streams a random 2016 trajectory (off-gri
 non-zero start velocity, within the speed limits); the executor's commanded pulses, tick by
 tick from the first moving tick, are compared with the closed form at the grid instants
 (built from the float32 values the wire carried), and the final feedback pulses with the last
-point's pulses. One trajectory per run, three runs.
+point's pulses. One trajectory per run, three runs. The same ticks give the following error of
+the cell's servos (commanded - feedback pulses while moving, ``testkit.following``): the largest
+per-axis maximum and RMS over every group; the motion runs at up to 0.3 x each axis's speed
+limit, so these are about a third of the rated-speed figures of docs/servo.md.
 """
 
 from __future__ import annotations
@@ -42,6 +45,7 @@ from motocell.shared.config import Group, load_catalogue
 from motocell.shared.motion.interpolation import Knot, Trajectory, time_to_ns
 from motocell.shared.motion.kinematics import AxisMap
 from motocell.testkit.client import PlannedPoint, ex_messages
+from motocell.testkit.following import following_errors
 
 FIGURE = 8
 RUNS = 3
@@ -159,9 +163,12 @@ def e2e_plans(
     return plans
 
 
-def e2e_runs(points: int) -> tuple[list[float], list[float]]:
+def e2e_runs(points: int) -> tuple[list[float], list[float], list[float], list[float]]:
+    """Per run: max |commanded - closed form|, final error, following error max and RMS."""
     deviations: list[float] = []
     finals: list[float] = []
+    following_max: list[float] = []
+    following_rms: list[float] = []
     with contextlib.ExitStack() as stack:
         directory = stack.enter_context(workdir())
         cell = stack.enter_context(bench_cell(directory, "bench8"))
@@ -180,10 +187,14 @@ def e2e_runs(points: int) -> tuple[list[float], list[float]]:
             duration = plans[0][-1].time
             streamer.stream(ex_messages(plans), stream_bound_s(duration)).check()
             observer.wait_still(timeout=30.0)
-            worst, final = deviation(plans, maps, observer.ticks_since(mark))
+            ticks = observer.ticks_since(mark)
+            worst, final = deviation(plans, maps, ticks)
             deviations.append(round(worst, DECIMALS))
             finals.append(float(final))
-    return deviations, finals
+            following = following_errors(cell.cell, ticks)
+            following_max.append(max(float(f.max_pulses.max()) for f in following))
+            following_rms.append(round(max(float(f.rms_pulses.max()) for f in following), 1))
+    return deviations, finals, following_max, following_rms
 
 
 def deviation(
@@ -235,7 +246,9 @@ def run(quick: bool) -> list[dict[str, Any]]:
         deviation.append(worst)
         mismatched.append(float(wrong))
         final.append(float(finals))
-    e2e_deviation, e2e_final = e2e_runs(QUICK_E2E_POINTS if quick else E2E_POINTS)
+    e2e_deviation, e2e_final, following_max, following_rms = e2e_runs(
+        QUICK_E2E_POINTS if quick else E2E_POINTS
+    )
     note = (
         f"{len(catalogue)} models x {segments} random segments per run, "
         f"{entries // RUNS:,} entries per run"
@@ -268,5 +281,15 @@ def run(quick: bool) -> list[dict[str, Any]]:
             e2e_final,
             goal=("==", 0),
             rule="all",
+        ),
+        figure_result(
+            FIGURE,
+            "end to end: following error max (worst axis)",
+            "pulse",
+            following_max,
+            note="commanded - feedback while moving, the catalogue's servos (docs/servo.md)",
+        ),
+        figure_result(
+            FIGURE, "end to end: following error RMS (worst axis)", "pulse", following_rms
         ),
     ]

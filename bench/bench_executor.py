@@ -15,14 +15,25 @@ late or more; they are caught up, not skipped). Percentiles come from the raw pe
 of each run; the table shows the median and [min-max] of the per-run figures.
 
 The same runs give figure 6 (``bench.bench_state``).
+
+The servo model's share of a tick is measured apart, in this process with no cell: ``Servos.step``
+for the same 4 groups all moving, plus the feedback the tick report takes from it, timed per
+tick (``perf_counter_ns``); the figure-3 lateness above already includes it, since the cell runs
+the catalogue's position loops.
 """
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
-from motocell.bench.harness import figure_result, percentiles
+import numpy as np
+
+from motocell.bench.harness import GROUP_MODELS, figure_result, percentiles
 from motocell.bench.loaded import loaded_runs
+from motocell.shared.config import load_catalogue
+from motocell.shared.motion.servo import Servos
+from motocell.shared.protocol.constants import MAX_AXES
 
 FIGURE = 3
 RUNS = 3
@@ -30,10 +41,48 @@ SECONDS = 60.0
 QUICK_RUNS = 3
 QUICK_SECONDS = 2.0
 P99_GOAL_US = 200.0
+SERVO_TICKS = 50_000
+QUICK_SERVO_TICKS = 10_000
+SERVO_STEP_PULSES = 5
+"""Every used axis moves this much a tick: the servo never rests, so no tick takes the shortcut
+of an axis at rest."""
 
 
 def settings(quick: bool) -> tuple[int, float]:
     return (QUICK_RUNS, QUICK_SECONDS) if quick else (RUNS, SECONDS)
+
+
+def servo_tick_us(ticks: int) -> np.ndarray:
+    """Microseconds per tick that the servo model takes for the figure's 4 moving groups."""
+    catalogue = load_catalogue()
+    models = [catalogue[name] for name in GROUP_MODELS]
+    command = np.zeros((len(models), MAX_AXES), dtype=np.int64)
+    step = np.zeros_like(command)
+    for g, model in enumerate(models):
+        step[g, : model.axes] = SERVO_STEP_PULSES
+    servos = Servos([model.servo for model in models], 0.004, command.tolist())
+    taken = np.empty(ticks)
+    for i in range(ticks):
+        command += step
+        rows = command.tolist()
+        start = time.perf_counter_ns()
+        servos.step(rows)
+        servos.feedback_pulses().tolist()
+        servos.moved.tolist()
+        taken[i] = time.perf_counter_ns() - start
+    return taken / 1000.0
+
+
+def servo_results(quick: bool) -> list[dict[str, Any]]:
+    ticks = QUICK_SERVO_TICKS if quick else SERVO_TICKS
+    per_run = [percentiles(servo_tick_us(ticks), (50, 99)) for _ in range(RUNS)]
+    where = f"{RUNS} x {ticks:,} ticks in-process, 4 groups moving (arm6, arm6, arm7, positioner2)"
+    return [
+        figure_result(
+            FIGURE, "servo model per tick p50", "us", [p[0] for p in per_run], note=where
+        ),
+        figure_result(FIGURE, "servo model per tick p99", "us", [p[1] for p in per_run]),
+    ]
 
 
 def run(quick: bool) -> list[dict[str, Any]]:
@@ -61,4 +110,5 @@ def run(quick: bool) -> list[dict[str, Any]]:
         ),
         figure_result(FIGURE, "executor ticks observed", "ticks/s", ticks),
         figure_result(FIGURE, "executor tick samples lost (observer)", "gaps", gaps),
+        *servo_results(quick),
     ]

@@ -422,13 +422,17 @@ class Observer:
         return [(at, decoder.decode(raw)) for at, raw in self.metrics]
 
     def wait_still(self, timeout: float = 10.0) -> Tick:
-        """The first tick, from now on, at which no group has anything queued or moves."""
+        """The first tick, from now on, at which no group has anything queued or moves, the
+        servos included (their feedback at rest on the command)."""
         start = self.mark()
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
             end = self.mark()
             for tick in self.ticks_since(start, end):
-                if all(g.depth == 0 and not any(g.increment) for g in tick.groups):
+                if all(
+                    g.depth == 0 and not any(g.increment) and not any(g.feedback_moved)
+                    for g in tick.groups
+                ):
                     return tick
             start = end
             time.sleep(0.02)

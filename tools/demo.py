@@ -248,7 +248,7 @@ def drive(
         print(f"BUSY replies:     {result.busy}")
         print(
             f"duration:         {elapsed:.3f} s (nominal {duration:.3f} s, "
-            f"{(elapsed - duration) * 1e3:+.0f} ms incl. state sampling)"
+            f"{(elapsed - duration) * 1e3:+.0f} ms incl. state sampling and the servo settling)"
         )
         print(f"final error:      {error} pulse(s) (max over {axes} axes)")
         if ticks is None:

@@ -1,9 +1,10 @@
 """``motocell plot``: a recording (``motocell record``) as one PNG of how the motion went.
 
-Per group: joint positions, commanded (dashed) against feedback (solid), and feedback joint
-velocities, both from ``state``; then every group's executor queue depth and the executor's tick
-lateness, from ``executor/tick``. Time is seconds since the cell's first recorded sample, on every
-panel, so the panels line up.
+Per group: joint positions, commanded (dashed) against feedback (solid); the following error
+(commanded - feedback, the servo's lag, docs/servo.md); joint velocities, commanded (dashed)
+against feedback (solid); all from ``state``. Then every group's executor queue depth and the
+executor's tick lateness, from ``executor/tick``. Time is seconds since the cell's first
+recorded sample, on every panel, so the panels line up.
 """
 
 from __future__ import annotations

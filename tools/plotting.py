@@ -27,6 +27,8 @@ WIDTH_IN = 12.0
 ROW_HEIGHT_IN = 2.5
 DPI = 100
 JOINT_STYLE: dict[str, Literal["--", "-"]] = {"commanded": "--", "feedback": "-"}
+PANELS_PER_GROUP = 3
+"""Positions, following error, velocities."""
 
 
 @dataclass
@@ -88,7 +90,7 @@ def plot_recording(path: str | Path, out: str | Path, cell: str | None = None) -
     name = choose_cell(cells, cell, path)
     series = cells[name]
     groups = len(series.states[0]["groups"])
-    rows = 2 * groups + 2
+    rows = PANELS_PER_GROUP * groups + 2
     # A bare Figure on the Agg canvas: no pyplot, so no global figure registry and no GUI.
     figure = Figure(figsize=(WIDTH_IN, ROW_HEIGHT_IN * rows), dpi=DPI, layout="constrained")
     FigureCanvasAgg(figure)
@@ -96,7 +98,8 @@ def plot_recording(path: str | Path, out: str | Path, cell: str | None = None) -
     state_s = (np.array(series.state_ns, dtype=np.int64) - series.first_ns) / 1e9
     tick_s = (np.array(series.tick_ns, dtype=np.int64) - series.first_ns) / 1e9
     for g in range(groups):
-        _plot_group(axes[2 * g], axes[2 * g + 1], g, state_s, series.states)
+        first = PANELS_PER_GROUP * g
+        _plot_group(axes[first : first + PANELS_PER_GROUP], g, state_s, series.states)
     _plot_depth(axes[-2], tick_s, series.ticks, groups)
     _plot_lateness(axes[-1], tick_s, series.ticks)
     for ax in axes:
@@ -111,16 +114,21 @@ def plot_recording(path: str | Path, out: str | Path, cell: str | None = None) -
 
 
 def _plot_group(
-    positions_ax: Axes,
-    velocities_ax: Axes,
+    panels: Any,
     g: int,
     t: np.ndarray[Any, np.dtype[np.float64]],
     states: list[dict[str, Any]],
 ) -> None:
+    """Positions, commanded (dashed) vs feedback (solid); the following error (commanded -
+    feedback); velocities, commanded (dashed, when recorded) vs feedback."""
+    positions_ax, error_ax, velocities_ax = panels
     group_no = states[0]["groups"][g]["group_no"]
-    feedback = np.array([s["groups"][g]["positions"] for s in states], dtype=np.float64)
-    commanded = np.array([s["groups"][g]["command_positions"] for s in states], dtype=np.float64)
-    velocity = np.array([s["groups"][g]["velocities"] for s in states], dtype=np.float64)
+    feedback = _series(states, g, "positions")
+    commanded = _series(states, g, "command_positions")
+    velocities = {"feedback": _series(states, g, "velocities")}
+    # Recordings from before the servo model carry no commanded velocities.
+    if all(s["groups"][g].get("command_velocities") for s in states):
+        velocities["commanded"] = _series(states, g, "command_velocities")
     joints = feedback.shape[1]
     for j in range(joints):
         colour = f"C{j % 10}"
@@ -131,32 +139,47 @@ def _plot_group(
                 color=colour,
                 linestyle=JOINT_STYLE[kind],
                 linewidth=1.2,
-                label=f"joint {j + 1} {kind}",
                 gid=f"group{g}/joint{j}/{kind}",
             )
-        velocities_ax.plot(
+        error_ax.plot(
             t,
-            velocity[:, j],
+            (commanded[:, j] - feedback[:, j]) * 1e3,
             color=colour,
             linewidth=1.2,
-            label=f"joint {j + 1}",
-            gid=f"group{g}/joint{j}/velocity",
+            gid=f"group{g}/joint{j}/following_error",
         )
+        for kind, values in velocities.items():
+            velocities_ax.plot(
+                t,
+                values[:, j],
+                color=colour,
+                linestyle=JOINT_STYLE[kind],
+                linewidth=1.2,
+                gid=f"group{g}/joint{j}/velocity" + ("/commanded" if kind == "commanded" else ""),
+            )
     positions_ax.set_title(
         f"group {group_no}: joint positions, commanded (dashed) vs feedback (solid)"
     )
     positions_ax.set_ylabel("position (rad; m if linear)")
-    velocities_ax.set_title(f"group {group_no}: joint velocities (feedback)")
+    error_ax.set_title(f"group {group_no}: following error (commanded - feedback)")
+    error_ax.set_ylabel("error (mrad; mm if linear)")
+    shown = " (dashed) vs feedback (solid)" if "commanded" in velocities else " (feedback)"
+    velocities_ax.set_title(f"group {group_no}: joint velocities, commanded{shown}")
     velocities_ax.set_ylabel("velocity (rad/s; m/s if linear)")
-    # One legend entry per joint colour plus the two line styles, instead of 2 x joints entries.
+    # One legend entry per joint colour plus the two line styles, instead of 2 x joints entries;
+    # outside the axes, so the plotting area shows only data.
     handles = [Line2D([], [], color=f"C{j % 10}", label=f"joint {j + 1}") for j in range(joints)]
-    handles += [
+    styles = [
         Line2D([], [], color="black", linestyle=style, label=kind)
         for kind, style in JOINT_STYLE.items()
     ]
-    # Outside the axes, so the plotting area shows only data.
-    positions_ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0))
-    velocities_ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    positions_ax.legend(handles=handles + styles, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    error_ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    velocities_ax.legend(handles=handles + styles, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+
+
+def _series(states: list[dict[str, Any]], g: int, field: str) -> np.ndarray[Any, Any]:
+    return np.array([s["groups"][g][field] for s in states], dtype=np.float64)
 
 
 def _plot_depth(

@@ -78,8 +78,11 @@ class Servos:
         """``settings`` per group; ``command``: the commanded pulses the axes rest at."""
         rows = np.array([coefficients(s, period_s) for s in settings], dtype=np.float64)
         self._a_filter = rows[:, 0:1]
+        self._b_filter = 1.0 - self._a_filter
         self._a_loop = rows[:, 1:2]
+        self._b_loop = 1.0 - self._a_loop
         self._feed_forward = rows[:, 2:3]
+        self._feed_back = 1.0 - self._feed_forward
         self.command: FloatArray = np.array(command, dtype=np.float64)
         self.filtered = self.command.copy()
         self.lagged = self.command.copy()
@@ -98,10 +101,10 @@ class Servos:
             return
         self.command = target
         self.filtered *= self._a_filter
-        self.filtered += (1.0 - self._a_filter) * target
+        self.filtered += self._b_filter * target
         self.lagged *= self._a_loop
-        self.lagged += (1.0 - self._a_loop) * self.filtered
-        position = self._feed_forward * self.filtered + (1.0 - self._feed_forward) * self.lagged
+        self.lagged += self._b_loop * self.filtered
+        position = self._feed_forward * self.filtered + self._feed_back * self.lagged
         settled = (
             still
             & (np.abs(self.filtered - target) < SNAP_PULSES)

@@ -257,7 +257,7 @@ def test_plot_draws_the_recorded_series(recording: Recording, tmp_path: Path) ->
 
     image = imread(png)
     width, height = np.round(figure.get_size_inches() * figure.dpi).astype(int)
-    assert image.shape[:2] == (height, width) == (1000, 1200)  # 4 panels of 2.5 in, 100 dpi
+    assert image.shape[:2] == (height, width) == (1250, 1200)  # 5 panels of 2.5 in, 100 dpi
     background = np.all(image[..., :3] > 0.98, axis=-1)
     assert background.mean() < 0.97, "the image is (nearly) blank"
 
@@ -274,7 +274,15 @@ def test_plot_draws_the_recorded_series(recording: Recording, tmp_path: Path) ->
         expected = [p["groups"][0][field][0] for _, p in states]
         np.testing.assert_allclose(np.asarray(line.get_xdata()), state_s, rtol=0, atol=1e-9)
         np.testing.assert_array_equal(np.asarray(line.get_ydata()), expected)
+    error = lines["group0/joint0/following_error"]
+    expected = [
+        (p["groups"][0]["command_positions"][0] - p["groups"][0]["positions"][0]) * 1e3
+        for _, p in states
+    ]
+    np.testing.assert_allclose(np.asarray(error.get_ydata()), expected, rtol=0, atol=1e-12)
+    assert max(np.abs(expected)) > 0, "the servo lags while moving"
     assert lines["group0/joint0/commanded"].get_linestyle() == "--"
+    assert lines["group0/joint0/velocity/commanded"].get_linestyle() == "--"
     assert lines["group0/joint0/feedback"].get_linestyle() == "-"
     lateness = lines["lateness"]
     np.testing.assert_allclose(np.asarray(lateness.get_xdata()), tick_s, rtol=0, atol=1e-9)
