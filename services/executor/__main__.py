@@ -111,6 +111,7 @@ class Executor:
             heartbeat_ticks=heartbeat_ticks(cell.period_ns),
             ranges=pulse_ranges(cell),
             servos=Servos([group.servo for group in cell.groups], cell.period_s, start),
+            max_starved_ticks=cell.max_lateness_periods,
         )
         session = ctx.session
         keys = ctx.keys
@@ -242,6 +243,8 @@ class Executor:
                 if group in self.core.beyond_range:
                     reason = self.core.beyond_range[group]
                     self._increment_path_broken(group, reason, SOFT_LIMIT_ALARM)
+                elif group in self.core.starved:
+                    self._increment_path_broken(group, "increments stopped mid-trajectory")
                 else:
                     self._increment_path_broken(group, "refused by the motion system")
             tick = self.core.tick_report(deadline, lateness, self.missed)

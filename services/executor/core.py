@@ -16,7 +16,7 @@ import numpy as np
 
 from motocell.shared.bus.liveness import HEARTBEAT_S
 from motocell.shared.bus.schemas import CommandReply, GroupTick, IncrementBatch, QueueState, Tick
-from motocell.shared.config import Cell, IdealServo
+from motocell.shared.config import DEFAULT_MAX_LATENESS_PERIODS, Cell, IdealServo
 from motocell.shared.motion.kinematics import AxisMap
 from motocell.shared.motion.servo import Servos
 from motocell.shared.protocol.constants import MAX_AXES, Result
@@ -131,6 +131,10 @@ class GroupRing:
     epoch: int
     received: int = 0
     entries: deque[Entry] = field(default_factory=deque)
+    owed: bool = False
+    """The last batch said more of its trajectory follows (``IncrementBatch.more``)."""
+    starved_ticks: int = 0
+    """Ticks in a row this ring was empty while owed."""
 
 
 class ExecutorCore:
@@ -143,12 +147,14 @@ class ExecutorCore:
         ranges: list[tuple[list[int], list[int]]] | None = None,
         *,
         servos: Servos | None = None,
+        max_starved_ticks: int = DEFAULT_MAX_LATENESS_PERIODS,
     ) -> None:
         """``max_increments``: per group and Motoman axis, the most pulses the motion system
         takes in one period (None: no limit). ``heartbeat_ticks``: how often an unchanged queue
         state is published all the same, and the controller's status arrives at least.
         ``servos``: how the feedback follows the command, resting at ``command_pulses``
-        (None: ideal, feedback = command)."""
+        (None: ideal, feedback = command). ``max_starved_ticks``: how long a ring may stay
+        empty while its interpolator owes it increments (``starved``)."""
         self.command = [list(p) for p in command_pulses]
         self.servos = servos or Servos([IdealServo()] * len(command_pulses), 1.0, command_pulses)
         self.servo_powered = True
@@ -160,6 +166,11 @@ class ExecutorCore:
         """Per group, the (lower, upper) pulses of each Motoman axis (None: no limits)."""
         self.beyond_range: dict[int, str] = {}
         """The groups the last tick refused because an axis would pass its range, and why."""
+        self.max_starved_ticks = max_starved_ticks
+        self.starved: set[int] = set()
+        """The groups the last tick stopped because their increments stopped coming in the
+        middle of a trajectory (``IncrementBatch.more``) for longer than ``max_starved_ticks``:
+        the interpolator, or the network to it, stalled; what it sends late must not move."""
         self._held_ticks = [0] * len(command_pulses)
         self.rings = [GroupRing(first_epoch + g) for g in range(len(command_pulses))]
         self._next_epoch = first_epoch + len(command_pulses)
@@ -214,12 +225,15 @@ class ExecutorCore:
                 entry = Entry(tuple(row), index in partial, batch.tool)
             ring.entries.append(entry)
         ring.received += batch.count
+        ring.owed = batch.more
         return BatchOutcome.ACCEPTED
 
     def _clear(self, ring: GroupRing) -> None:
         ring.entries.clear()
         ring.epoch = self._next_epoch
         ring.received = 0
+        ring.owed = False
+        ring.starved_ticks = 0
         self._next_epoch += 1
 
     def clear_all(self) -> None:
@@ -271,13 +285,16 @@ class ExecutorCore:
         together in one call, like MotoROS's single IncMove call per tick (motoros1 §5.3).
 
         Returns the groups whose increments the motion system refused (beyond an axis's
-        maximum per period, or past its range: ``beyond_range``) or whose synchronized start
-        waited too long. Then nothing is applied this tick, as a rejected IncMove call moves
-        no group; the caller stops motion (MotoROS 1.9.5: NOT_READY 5012 until
+        maximum per period, or past its range: ``beyond_range``), whose synchronized start
+        waited too long, or whose increments stopped coming mid-trajectory (``starved``).
+        Then nothing is applied this tick, as a rejected IncMove call moves no group; the
+        caller stops motion (MotoROS 1.9.5: NOT_READY 5012 until
         START_TRAJ_MODE; at a range limit, alarm ``SOFT_LIMIT_ALARM``)."""
         self.tick += 1
         held = self._waiting_for_partners()
         broken = [g for g in held if self._held_ticks[g] > BARRIER_TIMEOUT_TICKS]
+        self.starved = self._starved_groups()
+        broken += sorted(self.starved)
         increments = [
             self._pop_period(ring) if self.ready and group not in held else ZERO
             for group, ring in enumerate(self.rings)
@@ -295,6 +312,20 @@ class ExecutorCore:
                     command[axis] += increment[axis]
         self._drive()
         return broken
+
+    def _starved_groups(self) -> set[int]:
+        """Counts this tick for every ring that is empty while owed; the groups past the bound.
+        A ring that runs dry at the end of what its interpolator had is a client that is late,
+        which MotoROS waits for: no error."""
+        starved = set()
+        for group, ring in enumerate(self.rings):
+            if self.ready and ring.owed and not ring.entries:
+                ring.starved_ticks += 1
+            else:
+                ring.starved_ticks = 0
+            if ring.starved_ticks > self.max_starved_ticks:
+                starved.add(group)
+        return starved
 
     def _drive(self) -> None:
         """The servos follow this period's command; with the servo off every axis stands where

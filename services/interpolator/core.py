@@ -119,7 +119,9 @@ class Feeder:
                         self.busy_episodes += 1
                     return
                 self.waiting_for_room = False
-                self._send(self._next_entries(self.segment, min(room, MAX_BATCH)))
+                entries = self._next_entries(self.segment, min(room, MAX_BATCH))
+                more = self.hold > 0 or self.segment.remaining > 0 or bool(points)
+                self._send(entries, more)
                 if self.hold == 0 and self.segment.remaining == 0:
                     self.segment = None
                     self.taken_id = self.segment_point_id
@@ -203,7 +205,7 @@ class Feeder:
             return self.trajectory.pulses
         return np.array(self.queue.command_pulses[: self.axis_map.axes], dtype=np.int64)
 
-    def _send(self, entries: Entries) -> None:
+    def _send(self, entries: Entries, more: bool) -> None:
         assert self.queue is not None
         count = len(entries)
         rows = np.zeros((count, MAX_AXES), dtype="<i4")
@@ -219,6 +221,7 @@ class Feeder:
                 times_ns=entries.times_ns.tolist(),
                 sync_id=self.sync[0] if self.sync else 0,
                 sync_groups=self.sync[1] if self.sync else [],
+                more=more,
             )
         )
         self.sync = None

@@ -102,6 +102,9 @@ class IncrementBatch(msgspec.Struct, array_like=True, frozen=True):
     executor holds it until every one of those groups has its start entry (same ``sync_id``)
     at the head of its ring, so groups given the same timestamps start, and so arrive, in the
     same tick."""
+    more: bool = False
+    """The interpolator holds more of this trajectory to send (the rest of a segment, or
+    points it has): a ring that runs dry after this batch is starved, not finished."""
 
 
 class QueueState(msgspec.Struct, array_like=True, frozen=True):

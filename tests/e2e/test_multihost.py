@@ -118,12 +118,6 @@ def test_killing_the_router_stops_the_cell_safely_and_it_recovers(
 
 
 @needs_namespaces
-@pytest.mark.xfail(
-    strict=True,
-    reason="defect: a cut link to the interpolators' host is never reported NOT_READY; the "
-    "rings run empty mid-segment and the old trajectory resumes late when the link returns "
-    "(docs/multihost.md, Faults)",
-)
 def test_cutting_the_interpolators_link_is_told_and_nothing_moves_late(
     repo: Path, multihost: list[subprocess.CompletedProcess[str]]
 ) -> None:

@@ -661,3 +661,49 @@ def test_a_silent_controller_stops_a_ready_executor() -> None:
 def test_silence_while_not_ready_is_no_stall() -> None:
     core = ExecutorCore(START, FIRST_EPOCH, heartbeat_ticks=1)
     assert not any(core.controller_silent() for _ in range(100))
+
+
+# -- starved rings: increments that stop coming mid-trajectory ------------------------------
+
+
+def owing(epoch: int, first_seq: int, rows: Sequence[Sequence[int]]) -> IncrementBatch:
+    """A batch after which its interpolator has more of the trajectory to send."""
+    return msgspec.structs.replace(batch(epoch, first_seq, rows), more=True)
+
+
+def test_a_ring_empty_while_owed_stops_motion_after_the_bound_and_only_then() -> None:
+    core = ExecutorCore(START, FIRST_EPOCH, max_starved_ticks=3)
+    core.set_ready(True)
+    assert core.accept(0, owing(100, 0, [unit(1)] * 2)) is BatchOutcome.ACCEPTED
+    results = [core.step() for _ in range(2 + 3)]
+    assert results == [[]] * 5  # two entries applied, then three empty ticks within the bound
+    assert core.step() == [0]
+    assert core.starved == {0}
+    assert core.command[0][0] == START[0][0] + 2
+
+
+def test_a_ring_that_runs_dry_at_the_end_of_what_was_sent_is_a_late_client_not_an_error() -> None:
+    core = ExecutorCore(START, FIRST_EPOCH, max_starved_ticks=3)
+    core.set_ready(True)
+    core.accept(0, owing(100, 0, [unit(1)] * 2))
+    core.accept(0, batch(100, 2, [unit(1)]))  # the rest: nothing more owed
+    assert all(core.step() == [] for _ in range(50))
+    assert core.starved == set()
+
+
+def test_a_batch_arriving_within_the_bound_ends_the_starvation() -> None:
+    core = ExecutorCore(START, FIRST_EPOCH, max_starved_ticks=3)
+    core.set_ready(True)
+    core.accept(0, owing(100, 0, [unit(1)]))
+    assert [core.step() for _ in range(4)] == [[]] * 4  # one entry, three empty ticks
+    core.accept(0, owing(100, 1, [unit(1)]))
+    assert [core.step() for _ in range(4)] == [[]] * 4  # the count starts again
+    assert core.step() == [0]
+
+
+def test_clearing_forgets_what_was_owed() -> None:
+    core = ExecutorCore(START, FIRST_EPOCH, max_starved_ticks=3)
+    core.set_ready(True)
+    core.accept(0, owing(100, 0, [unit(1)]))
+    core.clear_all()
+    assert all(core.step() == [] for _ in range(20))

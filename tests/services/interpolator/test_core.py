@@ -387,3 +387,12 @@ def test_streamed_trajectory_never_overflows_and_ends_exactly(
     final = pulses(points[-1].positions)
     assert core.command[0] == final
     assert total(sent) == [f - s for f, s in zip(final, start, strict=True)]
+
+
+def test_each_batch_says_whether_more_of_the_trajectory_follows() -> None:
+    h = Harness()
+    h.queue(state())
+    h.feed(point(1, 0, 0.0), point(2, 1, 0.4, X))  # 100 entries: two whole batches of 50
+    assert [(b.count, b.more) for b in h.sent] == [(MAX_BATCH, True), (MAX_BATCH, False)]
+    h.feed(point(3, 1, 0.5, Y), point(4, 1, 0.6, X))  # a point waiting behind the segment
+    assert [(b.count, b.more) for b in h.sent[2:]] == [(25, True), (25, False)]
