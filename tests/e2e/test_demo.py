@@ -3,11 +3,14 @@ MOTO_JOINT_TRAJ_PT_FULL_EX; with the wrong byte order it stops at once and says 
 
 from __future__ import annotations
 
+import os
 import subprocess
+import sys
 from collections.abc import Callable
 
 import pytest
 
+from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
 from motocell.testkit.cell import RunningCell
 
 pytestmark = [
@@ -40,3 +43,23 @@ def test_the_wrong_byte_order_is_named_at_once(cell: RunningCell, motocell: Moto
     assert done.returncode == 1
     assert done.stdout == "motocell demo: the cell looks little-endian: use --byte-order little\n"
     assert done.stderr == ""
+
+
+def test_the_following_error_is_reported_from_the_cells_bus(cell: RunningCell) -> None:
+    """The cell runs on this machine (its registry): the demo joins its bus as an observer and
+    reports every group's following error next to the final error."""
+    command = [sys.executable, "-m", "motocell.tools.cli"]
+    command += demo_of(cell, "--points", "6", "--duration", "0.6")
+    env = {**os.environ, RUNTIME_DIR_ENV: str(cell.runtime_dir)}
+    done = subprocess.run(command, capture_output=True, text=True, timeout=60, env=env, check=False)
+    assert done.returncode == 0, done.stdout + done.stderr
+    lines = done.stdout.splitlines()
+    start = lines.index("following error:  commanded - feedback while moving, per axis (ROS order)")
+    assert lines[start - 1] == "final error:      0 pulse(s) (max over 15 axes)"
+    for offset, group in enumerate(cell.cell.groups):
+        maximum, rms = lines[start + 1 + 2 * offset : start + 3 + 2 * offset]
+        assert maximum.startswith(f"  {group.name} max: ")
+        assert rms.startswith(f"  {group.name} RMS: ")
+        pulses = [int(p) for p in maximum.split(": ")[1].split(" pulses")[0].split()]
+        assert len(pulses) == group.axes
+        assert max(pulses) > 0, "the servo lags while moving"
