@@ -181,6 +181,9 @@ class ExecutorCore:
         """The controller's liveliness token is present."""
         self.awaiting_not_ready = False
         """Motion stopped for a stall: ready statuses are older news until a not-ready one."""
+        self._unconfirmed_status = False
+        """A ready status arrived while the stall is unconfirmed: the controller is heard again
+        (after a router restart, say) and has not had the notice, so it is due at once."""
         self._silent_ticks = 0
         self.tick = 0
         self.last_increment: list[tuple[int, ...]] = [ZERO] * len(command_pulses)
@@ -251,6 +254,7 @@ class ExecutorCore:
         self._silent_ticks = 0
         self.servo_powered = servo_powered
         if self.awaiting_not_ready and motion_ready:
+            self._unconfirmed_status = True
             return
         self.awaiting_not_ready = False
         self.status_ready = motion_ready
@@ -272,9 +276,11 @@ class ExecutorCore:
         self.update_ready()
 
     def stall_notice_due(self, ticks_per_second: int) -> bool:
-        """Once a second while the controller has not confirmed the stall: a notice lost while
-        the router itself stalled is sent again."""
-        return self.awaiting_not_ready and self.tick % ticks_per_second == 0
+        """Once a second while the controller has not confirmed the stall, and at once when it
+        is heard saying ready: a notice lost while the router itself stalled is sent again
+        (without waiting up to a second, in which a client would see the cell ready)."""
+        heard, self._unconfirmed_status = self._unconfirmed_status, False
+        return self.awaiting_not_ready and (heard or self.tick % ticks_per_second == 0)
 
     def update_ready(self) -> None:
         """Motion-ready needs both a ready status and a controller alive to have sent it."""

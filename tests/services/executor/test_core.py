@@ -647,6 +647,15 @@ def test_an_unconfirmed_stall_is_reported_again_every_second() -> None:
     assert not any(core.stall_notice_due(1) for _ in range(3))
 
 
+def test_an_unconfirmed_stall_is_reported_again_as_soon_as_the_controller_says_ready() -> None:
+    core = stalled_core()
+    core.step()
+    assert not core.stall_notice_due(250)
+    core.on_status(True, True)  # heard again (a router back), the notice not yet had
+    assert core.stall_notice_due(250)
+    assert not core.stall_notice_due(250)  # once per status heard
+
+
 def test_a_silent_controller_stops_a_ready_executor() -> None:
     core = ExecutorCore(START, FIRST_EPOCH, heartbeat_ticks=25)
     core.controller_present = True
