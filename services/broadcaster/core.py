@@ -205,7 +205,9 @@ class Broadcaster:
         self.seq = 0
         self.poses = Poses(cell)
         self.tools: list[int] = []
-        """The tool per group in the controller status the last snapshot read."""
+        """The tool per group in the newest controller status a snapshot read, kept when the
+        controller has none to give, so the TCP never jumps back to the flange for a snapshot
+        (tool 0 until a status says otherwise)."""
 
     def on_tick(self, tick: Tick) -> State | None:
         """The snapshot to send now, if this tick is the first at or after the due time."""
@@ -232,7 +234,8 @@ class Broadcaster:
     def _snapshot(self, tick: Tick) -> State:
         self.seq += 1
         status = self.controller.status()
-        self.tools = status.tools if status is not None else []
+        if status is not None:
+            self.tools = status.tools
         return State(
             seq=self.seq,
             tick=tick.tick,

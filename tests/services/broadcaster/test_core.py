@@ -258,6 +258,24 @@ def test_velocities_are_the_increment_per_period_in_radians_per_second() -> None
     assert state.velocities == pytest.approx(expected)
 
 
+def test_a_servo_lag_gives_feedback_and_commanded_velocities_each_in_ros_order() -> None:
+    """The feedback's velocity is what the servo moved (fractional pulses), the commanded one
+    the increment; the 7-axis arm's E axis (seventh pulse) is ROS index 2 in both."""
+    moto_ppu = [ARM7_PPU[i] for i in (0, 1, 3, 4, 5, 6, 2)]
+    increment = [round(moto_ppu[i] * (i + 1) * 0.004) for i in range(7)] + [0]
+    moved = [inc / 2 + 0.25 for inc in increment[:7]] + [0.0]
+    lagging = msgspec.structs.replace(group_tick(increment=increment), feedback_moved=moved)
+    (state,) = Feedback(cell("arm7")).groups(tick(1, 0, lagging))
+    per_second = [m / ppu / 0.004 for m, ppu in zip(moved, moto_ppu, strict=False)]
+    commanded = [i / ppu / 0.004 for i, ppu in zip(increment, moto_ppu, strict=False)]
+    ros_of_moto = (0, 1, 3, 4, 5, 6, 2)
+    assert state.velocities == pytest.approx([per_second[ros_of_moto.index(r)] for r in range(7)])
+    assert state.command_velocities == pytest.approx(
+        [commanded[ros_of_moto.index(r)] for r in range(7)]
+    )
+    assert state.command_velocities[2] == pytest.approx(7.0, abs=1e-3)
+
+
 def test_velocities_scale_with_the_interpolation_period() -> None:
     increment = [587, 0, 0, 0, 0, 0, 0, 0]
     (state,) = Feedback(cell(period_ms=10)).groups(tick(1, 0, group_tick(increment=increment)))
@@ -467,6 +485,22 @@ def test_without_a_controller_status_the_tcp_is_tool_0() -> None:
     state = posed(Broadcaster(tooled, FakeController(status=None)), group_tick())
     (arm,) = state.groups
     assert arm.tool == 0
+    assert arm.tcp is not None
+    assert arm.tcp.position == pytest.approx([0.660, 0.0, 0.815], abs=2e-5)
+
+
+def test_a_moment_without_a_status_keeps_the_selected_tool() -> None:
+    """The TCP does not jump back to the flange for a snapshot the controller had no status
+    for: the last tool it selected stays."""
+    tooled = parse_cell({"tools": [[0.0] * 6, [0, 0, 0.100, 0, 0, 0]]})
+    controller = FakeController(status(tools=[1]))
+    broadcaster = Broadcaster(tooled, controller)
+    posed(broadcaster, group_tick())
+    controller.current = None
+    state = broadcaster.on_silence()
+    assert state is not None
+    (arm,) = broadcaster.with_poses(state).groups
+    assert arm.tool == 1
     assert arm.tcp is not None
     assert arm.tcp.position == pytest.approx([0.660, 0.0, 0.815], abs=2e-5)
 
