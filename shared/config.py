@@ -247,7 +247,11 @@ class Cell:
     group, as a controller has."""
 
     def tool(self, number: int) -> tuple[float, ...]:
-        """Tool ``number``'s [x, y, z, rx, ry, rz]; an unlisted tool is all zero."""
+        """Tool ``number``'s [x, y, z, rx, ry, rz]; an unlisted tool is all zero. A number a
+        controller has no tool for (outside 0-63) raises ValueError: MOTO_SELECT_TOOL refuses
+        it before it gets here, and a negative one must not pick a tool from the end."""
+        if number not in TOOL_NUMBERS:
+            raise ValueError(f"tool {number}: a controller has tools 0 to {TOOL_NUMBERS[-1]}")
         return self.tools[number] if number < len(self.tools) else (0.0,) * 6
 
     @property

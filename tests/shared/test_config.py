@@ -242,6 +242,14 @@ def test_tools_are_all_zero_unless_listed(tmp_path: Path) -> None:
     assert cell.tool(2) == (0.0,) * 6
 
 
+@pytest.mark.parametrize("number", [-1, -2, 64])
+def test_a_tool_number_a_controller_has_not_is_refused(tmp_path: Path, number: int) -> None:
+    """-1 would otherwise be the last tool listed."""
+    cell = load_cell(write_cell(tmp_path, "tools = [[0, 0, 0, 0, 0, 0], [0, 0, 0.2, 0, 0, 1.5]]\n"))
+    with pytest.raises(ValueError, match="tools 0 to 63"):
+        cell.tool(number)
+
+
 # --- the catalogue ------------------------------------------------------------------------
 
 
