@@ -68,6 +68,10 @@ class Recorder:
         self.stop = stop
         self.queue: queue.Queue[tuple[int, str, bytes] | None] = queue.Queue(QUEUE_SIZE)
         self.dropped = 0
+        """Samples lost to a full queue. Zenoh runs callbacks on several threads, and ``+=``
+        is a read and a write another thread can come between: counted under a lock, which
+        only a drop takes."""
+        self._dropped_lock = threading.Lock()
         self.error: Exception | None = None
         self._thread = threading.Thread(target=self._drain, name="recorder", daemon=True)
         self._thread.start()
@@ -78,7 +82,8 @@ class Recorder:
         try:
             self.queue.put_nowait((received_ns, str(sample.key_expr), sample.payload.to_bytes()))
         except queue.Full:
-            self.dropped += 1
+            with self._dropped_lock:
+                self.dropped += 1
 
     def _drain(self) -> None:
         while True:

@@ -1,0 +1,84 @@
+"""The recorder's queue between Zenoh's callback threads and its one writer: what fits is
+written in order, what does not is counted, exactly, whichever threads drop it."""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass
+from typing import cast
+
+import pytest
+import zenoh
+
+from motocell.shared.service import StopFlag
+from motocell.tools import record
+
+THREADS = 4
+SAMPLES_PER_THREAD = 2_000
+
+
+@dataclass(frozen=True)
+class Payload:
+    data: bytes
+
+    def to_bytes(self) -> bytes:
+        return self.data
+
+
+@dataclass(frozen=True)
+class Sample:
+    """What ``Recorder.on_sample`` reads of a ``zenoh.Sample``."""
+
+    key_expr: str
+    payload: Payload
+
+
+def sample(key: str, data: bytes) -> zenoh.Sample:
+    return cast("zenoh.Sample", Sample(key, Payload(data)))
+
+
+class BlockedSink:
+    """A writer stuck on its first sample until ``release``: the queue behind it fills."""
+
+    def __init__(self) -> None:
+        self.writing = threading.Event()
+        self.released = threading.Event()
+        self.written: list[tuple[str, bytes]] = []
+        self.finished = False
+
+    def write(self, received_ns: int, key: str, data: bytes) -> None:
+        self.writing.set()
+        if not self.released.wait(10.0):
+            raise TimeoutError("the test never released the sink")
+        self.written.append((key, data))
+
+    def finish(self) -> None:
+        self.finished = True
+
+
+def test_samples_that_do_not_fit_are_counted_exactly_across_callback_threads(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setattr(record, "QUEUE_SIZE", 1)
+    sink = BlockedSink()
+    recorder = record.Recorder(sink, StopFlag())
+    try:
+        recorder.on_sample(sample("first", b"1"))
+        assert sink.writing.wait(10.0), "the writer took the first sample"
+        recorder.on_sample(sample("queued", b"2"))
+
+        def flood() -> None:
+            for _ in range(SAMPLES_PER_THREAD):
+                recorder.on_sample(sample("lost", b""))
+
+        threads = [threading.Thread(target=flood) for _ in range(THREADS)]
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join()
+    finally:
+        sink.released.set()
+        recorder.close()
+    assert recorder.dropped == THREADS * SAMPLES_PER_THREAD
+    assert sink.written == [("first", b"1"), ("queued", b"2")]
+    assert sink.finished and recorder.error is None
