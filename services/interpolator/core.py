@@ -120,8 +120,7 @@ class Feeder:
                     return
                 self.waiting_for_room = False
                 entries = self._next_entries(self.segment, min(room, MAX_BATCH))
-                more = self.hold > 0 or self.segment.remaining > 0 or bool(points)
-                self._send(entries, more)
+                self._send(entries, self._more_to_send(self.segment, points))
                 if self.hold == 0 and self.segment.remaining == 0:
                     self.segment = None
                     self.taken_id = self.segment_point_id
@@ -131,6 +130,13 @@ class Feeder:
             if points[0].epoch > self.queue.epoch:
                 return  # checked against a ring this interpolator has not heard of yet
             self._take(points.popleft())
+
+    def _more_to_send(self, segment: Segment, points: deque[Point]) -> bool:
+        """Whether entries follow without the client sending anything more: the rest of this
+        segment, or a segment of a point already here (``IncrementBatch.more``). A sequence-0
+        point alone is only the next trajectory's start; its segments are the client's to send,
+        and a client may be late (MotoROS waits for it)."""
+        return self.hold > 0 or segment.remaining > 0 or any(p.sequence != 0 for p in points)
 
     def _take(self, point: Point) -> None:
         assert self.queue is not None

@@ -103,8 +103,9 @@ class IncrementBatch(msgspec.Struct, array_like=True, frozen=True):
     at the head of its ring, so groups given the same timestamps start, and so arrive, in the
     same tick."""
     more: bool = False
-    """The interpolator holds more of this trajectory to send (the rest of a segment, or
-    points it has): a ring that runs dry after this batch is starved, not finished."""
+    """The interpolator holds more to send (the rest of a segment, or a segment of a point it
+    has; not a next trajectory's sequence-0 point alone): a ring that runs dry after this batch
+    is starved, not finished."""
 
 
 class QueueState(msgspec.Struct, array_like=True, frozen=True):
