@@ -84,7 +84,8 @@ def plot_recording(path: str | Path, out: str | Path, cell: str | None = None) -
     """Plot one cell of a recording into the PNG ``out``; return the figure that was saved.
 
     Lines carry a ``gid`` (``group<g>/joint<j>/commanded``, ``.../feedback``,
-    ``.../velocity``, ``group<g>/depth``, ``lateness``) so callers can find each series.
+    ``.../following_error``, ``.../velocity``, ``.../velocity/commanded``, ``group<g>/depth``,
+    ``lateness``) so callers can find each series.
     """
     cells = collect(path)
     name = choose_cell(cells, cell, path)
@@ -163,8 +164,10 @@ def _plot_group(
     positions_ax.set_ylabel("position (rad; m if linear)")
     error_ax.set_title(f"group {group_no}: following error (commanded - feedback)")
     error_ax.set_ylabel("error (mrad; mm if linear)")
-    shown = " (dashed) vs feedback (solid)" if "commanded" in velocities else " (feedback)"
-    velocities_ax.set_title(f"group {group_no}: joint velocities, commanded{shown}")
+    shown = (
+        ", commanded (dashed) vs feedback (solid)" if "commanded" in velocities else " (feedback)"
+    )
+    velocities_ax.set_title(f"group {group_no}: joint velocities{shown}")
     velocities_ax.set_ylabel("velocity (rad/s; m/s if linear)")
     # One legend entry per joint colour plus the two line styles, instead of 2 x joints entries;
     # outside the axes, so the plotting area shows only data.
@@ -175,7 +178,8 @@ def _plot_group(
     ]
     positions_ax.legend(handles=handles + styles, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     error_ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0))
-    velocities_ax.legend(handles=handles + styles, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    drawn = [style for style in styles if style.get_label() in velocities]
+    velocities_ax.legend(handles=handles + drawn, loc="upper left", bbox_to_anchor=(1.01, 1.0))
 
 
 def _series(states: list[dict[str, Any]], g: int, field: str) -> np.ndarray[Any, Any]:

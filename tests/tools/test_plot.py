@@ -8,8 +8,16 @@ from pathlib import Path
 
 import pytest
 
-from motocell.shared.bus.schemas import GroupTick, Tick, encode
+from motocell.shared.bus.schemas import (
+    GroupState,
+    GroupTick,
+    RobotStatusFields,
+    State,
+    Tick,
+    encode,
+)
 from motocell.tools import plot
+from motocell.tools.plotting import plot_recording
 from motocell.tools.recording import McapSink
 
 
@@ -52,3 +60,42 @@ def test_a_recording_cut_short_gets_one_line(
     path.write_bytes(whole[: int(len(whole) * keep) if isinstance(keep, float) else keep])
     assert plot_of(path) == 1
     assert capsys.readouterr().err == f"motocell plot: {path}: an MCAP file cut short or damaged\n"
+
+
+def states_recording(command_velocities: list[float]) -> bytes:
+    """A one-arm cell's state and ticks, its states with ``command_velocities`` (a recording
+    made before the servo model has none)."""
+    stream = io.BytesIO()
+    sink = McapSink(stream)
+    status = RobotStatusFields(1, 0, 0, 0, 1, 2, 1)
+    for n in range(5):
+        joints = [0.01 * n] * 6
+        group = GroupState(0, joints, [2.5] * 6, joints, command_velocities=command_velocities)
+        sink.write(1_000 + n, "motocell/c/state", encode(State(n + 1, n, 0, [group], status)))
+        tick = Tick(n, 0, 0, 0, True, [GroupTick([0] * 8, [0] * 8, [0] * 8, 0)])
+        sink.write(1_000 + n, "motocell/c/executor/tick", encode(tick))
+    sink.finish()
+    return stream.getvalue()
+
+
+@pytest.mark.parametrize(
+    ("command_velocities", "title", "commanded_lines"),
+    [
+        ([2.5] * 6, "group 0: joint velocities, commanded (dashed) vs feedback (solid)", 6),
+        ([], "group 0: joint velocities (feedback)", 0),
+    ],
+)
+def test_the_velocity_panel_says_what_it_draws(
+    tmp_path: Path, command_velocities: list[float], title: str, commanded_lines: int
+) -> None:
+    path = tmp_path / "run.mcap"
+    path.write_bytes(states_recording(command_velocities))
+    figure = plot_recording(path, tmp_path / "run.png")
+    velocities = figure.axes[2]
+    assert velocities.get_title() == title
+    gids = [str(line.get_gid()) for line in velocities.get_lines()]
+    assert sum(gid.endswith("/velocity/commanded") for gid in gids) == commanded_lines
+    legend = velocities.get_legend()
+    assert legend is not None
+    labels = [text.get_text() for text in legend.get_texts()]
+    assert ("commanded" in labels) == bool(commanded_lines)
