@@ -1,5 +1,6 @@
 """Frame trees composed for the tests, with no code of the kinematics they check: a quaternion
-turned into a rotation by the textbook formula, and frames chained up to a root.
+turned into a rotation by the textbook formula, frames chained up to a root, and a URDF chain
+(joint origins and axes, as a URDF writes them) posed at given joint positions.
 
 Foxglove's messages (``FrameTransforms``, ``PoseInFrame``, primitives' poses) come decoded from
 protobuf; ``vector`` and ``rotation`` read their ``Vector3`` and ``Quaternion``."""
@@ -7,7 +8,7 @@ protobuf; ``vector`` and ``rotation`` read their ``Vector3`` and ``Quaternion``.
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -34,6 +35,53 @@ def pose_matrix(translation: Sequence[float], rotation: Sequence[float]) -> Floa
     result = np.eye(4)
     result[:3, :3] = rotation_matrix(rotation)
     result[:3, 3] = translation
+    return result
+
+
+def axis_rotation(axis: Sequence[float] | FloatArray, angle: float) -> FloatArray:
+    """The rotation by ``angle`` about the unit ``axis``: Rodrigues' formula."""
+    x, y, z = axis
+    k = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+    rotation: FloatArray = np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * (k @ k)
+    return rotation
+
+
+def rpy_matrix(rpy: Sequence[float]) -> FloatArray:
+    """URDF's rpy: roll about x, then pitch about y, then yaw about z, all about the parent's
+    fixed axes, so R = Rz(yaw) Ry(pitch) Rx(roll)."""
+    roll, pitch, yaw = rpy
+    return (
+        axis_rotation((0.0, 0.0, 1.0), yaw)
+        @ axis_rotation((0.0, 1.0, 0.0), pitch)
+        @ axis_rotation((1.0, 0.0, 0.0), roll)
+    )
+
+
+class UrdfJoint(NamedTuple):
+    """A URDF joint as its file writes it: the child link's origin in the parent link (``xyz``
+    in metres, ``rpy`` in radians) and the revolute axis in the child link; no axis for a fixed
+    joint."""
+
+    xyz: Sequence[float]
+    rpy: Sequence[float]
+    axis: Sequence[float] | None = None
+
+
+def urdf_pose(joints: Sequence[UrdfJoint], positions: Sequence[float]) -> FloatArray:
+    """The last link of a URDF chain in the first joint's parent link, at ``positions`` (one
+    per joint with an axis, in order): for each joint, its origin, then its turn about its
+    axis."""
+    if len(positions) != sum(joint.axis is not None for joint in joints):
+        raise ValueError("one position per joint with an axis")
+    turns = iter(positions)
+    result = np.eye(4)
+    for joint in joints:
+        step = np.eye(4)
+        step[:3, :3] = rpy_matrix(joint.rpy)
+        step[:3, 3] = joint.xyz
+        if joint.axis is not None:
+            step[:3, :3] = step[:3, :3] @ axis_rotation(joint.axis, next(turns))
+        result = result @ step
     return result
 
 

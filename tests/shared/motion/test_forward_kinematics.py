@@ -1,66 +1,84 @@
-"""Forward kinematics against poses worked out independently: by hand from each arm's geometry
-(link lengths read off the GP7 and SIA10 drawings the tables model), and by a product of
-exponentials built from the joint axes at the home position, which shares no code or
-convention with the DH chain."""
+"""Forward kinematics against poses worked out independently: by hand from each arm's geometry,
+and against the chain of the ROS-Industrial URDF each table imitates, composed from the URDF's
+joint origins and axes (tests/frames.py), which shares no code or convention with the DH chain.
+
+The flange frame of arm6 is the GP7 URDF's tool0 and that of arm7 the SIA10D URDF's link_t (it
+has no tool0): no constant rotation between them, the frames are equal."""
 
 from __future__ import annotations
 
 import math
 
 import numpy as np
-import numpy.typing as npt
 import pytest
 
 from motocell.shared.config import RobotModel, load_catalogue
 from motocell.shared.motion.forward_kinematics import (
     Chain,
+    FloatArray,
     pose,
     quaternion,
     tool_pose,
     tool_transform,
 )
-from tests.frames import rotation_matrix
-
-FloatArray = npt.NDArray[np.float64]
+from tests.frames import UrdfJoint, axis_rotation, rotation_matrix, urdf_pose
 
 MODELS = load_catalogue()
 ARM6 = Chain(MODELS["arm6"])
 ARM7 = Chain(MODELS["arm7"])
 
-# The tables write a right angle as 1.5708 (3.7e-6 rad off), which moves a point up to ~4 um
-# over the arms' ~1 m: the tolerance for poses worked out with exact right angles.
-METRES = 2e-5
-RADIANS = 2e-5
+METRES = 1e-9
+RADIANS = 1e-9
+URDF_RADIANS = 1e-6
+"""The GP7 URDF writes tool0's rpy as (3.1415926, -1.570796, 0): 3.3e-7 rad off a half and a
+quarter turn."""
 HALF = math.pi / 2
 ROOT_HALF = math.sqrt(0.5)
+
+# ros-industrial/motoman, motoman_gp7_support/urdf/gp7_macro.xacro: joint_1_s ... joint_6_t, then
+# the fixed joint_6_t-tool0; every link frame is parallel to base_link at zero.
+GP7 = [
+    UrdfJoint((0.0, 0.0, 0.330), (0.0, 0.0, 0.0), (0.0, 0.0, 1.0)),
+    UrdfJoint((0.040, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 1.0, 0.0)),
+    UrdfJoint((0.0, 0.0, 0.445), (0.0, 0.0, 0.0), (0.0, -1.0, 0.0)),
+    UrdfJoint((0.440, 0.0, 0.040), (0.0, 0.0, 0.0), (-1.0, 0.0, 0.0)),
+    UrdfJoint((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, -1.0, 0.0)),
+    UrdfJoint((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (-1.0, 0.0, 0.0)),
+    UrdfJoint((0.080, 0.0, 0.0), (3.1415926, -1.570796, 0.0)),
+]
+GP7_LIMITS = [
+    (-2.9670, 2.9670),
+    (-1.1344, 2.5307),
+    (-1.2217, 3.3161),
+    (-3.3161, 3.3161),
+    (-2.3561, 2.3561),
+    (-6.2944, 6.2944),
+]
+# ros-industrial/motoman, motoman_sia10d_support/urdf/sia10d_macro.xacro: joint_s, l, e, u, r, b,
+# t; the chain ends at link_t.
+SIA10D = [
+    UrdfJoint((0.0, 0.0, 0.36), (0.0, 0.0, 0.0), (0.0, 0.0, 1.0)),
+    UrdfJoint((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 1.0, 0.0)),
+    UrdfJoint((0.0, 0.0, 0.36), (0.0, 0.0, 0.0), (0.0, 0.0, 1.0)),
+    UrdfJoint((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, -1.0, 0.0)),
+    UrdfJoint((0.0, 0.0, 0.360), (0.0, 0.0, 0.0), (0.0, 0.0, -1.0)),
+    UrdfJoint((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, -1.0, 0.0)),
+    UrdfJoint((0.0, 0.0, 0.155), (0.0, 0.0, 0.0), (0.0, 0.0, -1.0)),
+]
+SIA10D_LIMITS = [
+    (-3.1415, 3.1415),
+    (-1.9198, 1.9198),
+    (-2.9670, 2.9670),
+    (-2.3561, 2.3561),
+    (-3.1415, 3.1415),
+    (-1.9198, 1.9198),
+    (-3.1415, 3.1415),
+]
 
 
 def rotation_z(angle: float) -> FloatArray:
     c, s = math.cos(angle), math.sin(angle)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
-def rodrigues(axis: FloatArray, angle: float) -> FloatArray:
-    """The rotation by ``angle`` about the unit ``axis``."""
-    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
-    rotation: FloatArray = np.eye(3) + math.sin(angle) * k + (1 - math.cos(angle)) * (k @ k)
-    return rotation
-
-
-def screw_pose(
-    axes: list[tuple[tuple[float, float, float], tuple[float, float, float]]],
-    home: FloatArray,
-    joints: FloatArray,
-) -> FloatArray:
-    """Product of exponentials: each joint rotates everything after it about its axis (a
-    direction and a point on it, both at the home position); ``home`` is the flange there."""
-    result = np.eye(4)
-    for (direction, point), angle in zip(axes, joints, strict=True):
-        step = np.eye(4)
-        step[:3, :3] = rodrigues(np.array(direction, dtype=float), float(angle))
-        step[:3, 3] = np.array(point) - step[:3, :3] @ np.array(point)
-        result = result @ step
-    return result @ home
 
 
 # arm6 (GP7): base 0.330 to L, L 0.040 in front of S, upper arm 0.445, forearm 0.040 above U
@@ -69,29 +87,11 @@ def screw_pose(
 ARM6_HOME = np.array(
     [[0.0, 0.0, 1.0, 0.560], [0.0, -1.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.815], [0.0, 0.0, 0.0, 1.0]]
 )
-ARM6_AXES = [
-    ((0.0, 0.0, 1.0), (0.0, 0.0, 0.0)),  # S: vertical through the base
-    ((0.0, 1.0, 0.0), (0.040, 0.0, 0.330)),  # L: the table's z1 is +y
-    ((0.0, 1.0, 0.0), (0.040, 0.0, 0.775)),  # U
-    ((1.0, 0.0, 0.0), (0.0, 0.0, 0.815)),  # R: along the forearm
-    ((0.0, 1.0, 0.0), (0.480, 0.0, 0.815)),  # B: through the wrist centre
-    ((1.0, 0.0, 0.0), (0.0, 0.0, 0.815)),  # T: out of the flange
-]
-# arm7 (SIA10): upright at home, 0.360 base to L, L to U, U to B, then 0.155 to the flange;
-# S, E, R and T are vertical, L, U and B horizontal along +y. The flange is the base frame
-# lifted by 1.235.
+# arm7 (SIA10D): upright at home, 0.360 base to L, L to U, U to B, then 0.155 to the flange.
+# The flange is the base frame lifted by 1.235.
 ARM7_HOME = np.array(
     [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 1.235], [0.0, 0.0, 0.0, 1.0]]
 )
-ARM7_AXES = [
-    ((0.0, 0.0, 1.0), (0.0, 0.0, 0.0)),  # S
-    ((0.0, 1.0, 0.0), (0.0, 0.0, 0.360)),  # L
-    ((0.0, 0.0, 1.0), (0.0, 0.0, 0.0)),  # E: along the upper arm, between L and U
-    ((0.0, 1.0, 0.0), (0.0, 0.0, 0.720)),  # U
-    ((0.0, 0.0, 1.0), (0.0, 0.0, 0.0)),  # R
-    ((0.0, 1.0, 0.0), (0.0, 0.0, 1.080)),  # B
-    ((0.0, 0.0, 1.0), (0.0, 0.0, 0.0)),  # T
-]
 
 
 def test_arm6_home_is_a_gp7_at_rest() -> None:
@@ -106,17 +106,29 @@ def test_arm7_home_is_upright() -> None:
 @pytest.mark.parametrize(
     ("joints", "flange_position"),
     [
-        # S a quarter turn: the arm faces +y.
+        # S a quarter turn (about +z): the arm faces +y.
         ([HALF, 0, 0, 0, 0, 0], [0.0, 0.560, 0.815]),
-        # L forward a quarter turn about the shoulder (0.040, 0, 0.330): the upper arm lies
-        # forward, the forearm hangs down: (0.040 + 0.485, 0, 0.330 - 0.520).
+        # L forward a quarter turn about the shoulder (0.040, 0, 0.330) (L turns about +y): the
+        # upper arm lies forward, the forearm hangs down: (0.040 + 0.485, 0, 0.330 - 0.520).
         ([0, HALF, 0, 0, 0, 0], [0.525, 0.0, -0.190]),
-        # U a quarter turn about the elbow (0.040, 0, 0.775): the forearm points down,
-        # (0.040 + 0.040, 0, 0.775 - 0.520).
-        ([0, 0, HALF, 0, 0, 0], [0.080, 0.0, 0.255]),
-        # B a quarter turn about the wrist centre (0.480, 0, 0.815): the flange 0.080 below it.
-        ([0, 0, 0, 0, HALF, 0], [0.480, 0.0, 0.735]),
-        # R first turns the B axis from +y to +z, so B then swings the flange sideways.
+        # U a quarter turn about the elbow (0.040, 0, 0.775) (U turns about -y) raises the
+        # forearm upright; the 0.040 it sits above U now points back: (0.040 - 0.040, 0,
+        # 0.775 + 0.520).
+        ([0, 0, HALF, 0, 0, 0], [0.0, 0.0, 1.295]),
+        # U -70 degrees, its lower limit, lowers the forearm: the flange, 0.520 out and 0.040
+        # up from the elbow at home, turns 70 degrees down about it.
+        (
+            [0, 0, -math.radians(70), 0, 0, 0],
+            [
+                0.040 + 0.520 * math.cos(math.radians(70)) + 0.040 * math.sin(math.radians(70)),
+                0.0,
+                0.775 - 0.520 * math.sin(math.radians(70)) + 0.040 * math.cos(math.radians(70)),
+            ],
+        ),
+        # B a quarter turn about the wrist centre (0.480, 0, 0.815) (B turns about -y) tips
+        # the flange up: 0.080 above it.
+        ([0, 0, 0, 0, HALF, 0], [0.480, 0.0, 0.895]),
+        # R (about -x) first turns the B axis from -y to +z, so B then swings the flange to +y.
         ([0, 0, 0, HALF, HALF, 0], [0.480, 0.080, 0.815]),
         # T turns about the flange's own axis: the position stays.
         ([0, 0, 0, 0, 0, 1.0], [0.560, 0.0, 0.815]),
@@ -127,38 +139,67 @@ def test_arm6_single_joint_moves_by_hand(joints: list[float], flange_position: l
     np.testing.assert_allclose(position, flange_position, atol=METRES)
 
 
-def test_arm6_t_turns_the_flange_about_its_z() -> None:
-    """T = 90 degrees: the flange's z still points forward, its x turns from up to -y."""
+def test_arm6_t_turns_the_flange_about_its_minus_z() -> None:
+    """T turns about the GP7's -x at home, which is the flange's -z: at T = 90 degrees the
+    flange's z still points forward and its x turns from up to +y."""
     flange = ARM6.flange(np.array([0, 0, 0, 0, 0, HALF]))
     np.testing.assert_allclose(flange[:3, 2], [1.0, 0.0, 0.0], atol=RADIANS)
-    np.testing.assert_allclose(flange[:3, 0], [0.0, -1.0, 0.0], atol=RADIANS)
+    np.testing.assert_allclose(flange[:3, 0], [0.0, 1.0, 0.0], atol=RADIANS)
+
+
+@pytest.mark.parametrize(("chain", "urdf", "model"), [(ARM6, GP7, "arm6"), (ARM7, SIA10D, "arm7")])
+def test_agrees_with_the_urdf_chain(chain: Chain, urdf: list[UrdfJoint], model: str) -> None:
+    """Random joint vectors inside the joint ranges: the flange is the URDF's last frame,
+    position and orientation."""
+    limits = np.array(MODELS[model].joint_limits)
+    rng = np.random.default_rng(16)
+    vectors = rng.uniform(limits[:, 0], limits[:, 1], size=(500, len(limits)))
+    flanges = chain.flange(vectors)
+    for joints, flange in zip(vectors, flanges, strict=True):
+        expected = urdf_pose(urdf, joints)
+        np.testing.assert_allclose(flange[:3, 3], expected[:3, 3], atol=METRES)
+        np.testing.assert_allclose(flange[:3, :3], expected[:3, :3], atol=URDF_RADIANS)
 
 
 @pytest.mark.parametrize(
-    ("chain", "axes", "home", "model"),
-    [(ARM6, ARM6_AXES, ARM6_HOME, "arm6"), (ARM7, ARM7_AXES, ARM7_HOME, "arm7")],
+    ("model", "urdf_limits", "differing"),
+    [("arm6", GP7_LIMITS, {5}), ("arm7", SIA10D_LIMITS, set())],
 )
-def test_agrees_with_product_of_exponentials(
-    chain: Chain,
-    axes: list[tuple[tuple[float, float, float], tuple[float, float, float]]],
-    home: FloatArray,
-    model: str,
+def test_joint_limits_are_the_urdf_ones_per_direction(
+    model: str, urdf_limits: list[tuple[float, float]], differing: set[int]
 ) -> None:
-    """Random joint vectors inside the joint ranges, against the screw model."""
-    limits = np.array(MODELS[model].joint_limits)
-    rng = np.random.default_rng(16)
-    for joints in rng.uniform(limits[:, 0], limits[:, 1], size=(50, len(limits))):
-        np.testing.assert_allclose(
-            chain.flange(joints), screw_pose(axes, home, joints), atol=METRES
-        )
+    """With the URDF's joint directions, each signed limit is the URDF's (to its 4 decimals),
+    except the GP7's T: the datasheet's +-360 degrees, where the URDF writes +-6.2944."""
+    limits = MODELS[model].joint_limits
+    for axis, (ours, urdf) in enumerate(zip(limits, urdf_limits, strict=True)):
+        if axis not in differing:
+            assert ours == pytest.approx(urdf, abs=2e-4)
+    for axis in differing:
+        assert limits[axis] == pytest.approx([-2 * math.pi, 2 * math.pi], abs=1e-4)
+
+
+def test_arm7_l_and_u_turn_as_on_an_sia10d() -> None:
+    """L turns about +y, U about -y: L a quarter turn lays the upper arm forward (elbow at
+    (0.360, 0, 0.360)), and U a quarter turn then raises the forearm upright from there."""
+    np.testing.assert_allclose(
+        pose(ARM7.flange(np.array([0, HALF, 0, 0, 0, 0, 0]))).position,
+        [0.875, 0, 0.360],
+        atol=METRES,
+    )
+    np.testing.assert_allclose(
+        pose(ARM7.flange(np.array([0, HALF, 0, HALF, 0, 0, 0]))).position,
+        [0.360, 0, 0.875],
+        atol=METRES,
+    )
 
 
 def test_arm7_e_is_an_elbow_roll_between_l_and_u() -> None:
-    """L and U a quarter turn each: the upper arm lies forward (elbow at (0.360, 0, 0.360)) and
-    the forearm hangs down. E then turns the forearm about the upper arm, so the flange swings
-    sideways around it; an E axis at the wrist (Motoman's pulse order) would leave it still."""
-    bent = np.array([0, HALF, 0, HALF, 0, 0, 0])
-    rolled = np.array([0, HALF, HALF, HALF, 0, 0, 0])
+    """L a quarter turn and U a quarter turn back: the upper arm lies forward (elbow at
+    (0.360, 0, 0.360)) and the forearm hangs down. E then turns the forearm about the upper arm,
+    so the flange swings sideways around it; an E axis at the wrist (Motoman's pulse order)
+    would leave it still."""
+    bent = np.array([0, HALF, 0, -HALF, 0, 0, 0])
+    rolled = np.array([0, HALF, HALF, -HALF, 0, 0, 0])
     np.testing.assert_allclose(pose(ARM7.flange(bent)).position, [0.360, 0, -0.155], atol=METRES)
     np.testing.assert_allclose(
         pose(ARM7.flange(rolled)).position, [0.360, 0.515, 0.360], atol=METRES
@@ -243,10 +284,10 @@ def test_tool_offset_is_along_the_flange_axes() -> None:
 
 
 def test_tool_offset_turns_with_the_wrist() -> None:
-    """B a quarter turn points the flange down: a 0.100 tool then reaches 0.180 below the
-    wrist centre (0.480, 0, 0.815)."""
+    """B a quarter turn points the flange up: a 0.100 tool then reaches 0.180 above the wrist
+    centre (0.480, 0, 0.815)."""
     tcp = ARM6.tcp(np.array([0, 0, 0, 0, HALF, 0]), tool_transform([0, 0, 0.100, 0, 0, 0]))
-    np.testing.assert_allclose(tcp[:3, 3], [0.480, 0.0, 0.635], atol=METRES)
+    np.testing.assert_allclose(tcp[:3, 3], [0.480, 0.0, 0.995], atol=METRES)
 
 
 def test_tool_rotation_is_fixed_axis_roll_pitch_yaw() -> None:
@@ -297,7 +338,7 @@ def test_quaternion_of_known_rotations(
 ) -> None:
     """(sin(angle/2) * axis, cos(angle/2)), including half turns, where w is 0 and the sign of
     the vector part must still be consistent."""
-    q = quaternion(rodrigues(np.array(axis, dtype=float), angle))
+    q = quaternion(axis_rotation(np.array(axis, dtype=float), angle))
     assert abs(np.dot(q, expected)) == pytest.approx(1.0, abs=1e-12)
 
 
@@ -317,7 +358,7 @@ def test_matrix_quaternion_round_trip() -> None:
     for _ in range(500):
         axis = rng.normal(size=3)
         axis /= np.linalg.norm(axis)
-        rotation = rodrigues(axis, rng.uniform(-math.pi, math.pi))
+        rotation = axis_rotation(axis, rng.uniform(-math.pi, math.pi))
         q = quaternion(rotation)
         np.testing.assert_allclose(rotation_matrix(q), rotation, atol=1e-12)
         np.testing.assert_allclose(quaternion(rotation_matrix(q)), q, atol=1e-12)
