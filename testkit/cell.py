@@ -26,6 +26,7 @@ from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Generic, TypeVar
 
 import zenoh
 
@@ -300,25 +301,35 @@ def zenoh_router(listen: str = "", config_file: Path | None = None) -> Iterator[
             raise AssertionError(f"the router did not stop within {STOP_TIMEOUT_S} s") from None
 
 
-class TickLog:
-    """Every executor tick, as any Zenoh observer sees it."""
+T = TypeVar("T")
 
-    def __init__(self, session: zenoh.Session, keys: CellKeys) -> None:
-        self.ticks: list[Tick] = []
+
+class SampleLog(Generic[T]):
+    """Every sample on ``key``, decoded as ``payload_type``, as any Zenoh observer sees it."""
+
+    def __init__(self, session: zenoh.Session, key: str, payload_type: type[T]) -> None:
+        self.samples: list[T] = []
         self.lock = threading.Lock()
-        decoder = Decoder(Tick)
+        decoder = Decoder(payload_type)
 
         def store(sample: zenoh.Sample) -> None:
-            tick = decoder.decode(sample.payload.to_bytes())
+            decoded = decoder.decode(sample.payload.to_bytes())
             with self.lock:
-                self.ticks.append(tick)
+                self.samples.append(decoded)
 
-        self.subscriber = session.declare_subscriber(keys.executor_tick, store)
+        self.subscriber = session.declare_subscriber(key, store)
 
-    def since(self, index: int) -> list[Tick]:
+    def since(self, index: int) -> list[T]:
         with self.lock:
-            return self.ticks[index:]
+            return self.samples[index:]
 
     def __len__(self) -> int:
         with self.lock:
-            return len(self.ticks)
+            return len(self.samples)
+
+
+class TickLog(SampleLog[Tick]):
+    """Every executor tick."""
+
+    def __init__(self, session: zenoh.Session, keys: CellKeys) -> None:
+        super().__init__(session, keys.executor_tick, Tick)

@@ -4,17 +4,17 @@ command exactly; STOP_MOTION brings it to rest through the servo, an E-stop stop
 
 from __future__ import annotations
 
-import threading
 from collections.abc import Iterator
 
 import numpy as np
 import pytest
 import zenoh
 
-from motocell.shared.bus.schemas import CommandRequest, Decoder, State, Tick
+from motocell.services.broadcaster.core import IN_MOTION_PULSES
+from motocell.shared.bus.schemas import CommandRequest, State, Tick
 from motocell.shared.bus.session import call
 from motocell.shared.protocol.constants import Command, Result
-from motocell.testkit.cell import RunningCell, TickLog
+from motocell.testkit.cell import RunningCell, SampleLog, TickLog
 from motocell.testkit.client import MotionClient, PlannedPoint, StateListener, stream
 from motocell.testkit.following import following_errors
 from motocell.testkit.processes import wait_until
@@ -23,36 +23,12 @@ pytestmark = pytest.mark.cell
 
 SPEED = 0.5
 """rad/s on axis S: 29,335 pulses/s on arm6, so the default servo lags by about 630 pulses."""
-IN_MOTION_PULSES = 30
-
-
-class StateLog:
-    """Every ``state`` sample: commanded and feedback positions with in_motion, together."""
-
-    def __init__(self, bus: zenoh.Session, key: str) -> None:
-        self.states: list[State] = []
-        self.lock = threading.Lock()
-        decoder = Decoder(State)
-
-        def store(sample: zenoh.Sample) -> None:
-            state = decoder.decode(sample.payload.to_bytes())
-            with self.lock:
-                self.states.append(state)
-
-        self.subscriber = bus.declare_subscriber(key, store)
-
-    def since(self, index: int) -> list[State]:
-        with self.lock:
-            return self.states[index:]
-
-    def __len__(self) -> int:
-        with self.lock:
-            return len(self.states)
 
 
 @pytest.fixture
-def states(cell: RunningCell, bus: zenoh.Session) -> Iterator[StateLog]:
-    log = StateLog(bus, cell.keys.state)
+def states(cell: RunningCell, bus: zenoh.Session) -> Iterator[SampleLog[State]]:
+    """Every ``state`` sample: commanded and feedback positions with in_motion, together."""
+    log = SampleLog(bus, cell.keys.state, State)
     yield log
     log.subscriber.undeclare()
 
@@ -100,7 +76,11 @@ def error_pulses(state: State) -> int:
 
 
 def test_the_feedback_lags_while_moving_and_settles_exactly(
-    cell: RunningCell, motion: MotionClient, state: StateListener, states: StateLog, ticks: TickLog
+    cell: RunningCell,
+    motion: MotionClient,
+    state: StateListener,
+    states: SampleLog[State],
+    ticks: TickLog,
 ) -> None:
     assert motion.command(Command.START_TRAJ_MODE).result == Result.SUCCESS
     start = at_rest(state)
