@@ -2,8 +2,10 @@
 a local cell's: ``python -m motocell.tools.deploy`` rewrites ``deploy/zenoh/router.json5`` for
 the cell ``compose.yaml`` runs, and a test fails when the file and the code disagree.
 
-The router listens on TLS only; services and observers present a password (and the router's
-CA) from the credentials directory that ``motocell credentials`` writes and compose mounts.
+The router listens on TLS only; services and observers present a password and their
+certificate (mutual TLS) from the credentials directory that ``motocell credentials --tls``
+writes and compose mounts. ``scripts/multihost`` runs its cell's router from the same settings
+(``secured_router_settings``), so the deployment is the one that test runs.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from typing import Any
 
 from motocell.shared.bus.access import cell_identities
 from motocell.shared.bus.router import router_settings
-from motocell.shared.config import load_cell
+from motocell.shared.config import Cell, load_cell
 
 REPO = Path(__file__).resolve().parent.parent
 COMPOSE_CELL = "shared/cells/dual-arm-positioner.toml"
@@ -25,14 +27,20 @@ container."""
 LISTEN = "tls/0.0.0.0:7447"
 
 
-def compose_router_settings(repo: Path = REPO) -> dict[str, Any]:
-    cell = load_cell(repo / COMPOSE_CELL)
+def secured_router_settings(cell: Cell, listen: str, credentials: Path) -> dict[str, Any]:
+    """The router of a cell whose services run on several hosts: TLS only, mutual TLS, the
+    passwords and the key map's access control for the cell's identities."""
     return router_settings(
-        [LISTEN],
+        [listen],
         cell=cell.name,
         identities=cell_identities(len(cell.groups)),
-        credentials=Path(CREDENTIALS_MOUNT),
+        credentials=credentials,
+        mutual_tls=True,
     )
+
+
+def compose_router_settings(repo: Path = REPO) -> dict[str, Any]:
+    return secured_router_settings(load_cell(repo / COMPOSE_CELL), LISTEN, Path(CREDENTIALS_MOUNT))
 
 
 def router_config_text(repo: Path = REPO) -> str:

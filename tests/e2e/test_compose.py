@@ -11,7 +11,9 @@ import signal
 import subprocess
 import sys
 from collections.abc import Iterator
+from importlib.metadata import version
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -31,6 +33,7 @@ from motocell.testkit.client import MotionClient, StateListener, smooth_move, st
 from motocell.testkit.processes import alive, wait_until
 from motocell.tools.deploy import (
     COMPOSE_CELL,
+    CREDENTIALS_MOUNT,
     LISTEN,
     ROUTER_CONFIG,
     compose_router_settings,
@@ -40,17 +43,17 @@ from motocell.tools.deploy import (
 pytestmark = pytest.mark.cell
 
 
-MOUNT = "/etc/motocell/credentials"
+def compose_file(repo: Path) -> dict[str, Any]:
+    compose: dict[str, Any] = yaml.safe_load((repo / "compose.yaml").read_text())
+    return compose
 
 
 def compose_commands(
     repo: Path, router: str, port_base: int, credentials: Path
 ) -> dict[str, list[str]]:
-    compose = yaml.safe_load((repo / "compose.yaml").read_text())
     commands = {}
-    for name, service in compose["services"].items():
+    for name, service in compose_file(repo)["services"].items():
         if name == "zenohd":
-            assert service["image"] == "eclipse/zenoh:1.10.2"
             continue
         command = [str(part) for part in service["command"]]
         assert command[:2] == ["python", "-m"], f"{name}: runs a motocell module"
@@ -58,7 +61,7 @@ def compose_commands(
         for original in command[2:]:
             part = original.replace("tls/zenohd:7447", router)
             part = part.replace("/etc/motocell/cells/", f"{repo}/shared/cells/")
-            part = part.replace(MOUNT, str(credentials))
+            part = part.replace(CREDENTIALS_MOUNT, str(credentials))
             rewritten.append({"0.0.0.0": "127.0.0.1", "50240": str(port_base)}.get(part, part))
         assert rewritten[rewritten.index("--credentials") + 1] == str(credentials), name
         commands[name] = rewritten
@@ -68,7 +71,7 @@ def compose_commands(
 def router_config(repo: Path, credentials: Path, listen: str, out: Path) -> Path:
     """deploy/zenoh/router.json5 with this machine's paths and endpoint."""
     text = (repo / ROUTER_CONFIG).read_text()
-    text = text.replace(MOUNT, str(credentials)).replace(LISTEN, listen)
+    text = text.replace(CREDENTIALS_MOUNT, str(credentials)).replace(LISTEN, listen)
     out.write_text(text)
     return out
 
@@ -110,7 +113,7 @@ def stop_services(processes: list[subprocess.Popen[bytes]]) -> None:
 
 
 def test_compose_services_execute_a_trajectory(repo: Path, compose_cell: int) -> None:
-    cell = load_cell(repo / "shared" / "cells" / "dual-arm-positioner.toml")
+    cell = load_cell(repo / COMPOSE_CELL)
     maps = [AxisMap(group) for group in cell.groups]
     byte_order = ByteOrder(cell.byte_order)
 
@@ -166,9 +169,8 @@ def test_compose_runs_one_container_per_service_identity_of_its_cell(repo: Path)
     a service the cell gains, or a group, fails here until compose runs it."""
     cell = load_cell(repo / COMPOSE_CELL)
     router_port = LISTEN.rpartition(":")[2]
-    compose = yaml.safe_load((repo / "compose.yaml").read_text())
     running = []
-    for name, service in compose["services"].items():
+    for name, service in compose_file(repo)["services"].items():
         if name == "zenohd":
             continue
         command = [str(part) for part in service["command"]]
@@ -192,6 +194,22 @@ def test_the_compose_router_is_tls_only_with_access_control(repo: Path) -> None:
     settings = compose_router_settings(repo)
     assert settings["listen"]["endpoints"] == [LISTEN]
     assert settings["transport"]["link"]["protocols"] == ["tls"]
+    assert settings["transport"]["link"]["tls"]["enable_mtls"] is True
     assert settings["access_control"]["default_permission"] == "deny"
     assert settings["scouting"]["gossip"]["enabled"] is False
     assert settings["adminspace"]["enabled"] is False
+
+
+def test_compose_mounts_the_generated_router_config_and_the_credentials_everywhere(
+    repo: Path,
+) -> None:
+    """Where the router config and the credentials it names are, in every container, and the
+    router image the Python wheel's Zenoh version, so the two speak the same protocol."""
+    services = compose_file(repo)["services"]
+    credentials = f"./deploy/credentials:{CREDENTIALS_MOUNT}:ro"
+    router = services.pop("zenohd")
+    assert router["image"] == f"eclipse/zenoh:{version('eclipse-zenoh')}"
+    config = router["command"][router["command"].index("-c") + 1]
+    assert router["volumes"] == [f"./{ROUTER_CONFIG}:{config}:ro", credentials]
+    for name, service in services.items():
+        assert service["volumes"] == [credentials], name
