@@ -1,16 +1,16 @@
 """The Python half of ``scripts/multihost``: what runs inside its hosts.
 
-- ``router-config`` writes the router configuration of a secured multi-host cell (TLS only,
-  mutual TLS, passwords, the access control of the key map), as ``tools.deploy`` does for
-  compose's cell.
+- ``router-config`` writes the router configuration of a secured multi-host cell: compose's
+  (``tools.deploy.secured_router_settings``: TLS only, mutual TLS, passwords, the access
+  control of the key map) for this cell and endpoint.
 - ``drive`` is host C: the demo trajectory (``tools.demo.drive``, the same report as
-  ``scripts/demo``) while an observer on the cell's bus records ticks, states and the gateway's
-  metrics; then the reply latency this host sees, the state's age here and the empty-queue
-  periods. With ``--fault`` it runs a longer trajectory instead, asks the script for the fault
-  in its middle (a file ``begin`` in ``--signals``; the script answers ``end`` once the link or
-  the router is back), and reports what the cell told the client and whether anything moved
-  after that; then START_TRAJ_MODE until it succeeds, and a new trajectory, which must arrive
-  exact.
+  ``scripts/demo``, with the following error from the observer's bus) while that observer
+  records ticks, states and the gateway's metrics; then the reply latency this host sees, the
+  state's age here and the empty-queue periods. With ``--fault`` it runs a longer trajectory
+  instead, asks the script for the fault in its middle (a file ``begin`` in ``--signals``;
+  the script answers ``end`` once the link or the router is back), and reports what the cell
+  told the client and whether anything moved after that; then START_TRAJ_MODE until it
+  succeeds, and a new trajectory, which must arrive exact.
 
 Host C measures ages with CLOCK_MONOTONIC against the executor's ``tick_ns``: the namespaces
 share one kernel, so one clock (real hosts would need a synchronized one).
@@ -25,6 +25,7 @@ import json
 import sys
 import threading
 import time
+from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,11 +34,10 @@ import numpy as np
 import zenoh
 
 from motocell.bench.bench_streaming import empty_periods
-from motocell.shared.bus.access import Identity, cell_identities
+from motocell.shared.bus.access import Identity
 from motocell.shared.bus.catalog import Role
 from motocell.shared.bus.credentials import load
 from motocell.shared.bus.keys import CellKeys
-from motocell.shared.bus.router import router_settings
 from motocell.shared.bus.schemas import ControllerStatus, Decoder, GatewayMetrics, State, Tick
 from motocell.shared.bus.session import open_session
 from motocell.shared.config import Cell, load_cell
@@ -56,7 +56,11 @@ from motocell.testkit.client import (
 )
 from motocell.testkit.processes import wait_until
 from motocell.tools.demo import drive, goal_within
+from motocell.tools.deploy import secured_router_settings
 
+RECORDED = 65_536
+"""Samples the observer keeps per key, the newest: over four minutes of ticks at 250/s, more
+than a run lasts before its deadlines end it."""
 PROBES = 200
 """CHECK_MOTION_READY requests timed at the client after the demo trajectory."""
 FAULT_DURATION_S = 6.0
@@ -79,29 +83,39 @@ whole again."""
 
 
 def write_router_config(config: str, listen: str, credentials: Path, out: Path) -> None:
-    cell = load_cell(config)
-    settings = router_settings(
-        [listen],
-        cell=cell.name,
-        identities=cell_identities(len(cell.groups)),
-        credentials=credentials,
-        mutual_tls=True,
-    )
+    settings = secured_router_settings(load_cell(config), listen, credentials)
     out.write_text(json.dumps(settings, indent=2) + "\n")
 
 
-class Recorder:
-    """Every tick, state, gateway metric and controller status from now on, each with the time
-    it arrived here (CLOCK_MONOTONIC). Callbacks only store bytes: decoding waits for the
+class Samples:
+    """The newest RECORDED samples of one key, each with the time it arrived here
+    (CLOCK_MONOTONIC). The subscriber's thread only stores bytes: decoding waits for the
     report."""
 
+    def __init__(self) -> None:
+        self._samples: deque[tuple[int, bytes]] = deque(maxlen=RECORDED)
+        self._lock = threading.Lock()
+
+    def store(self, sample: zenoh.Sample) -> None:
+        arrived = time.monotonic_ns()
+        with self._lock:
+            self._samples.append((arrived, sample.payload.to_bytes()))
+
+    def all(self) -> list[tuple[int, bytes]]:
+        with self._lock:
+            return list(self._samples)
+
+    def between(self, start_ns: int, end_ns: int) -> list[tuple[int, bytes]]:
+        return [(at, raw) for at, raw in self.all() if start_ns <= at <= end_ns]
+
+
+class Recorder:
+    """Ticks, states, gateway metrics and controller statuses from now on."""
+
     def __init__(self, session: zenoh.Session, keys: CellKeys) -> None:
-        self.ticks: list[tuple[int, bytes]] = []
-        self.states: list[tuple[int, bytes]] = []
-        self.gateway: list[tuple[int, bytes]] = []
-        self.statuses: list[tuple[int, bytes]] = []
+        self.ticks, self.states, self.gateway, self.statuses = (Samples() for _ in range(4))
         self._subscribers = [
-            session.declare_subscriber(key, _storing(samples))
+            session.declare_subscriber(key, samples.store)
             for key, samples in (
                 (keys.executor_tick, self.ticks),
                 (keys.state, self.states),
@@ -116,20 +130,7 @@ class Recorder:
 
     def ticks_between(self, start_ns: int, end_ns: int) -> list[Tick]:
         decoder = Decoder(Tick)
-        return [decoder.decode(raw) for at, raw in list(self.ticks) if start_ns <= at <= end_ns]
-
-    def latest_status(self) -> ControllerStatus | None:
-        statuses = list(self.statuses)
-        return Decoder(ControllerStatus).decode(statuses[-1][1]) if statuses else None
-
-
-def _storing(samples: list[tuple[int, bytes]]) -> Callable[[zenoh.Sample], None]:
-    store = samples.append
-
-    def on_sample(sample: zenoh.Sample) -> None:
-        store((time.monotonic_ns(), sample.payload.to_bytes()))
-
-    return on_sample
+        return [decoder.decode(raw) for _, raw in self.ticks.between(start_ns, end_ns)]
 
 
 def percentiles_ms(values_ns: Sequence[float]) -> str:
@@ -158,12 +159,11 @@ def gateway_reply_times(recorder: Recorder, start_ns: int, end_ns: int) -> str:
     """The gateway's own request -> reply time for trajectory points, worst second."""
     decoder = Decoder(GatewayMetrics)
     p50s, p99s = [], []
-    for at, raw in list(recorder.gateway):
-        if start_ns <= at <= end_ns:
-            for stats in decoder.decode(raw).requests:
-                if stats.msg_type == MsgType.MOTO_JOINT_TRAJ_PT_FULL_EX and stats.reply.count:
-                    p50s.append(stats.reply.p50_us)
-                    p99s.append(stats.reply.p99_us)
+    for _, raw in recorder.gateway.between(start_ns, end_ns):
+        for stats in decoder.decode(raw).requests:
+            if stats.msg_type == MsgType.MOTO_JOINT_TRAJ_PT_FULL_EX and stats.reply.count:
+                p50s.append(stats.reply.p50_us)
+                p99s.append(stats.reply.p99_us)
     if not p50s:
         return "none reported"
     return f"p50 up to {max(p50s) / 1e3:.2f} ms, p99 up to {max(p99s) / 1e3:.2f} ms"
@@ -172,9 +172,7 @@ def gateway_reply_times(recorder: Recorder, start_ns: int, end_ns: int) -> str:
 def state_ages(recorder: Recorder, start_ns: int, end_ns: int) -> list[int]:
     decoder = Decoder(State)
     return [
-        at - decoder.decode(raw).tick_ns
-        for at, raw in list(recorder.states)
-        if start_ns <= at <= end_ns
+        at - decoder.decode(raw).tick_ns for at, raw in recorder.states.between(start_ns, end_ns)
     ]
 
 
@@ -193,11 +191,20 @@ def empty_queue_periods(ticks: list[Tick]) -> str:
 
 
 def report_run(
-    cell: Cell, host: str, port_base: int, recorder: Recorder, *, points: int, duration: float
+    cell: Cell,
+    host: str,
+    port_base: int,
+    bus: zenoh.Session,
+    recorder: Recorder,
+    *,
+    points: int,
+    duration: float,
 ) -> int:
     byte_order = ByteOrder(cell.byte_order)
     start = time.monotonic_ns()
-    status = drive(cell, host, port_base, byte_order=byte_order, points=points, duration=duration)
+    status = drive(
+        cell, host, port_base, byte_order=byte_order, points=points, duration=duration, bus=bus
+    )
     end = time.monotonic_ns()
     latencies = probe_replies(host, port_base, byte_order, PROBES)
     print(f"reply latency:    {percentiles_ms(latencies)} at host C ({PROBES} CHECK_MOTION_READY)")
@@ -379,10 +386,10 @@ def _recovered(motion: MotionClient, ended_ns: int) -> bool:
 
 
 def _whole(recorder: Recorder, since_ns: int) -> bool:
-    statuses = [raw for at, raw in list(recorder.statuses) if at > since_ns]
+    statuses = recorder.statuses.between(since_ns + 1, time.monotonic_ns())
     if not statuses:
         return False
-    status = Decoder(ControllerStatus).decode(statuses[-1])
+    status = Decoder(ControllerStatus).decode(statuses[-1][1])
     return not status.missing_services
 
 
@@ -418,6 +425,15 @@ def _ms_after(origin_ns: int) -> Callable[[int], str]:
 
 
 def run_drive(args: argparse.Namespace) -> int:
+    """``drive``, with what stopped it (the bus, a port, a deadline) said in one line."""
+    try:
+        return _drive(args)
+    except (TimeoutError, OSError) as exc:
+        print(f"multihost: {exc}", flush=True)
+        return 1
+
+
+def _drive(args: argparse.Namespace) -> int:
     cell = load_cell(args.config)
     endpoint = f"tls/{args.host}:{args.router_port}"
     observer = load(Path(args.credentials), cell.name, Identity(Role.OBSERVER))
@@ -427,7 +443,13 @@ def run_drive(args: argparse.Namespace) -> int:
         if args.fault:
             return 0 if fault_run(cell, args.host, args.port_base, recorder, args.signals) else 1
         return report_run(
-            cell, args.host, args.port_base, recorder, points=args.points, duration=args.duration
+            cell,
+            args.host,
+            args.port_base,
+            session,
+            recorder,
+            points=args.points,
+            duration=args.duration,
         )
     finally:
         recorder.close()
