@@ -20,7 +20,7 @@ import pytest
 
 from motocell.shared.config import load_cell
 from motocell.shared.motion.kinematics import AxisMap
-from motocell.shared.protocol.constants import Command, Result
+from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
 from motocell.shared.protocol.messages import MotoMotionReply
 from motocell.testkit.cell import RunningCell, TickLog
 from motocell.testkit.client import (
@@ -166,7 +166,14 @@ def recover_and_move(motion: MotionClient, state: StateListener) -> None:
 
 STOPS_MOTION = {"executor", "controller", "router"}
 """The stalls that stop motion: the executor's own (its tick is late), and those that silence
-the controller's status at the executor. The others only pause the stream or the state."""
+the controller's status at the executor. The others only pause the stream or the state, but
+for the interpolator's (``MAY_STOP_MOTION``)."""
+MAY_STOP_MOTION = {"interpolator"}
+"""A ring left empty while its interpolator owes it increments is a broken increment path
+(ARCHITECTURE.md, Clearing, epochs): NOT_READY 5012. Whether the interpolator owed any when it
+stopped (the rest of a segment, a point it had) or had sent all it had (the ring then runs dry
+as for a late client, and the motion resumes) is a matter of where in the stream the stop
+fell; each outcome is checked."""
 
 
 def pids_of(cell: RunningCell, service: str) -> set[int]:
@@ -184,7 +191,12 @@ def test_a_stalled_service_causes_no_late_motion(
     assert stopped
     first = len(ticks)
     moving, goal = stalled_stream(motion, state, stopped)
-    if service in STOPS_MOTION:
+    if service in MAY_STOP_MOTION and moving.refusal is not None:
+        assert moving.refusal.result == Result.NOT_READY, moving.refusal
+        assert moving.refusal.subcode == NotReadySubcode.INC_MOVE_ERROR, moving.refusal
+        positions(state)
+        assert_nothing_late(ticks, first, moving.refused_ns)
+    elif service in STOPS_MOTION:
         assert moving.refusal is not None, "the stall did not stop the trajectory"
         assert moving.refusal.result == Result.NOT_READY, moving.refusal
         shown = state.wait_for(
