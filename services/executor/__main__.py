@@ -35,6 +35,7 @@ from motocell.shared.bus.schemas import (
     Decoder,
     ExecutorMetrics,
     IncrementBatch,
+    Point,
     encode,
 )
 from motocell.shared.bus.session import ENCODING, answer, call, publisher
@@ -55,6 +56,7 @@ at 250 Hz never come near it, since every tick drains them all."""
 
 _status = Decoder(ControllerStatus)
 _batch = Decoder(IncrementBatch)
+_point = Decoder(Point)
 
 
 def _channel() -> zenoh.handlers.FifoChannel[Any]:
@@ -124,6 +126,9 @@ class Executor:
             session.declare_subscriber(keys.group_increments(g.index), _channel())
             for g in cell.groups
         ]
+        self.points = [
+            session.declare_subscriber(keys.group_point(g.index), _channel()) for g in cell.groups
+        ]
         self.statuses = session.declare_subscriber(keys.controller_status, _channel())
         self.ticks_per_second = max(1, round(1e9 / cell.period_ns))
         self.controller = ControllerToken(
@@ -141,7 +146,7 @@ class Executor:
     def drain(self) -> None:
         """Everything that arrived since the last tick, in an order that keeps the invariants:
         readiness first (a not-ready status clears the rings before any batch is queued),
-        then batches, then commands."""
+        then what is owed and what came, then commands."""
         core = self.core
         core.controller_present = self.controller.present(core.tick)
         while (sample := self.statuses.try_recv()) is not None:
@@ -154,6 +159,7 @@ class Executor:
                 continue
             core.on_status(status.motion_ready, status.servo_on and not status.eco)
         core.update_ready()
+        self._drain_points()
         for group, channel in enumerate(self.batches):
             while (sample := channel.try_recv()) is not None:
                 try:
@@ -167,6 +173,16 @@ class Executor:
             core.clear_all()
             self._publish_queues(force=True)
             answer(query, CommandReply(Result.SUCCESS))
+
+    def _drain_points(self) -> None:
+        """The points the gateway published: what each ring is owed. One that does not
+        decode is not owed either: the interpolator cannot decode it."""
+        for group, channel in enumerate(self.points):
+            while (sample := channel.try_recv()) is not None:
+                try:
+                    self.core.on_point(group, _point.decode(sample.payload.to_bytes()))
+                except msgspec.DecodeError:
+                    log.warning("group %d: undecodable point ignored", group)
 
     def _increment_path_broken(self, group: int, reason: str, alarm: int = 0) -> None:
         """Stop everything and have the controller raise the IncMove error (NOT_READY 5012

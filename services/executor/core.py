@@ -15,7 +15,14 @@ from enum import Enum
 import numpy as np
 
 from motocell.shared.bus.liveness import HEARTBEAT_S
-from motocell.shared.bus.schemas import CommandReply, GroupTick, IncrementBatch, QueueState, Tick
+from motocell.shared.bus.schemas import (
+    CommandReply,
+    GroupTick,
+    IncrementBatch,
+    Point,
+    QueueState,
+    Tick,
+)
 from motocell.shared.config import DEFAULT_MAX_LATENESS_PERIODS, Cell, IdealServo
 from motocell.shared.motion.kinematics import AxisMap
 from motocell.shared.motion.servo import Servos
@@ -131,10 +138,17 @@ class GroupRing:
     epoch: int
     received: int = 0
     entries: deque[Entry] = field(default_factory=deque)
-    owed: bool = False
-    """The last batch said more of its trajectory follows (``IncrementBatch.more``)."""
+    promised: int = 0
+    """The highest point (``Point.point_id``, sequence > 0) the gateway published for this
+    epoch: its entries are owed to this ring."""
+    through: int = 0
+    """The highest point whose entries have all arrived (``IncrementBatch.through``)."""
     starved_ticks: int = 0
     """Ticks in a row this ring was empty while owed."""
+
+    @property
+    def owed(self) -> bool:
+        return self.promised > self.through
 
 
 class ExecutorCore:
@@ -168,8 +182,8 @@ class ExecutorCore:
         """The groups the last tick refused because an axis would pass its range, and why."""
         self.max_starved_ticks = max_starved_ticks
         self.starved: set[int] = set()
-        """The groups the last tick stopped because their increments stopped coming in the
-        middle of a trajectory (``IncrementBatch.more``) for longer than ``max_starved_ticks``:
+        """The groups the last tick stopped because the increments of points the gateway had
+        published stopped coming (``GroupRing.owed``) for longer than ``max_starved_ticks``:
         the interpolator, or the network to it, stalled; what it sends late must not move."""
         self._held_ticks = [0] * len(command_pulses)
         self.rings = [GroupRing(first_epoch + g) for g in range(len(command_pulses))]
@@ -228,14 +242,22 @@ class ExecutorCore:
                 entry = Entry(tuple(row), index in partial, batch.tool)
             ring.entries.append(entry)
         ring.received += batch.count
-        ring.owed = batch.more
+        ring.through = max(ring.through, batch.through)
         return BatchOutcome.ACCEPTED
+
+    def on_point(self, group: int, point: Point) -> None:
+        """A point the gateway published to ``group``'s interpolator: once it is for this
+        ring's epoch and continues a trajectory (sequence > 0), its entries are owed. A
+        sequence-0 point only starts a trajectory: nothing is owed until its next point."""
+        ring = self.rings[group]
+        if point.epoch == ring.epoch and point.sequence > 0:
+            ring.promised = max(ring.promised, point.point_id)
 
     def _clear(self, ring: GroupRing) -> None:
         ring.entries.clear()
         ring.epoch = self._next_epoch
         ring.received = 0
-        ring.owed = False
+        ring.promised = ring.through = 0
         ring.starved_ticks = 0
         self._next_epoch += 1
 

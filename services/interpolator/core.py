@@ -120,23 +120,16 @@ class Feeder:
                     return
                 self.waiting_for_room = False
                 entries = self._next_entries(self.segment, min(room, MAX_BATCH))
-                self._send(entries, self._more_to_send(self.segment, points))
                 if self.hold == 0 and self.segment.remaining == 0:
                     self.segment = None
                     self.taken_id = self.segment_point_id
+                self._send(entries)
                 continue
             if not points:
                 return
             if points[0].epoch > self.queue.epoch:
                 return  # checked against a ring this interpolator has not heard of yet
             self._take(points.popleft())
-
-    def _more_to_send(self, segment: Segment, points: deque[Point]) -> bool:
-        """Whether entries follow without the client sending anything more: the rest of this
-        segment, or a segment of a point already here (``IncrementBatch.more``). A sequence-0
-        point alone is only the next trajectory's start; its segments are the client's to send,
-        and a client may be late (MotoROS waits for it)."""
-        return self.hold > 0 or segment.remaining > 0 or any(p.sequence != 0 for p in points)
 
     def _take(self, point: Point) -> None:
         assert self.queue is not None
@@ -211,7 +204,7 @@ class Feeder:
             return self.trajectory.pulses
         return np.array(self.queue.command_pulses[: self.axis_map.axes], dtype=np.int64)
 
-    def _send(self, entries: Entries, more: bool) -> None:
+    def _send(self, entries: Entries) -> None:
         assert self.queue is not None
         count = len(entries)
         rows = np.zeros((count, MAX_AXES), dtype="<i4")
@@ -227,7 +220,7 @@ class Feeder:
                 times_ns=entries.times_ns.tolist(),
                 sync_id=self.sync[0] if self.sync else 0,
                 sync_groups=self.sync[1] if self.sync else [],
-                more=more,
+                through=self.taken_id,
             )
         )
         self.sync = None

@@ -121,7 +121,14 @@ ROUTES: tuple[Route, ...] = (
         _roles(CONTROLLER),
         CommandReply,
     ),
-    Route("group/*/point", Op.PUT, Point, _roles(GATEWAY), _roles(INTERPOLATOR) | WATCHERS),
+    Route(
+        "group/*/point",
+        Op.PUT,
+        Point,
+        _roles(GATEWAY),
+        # The executor only counts them: what it has been promised (IncrementBatch.through).
+        _roles(INTERPOLATOR, EXECUTOR) | WATCHERS,
+    ),
     Route("group/*/slot", Op.PUT, Slot, _roles(INTERPOLATOR), _roles(GATEWAY) | WATCHERS),
     Route(
         "group/*/increments",

@@ -102,10 +102,11 @@ class IncrementBatch(msgspec.Struct, array_like=True, frozen=True):
     executor holds it until every one of those groups has its start entry (same ``sync_id``)
     at the head of its ring, so groups given the same timestamps start, and so arrive, in the
     same tick."""
-    more: bool = False
-    """The interpolator holds more to send (the rest of a segment, or a segment of a point it
-    has; not a next trajectory's sequence-0 point alone): a ring that runs dry after this batch
-    is starved, not finished."""
+    through: int = 0
+    """The highest ``Point.point_id`` its interpolator is done with: every entry of every point
+    up to it is in this batch or an earlier one (a point it dropped counts as done). A point
+    the executor has heard of beyond it is still owed, and a ring left empty while owed is
+    starved, not finished (ARCHITECTURE.md, "Clearing, epochs")."""
 
 
 class QueueState(msgspec.Struct, array_like=True, frozen=True):

@@ -23,7 +23,7 @@ from motocell.services.executor.core import (
     stalled,
     starting_pulses,
 )
-from motocell.shared.bus.schemas import CommandReply, GroupTick, IncrementBatch, QueueState
+from motocell.shared.bus.schemas import CommandReply, GroupTick, IncrementBatch, Point, QueueState
 from motocell.shared.config import parse_cell
 from motocell.shared.protocol.constants import Result
 
@@ -675,15 +675,26 @@ def test_silence_while_not_ready_is_no_stall() -> None:
 # -- starved rings: increments that stop coming mid-trajectory ------------------------------
 
 
-def owing(epoch: int, first_seq: int, rows: Sequence[Sequence[int]]) -> IncrementBatch:
-    """A batch after which its interpolator has more of the trajectory to send."""
-    return msgspec.structs.replace(batch(epoch, first_seq, rows), more=True)
+def promise(core: ExecutorCore, point_id: int, sequence: int = 1, epoch: int = 100) -> None:
+    """The gateway published point ``point_id`` to group 0's interpolator."""
+    core.on_point(0, Point(point_id, sequence, 0.1, [], [], epoch=epoch))
+
+
+def through(epoch: int, first_seq: int, rows: Sequence[Sequence[int]], done: int) -> IncrementBatch:
+    """A batch after which its interpolator is done with every point up to ``done``."""
+    return msgspec.structs.replace(batch(epoch, first_seq, rows), through=done)
+
+
+def starving_core() -> ExecutorCore:
+    core = ExecutorCore(START, FIRST_EPOCH, max_starved_ticks=3)
+    core.set_ready(True)
+    return core
 
 
 def test_a_ring_empty_while_owed_stops_motion_after_the_bound_and_only_then() -> None:
-    core = ExecutorCore(START, FIRST_EPOCH, max_starved_ticks=3)
-    core.set_ready(True)
-    assert core.accept(0, owing(100, 0, [unit(1)] * 2)) is BatchOutcome.ACCEPTED
+    core = starving_core()
+    promise(core, 2)
+    assert core.accept(0, through(100, 0, [unit(1)] * 2, done=1)) is BatchOutcome.ACCEPTED
     results = [core.step() for _ in range(2 + 3)]
     assert results == [[]] * 5  # two entries applied, then three empty ticks within the bound
     assert core.step() == [0]
@@ -691,28 +702,44 @@ def test_a_ring_empty_while_owed_stops_motion_after_the_bound_and_only_then() ->
     assert core.command[0][0] == START[0][0] + 2
 
 
-def test_a_ring_that_runs_dry_at_the_end_of_what_was_sent_is_a_late_client_not_an_error() -> None:
-    core = ExecutorCore(START, FIRST_EPOCH, max_starved_ticks=3)
-    core.set_ready(True)
-    core.accept(0, owing(100, 0, [unit(1)] * 2))
-    core.accept(0, batch(100, 2, [unit(1)]))  # the rest: nothing more owed
+def test_a_point_whose_entries_never_came_is_owed() -> None:
+    """The ring ran dry at the end of one point, and the next one was published: its entries
+    are owed even though no batch said so (the link to the interpolator was cut, say)."""
+    core = starving_core()
+    promise(core, 2)
+    core.accept(0, through(100, 0, [unit(1)], done=2))
+    promise(core, 3)
+    assert [core.step() for _ in range(4)] == [[]] * 4
+    assert core.step() == [0]
+
+
+def test_a_ring_that_runs_dry_at_the_end_of_what_was_published_is_a_late_client() -> None:
+    core = starving_core()
+    promise(core, 2)
+    core.accept(0, through(100, 0, [unit(1)] * 2, done=2))
+    promise(core, 4, sequence=0)  # a next trajectory's start: nothing owed yet
     assert all(core.step() == [] for _ in range(50))
     assert core.starved == set()
 
 
+def test_points_of_another_epoch_are_not_owed() -> None:
+    core = starving_core()
+    promise(core, 2, epoch=99)
+    assert all(core.step() == [] for _ in range(20))
+
+
 def test_a_batch_arriving_within_the_bound_ends_the_starvation() -> None:
-    core = ExecutorCore(START, FIRST_EPOCH, max_starved_ticks=3)
-    core.set_ready(True)
-    core.accept(0, owing(100, 0, [unit(1)]))
+    core = starving_core()
+    promise(core, 2)
+    core.accept(0, through(100, 0, [unit(1)], done=1))
     assert [core.step() for _ in range(4)] == [[]] * 4  # one entry, three empty ticks
-    core.accept(0, owing(100, 1, [unit(1)]))
+    core.accept(0, through(100, 1, [unit(1)], done=1))
     assert [core.step() for _ in range(4)] == [[]] * 4  # the count starts again
     assert core.step() == [0]
 
 
 def test_clearing_forgets_what_was_owed() -> None:
-    core = ExecutorCore(START, FIRST_EPOCH, max_starved_ticks=3)
-    core.set_ready(True)
-    core.accept(0, owing(100, 0, [unit(1)]))
+    core = starving_core()
+    promise(core, 2)
     core.clear_all()
     assert all(core.step() == [] for _ in range(20))

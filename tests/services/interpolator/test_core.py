@@ -389,30 +389,21 @@ def test_streamed_trajectory_never_overflows_and_ends_exactly(
     assert total(sent) == [f - s for f, s in zip(final, start, strict=True)]
 
 
-def test_each_batch_says_whether_more_of_the_trajectory_follows() -> None:
+def test_each_batch_says_which_points_it_is_done_with() -> None:
+    """``through``: every entry of every point up to it has been sent; the executor counts the
+    points the gateway published beyond it as owed."""
     h = Harness()
     h.queue(state())
     h.feed(point(1, 0, 0.0), point(2, 1, 0.4, X))  # 100 entries: two whole batches of 50
-    assert [(b.count, b.more) for b in h.sent] == [(MAX_BATCH, True), (MAX_BATCH, False)]
-    h.feed(point(3, 1, 0.5, Y), point(4, 1, 0.6, X))  # a point waiting behind the segment
-    assert [(b.count, b.more) for b in h.sent[2:]] == [(25, True), (25, False)]
+    assert [(b.count, b.through) for b in h.sent] == [(MAX_BATCH, 1), (MAX_BATCH, 2)]
+    h.feed(point(3, 1, 0.5, Y), point(4, 1, 0.6, X))
+    assert [(b.count, b.through) for b in h.sent[2:]] == [(25, 3), (25, 4)]
 
 
-def test_a_waiting_start_of_the_next_trajectory_is_not_more_of_this_one() -> None:
-    """A sequence-0 point behind the last segment only sets the next trajectory's start; its
-    segments come when the client sends them, late or not, so the ring running dry before then
-    is a late client (no error), not a stalled interpolator."""
+def test_a_dropped_point_counts_as_done() -> None:
     h = Harness()
     h.queue(state())
-    h.feed(point(1, 0, 0.0), point(2, 1, 0.4, X), point(3, 0, 0.0, X))
-    assert [(b.count, b.more) for b in h.sent] == [(MAX_BATCH, True), (MAX_BATCH, False)]
-    assert h.feeder.trajectory_id == 3, "the next trajectory's start was taken"
-
-
-def test_a_waiting_segment_of_the_next_trajectory_is_more_to_send() -> None:
-    """Its start and a segment behind the last segment: the feeder sends that segment at once,
-    so the ring running dry in between would be a stall."""
-    h = Harness()
-    h.queue(state())
-    h.feed(point(1, 0, 0.0), point(2, 1, 0.4, X), point(3, 0, 0.0, X), point(4, 1, 0.2, Y))
-    assert [(b.count, b.more) for b in h.sent] == [(MAX_BATCH, True)] * 2 + [(MAX_BATCH, False)]
+    h.feed(point(1, 1, 0.1, X))  # no trajectory start: dropped
+    h.feed(point(2, 0, 0.0), point(3, 1, 0.1, X))
+    assert [b.through for b in h.sent] == [3]
+    assert h.feeder.slot().taken_id == 3
