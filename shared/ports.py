@@ -1,22 +1,38 @@
-"""TCP ports on this machine: whether one is free, and free ones to use."""
+"""TCP ports on this machine: whether one is free, and free ones to use.
+
+Free ports are picked below the kernel's ephemeral range. A port from that range (what binding
+port 0 gives) can be handed to any outgoing connection between the moment it is found free and
+the moment its owner binds it: a test's cell once failed to start that way ("cannot listen on
+127.0.0.1:38058: Address already in use"). Below the range only a process that picks its ports
+the same way can collide, and each pick is random.
+"""
 
 from __future__ import annotations
 
+import random
 import socket
+from pathlib import Path
+
+EPHEMERAL_RANGE = Path("/proc/sys/net/ipv4/ip_local_port_range")
+PICKED_SPAN = 12000
+"""How far below the ephemeral range ports are picked (20768-32767 with Linux's default)."""
+TRIES = 200
 
 
 def free_port(host: str = "127.0.0.1") -> int:
-    """A port the kernel considers free right now (another process may still take it)."""
-    with socket.socket() as probe:
-        probe.bind((host, 0))
-        port: int = probe.getsockname()[1]
-        return port
+    """A port free right now (another process may still take it before it is bound)."""
+    return free_port_block(1, host)
 
 
 def free_port_block(count: int, host: str = "127.0.0.1") -> int:
     """A base port with ``count`` consecutive free ports (for the motion/state/I/O trio)."""
-    while True:
-        base = free_port(host)
+    first, end = _picking_range(count)
+    for _ in range(TRIES if first < end else 0):
+        base = random.randrange(first, end)
+        if all(port_free(base + i, host) for i in range(count)):
+            return base
+    while True:  # no room below the ephemeral range: the kernel's choice
+        base = _kernel_port(host)
         if base + count <= 65535 and all(port_free(base + i, host) for i in range(count)):
             return base
 
@@ -29,3 +45,19 @@ def port_free(port: int, host: str = "127.0.0.1") -> bool:
         except OSError:
             return False
         return True
+
+
+def _picking_range(count: int) -> tuple[int, int]:
+    """[first, end) for the base of ``count`` ports, all below the ephemeral range."""
+    try:
+        ephemeral_low = int(EPHEMERAL_RANGE.read_text().split()[0])
+    except (OSError, ValueError, IndexError):
+        ephemeral_low = 32768
+    return max(1024, ephemeral_low - PICKED_SPAN), ephemeral_low - count + 1
+
+
+def _kernel_port(host: str) -> int:
+    with socket.socket() as probe:
+        probe.bind((host, 0))
+        port: int = probe.getsockname()[1]
+        return port
