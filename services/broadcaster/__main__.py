@@ -13,7 +13,7 @@ from motocell.services.broadcaster.loop import StateLoop
 from motocell.services.broadcaster.reports import Reports
 from motocell.services.broadcaster.state_port import StatePort
 from motocell.services.broadcaster.ticks import TickSource
-from motocell.shared.bus.session import publisher
+from motocell.shared.bus.session import observed, publisher
 from motocell.shared.protocol.codec import ByteOrder
 from motocell.shared.service import argument_parser, listen, running_service
 
@@ -44,6 +44,7 @@ def main(argv: Sequence[str] | None = None) -> None:
             state_port,
             byte_order=byte_order,
             publish_state=state_pub.put,
+            observed=lambda: observed(state_pub),
             reports=reports,
         )
         log.info("state port on %s:%d (%s-endian)", host, port, byte_order)

@@ -5,6 +5,11 @@ due, waiting connections taken, the frames encoded once and written to every cli
 ``state`` sample for observers with the arms' poses (after the sockets: the TCP clients are the
 ones a late frame hurts, and their frames carry no poses), then the reports. Nothing here
 blocks except the wait for the next tick.
+
+The ``state`` sample, and the poses only it carries, are made only while a subscriber on the
+bus matches the key (Zenoh's matching status, well under a microsecond to read): with nobody
+observing, the kinematics would take CPU from the cell's own processes for nothing (figure 5's
+slot turnaround p99 measured about 0.4 ms worse on this 2-core machine with them).
 """
 
 from __future__ import annotations
@@ -41,6 +46,7 @@ class StateLoop:
         *,
         byte_order: ByteOrder,
         publish_state: Callable[[bytes], object],
+        observed: Callable[[], bool],
         reports: ReportSink,
     ) -> None:
         self.broadcaster = broadcaster
@@ -48,6 +54,7 @@ class StateLoop:
         self.port = port
         self.byte_order = byte_order
         self.publish_state = publish_state
+        self.observed = observed
         self.reports = reports
 
     def cycle(self) -> None:
@@ -62,7 +69,7 @@ class StateLoop:
                 self.reports.written(time.monotonic_ns() - state.tick_ns)
         else:
             port.flush(now)
-        if state is not None:
+        if state is not None and self.observed():
             self.publish_state(encode(broadcaster.with_poses(state)))
         self.reports.report(now, len(port.clients), port.replaced_total(), port.closed_stuck)
 

@@ -261,6 +261,14 @@ def publisher(
     )
 
 
+def observed(publisher: zenoh.Publisher) -> bool:
+    """Whether any subscriber on the bus matches ``publisher``'s key now (well under a
+    microsecond). zenoh's stubs type ``matching_status`` as a bool; 1.10.2 returns a
+    ``MatchingStatus``, whose ``matching`` is the answer."""
+    status: Any = publisher.matching_status
+    return bool(status.matching)
+
+
 class Inbox:
     """One queue that several Zenoh callbacks feed, drained by the service's own thread.
 

@@ -46,6 +46,8 @@ class Harness:
         self.port = StatePort(listen("127.0.0.1", 0))
         self.ticks = Ticks()
         self.published: list[State] = []
+        self.observed = True
+        """Whether a subscriber on the bus matches ``state``."""
         self.reports = Reports()
         decoder = Decoder(State)
         self.loop = StateLoop(
@@ -54,6 +56,7 @@ class Harness:
             self.port,
             byte_order=byte_order,
             publish_state=lambda data: self.published.append(decoder.decode(data)),
+            observed=lambda: self.observed,
             reports=self.reports,
         )
         self.byte_order = byte_order
@@ -107,6 +110,17 @@ def test_a_due_tick_reaches_a_new_client_and_zenoh_in_the_same_cycle(harness: Ha
     assert [state.tick for state in harness.published] == [1]
     assert harness.reports.clients == [1]
     assert len(harness.reports.ages) == 1
+
+
+def test_no_state_sample_and_no_poses_while_nobody_observes(harness: Harness) -> None:
+    codec = harness.connect()
+    harness.observed = False
+    harness.run(moved(1, 1))
+    assert harness.published == []
+    assert len(harness.read(0, codec, 2)) == 2  # the TCP clients get their frames all the same
+    harness.observed = True
+    harness.run(moved(2, 2))
+    assert [state.tick for state in harness.published] == [2]
 
 
 def test_every_client_gets_every_cycle_in_order(harness: Harness) -> None:
