@@ -4,27 +4,16 @@ later clash noticed by the one that must give way."""
 from __future__ import annotations
 
 import threading
-from collections.abc import Iterator
 
 import pytest
 import zenoh
 
 from motocell.shared.bus.claim import NameTakenError, claim_name, watch_claims
 from motocell.shared.bus.keys import CellKeys
-from motocell.shared.bus.router import router_settings, zenoh_config
 from motocell.shared.bus.session import open_session
-from motocell.shared.ports import free_port
 from motocell.testkit.processes import wait_until
 
 KEYS = CellKeys("c1")
-
-
-@pytest.fixture
-def endpoint() -> Iterator[str]:
-    listen = f"tcp/127.0.0.1:{free_port()}"
-    router = zenoh.open(zenoh_config(router_settings([listen])))
-    yield listen
-    router.close()
 
 
 def test_a_held_name_is_refused(endpoint: str) -> None:

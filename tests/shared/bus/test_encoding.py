@@ -3,30 +3,15 @@
 from __future__ import annotations
 
 import queue
-from collections.abc import Iterator
 
-import pytest
 import zenoh
 
-from motocell.shared.bus.router import router_settings, zenoh_config
 from motocell.shared.bus.schemas import CommandReply, CommandRequest, Slot, encode
-from motocell.shared.bus.session import ENCODING, answer, call, command_of, open_session, publisher
-from motocell.shared.ports import free_port
+from motocell.shared.bus.session import ENCODING, answer, call, command_of, publisher
 from motocell.shared.protocol.constants import Result
 from motocell.testkit.processes import wait_until
 
 KEY = "motocell/c1/group/0/slot"
-
-
-@pytest.fixture
-def bus() -> Iterator[tuple[zenoh.Session, zenoh.Session]]:
-    listen = f"tcp/127.0.0.1:{free_port()}"
-    router = zenoh.open(zenoh_config(router_settings([listen])))
-    sessions = [open_session("client", [listen], wait=False) for _ in range(2)]
-    yield sessions[0], sessions[1]
-    for session in sessions:
-        session.close()
-    router.close()
 
 
 def test_the_encoding_is_msgpack() -> None:

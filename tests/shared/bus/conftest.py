@@ -1,0 +1,30 @@
+"""A real Zenoh router on a free loopback port, and client sessions of it."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import pytest
+import zenoh
+
+from motocell.shared.bus.router import router_settings, zenoh_config
+from motocell.shared.bus.session import open_session
+from motocell.shared.ports import free_port
+
+
+@pytest.fixture
+def endpoint() -> Iterator[str]:
+    """A running router's endpoint, closed after the test."""
+    listen = f"tcp/127.0.0.1:{free_port()}"
+    router = zenoh.open(zenoh_config(router_settings([listen])))
+    yield listen
+    router.close()
+
+
+@pytest.fixture
+def bus(endpoint: str) -> Iterator[tuple[zenoh.Session, zenoh.Session]]:
+    """Two client sessions of one router: a sender and a receiver."""
+    sessions = [open_session("client", [endpoint], wait=False) for _ in range(2)]
+    yield sessions[0], sessions[1]
+    for session in sessions:
+        session.close()
