@@ -343,8 +343,8 @@ class ExecutorCore:
 
     def _starved_groups(self) -> set[int]:
         """Counts this tick for every ring that is empty while owed; the groups past the bound.
-        A ring that runs dry at the end of what its interpolator had is a client that is late,
-        which MotoROS waits for: no error."""
+        A ring that runs dry with nothing owed is a client that is late, which MotoROS waits
+        for: no error."""
         starved = set()
         for group, ring in enumerate(self.rings):
             if self.ready and ring.owed and not ring.entries:
