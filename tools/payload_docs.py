@@ -1,9 +1,9 @@
-"""The payload tables of ARCHITECTURE.md, generated from the schemas (``shared/bus/schemas.py``).
+"""The payload tables of docs/payloads.md, generated from the schemas (``shared/bus/schemas.py``).
 
 The schemas are the one owner of every payload's fields; the document shows them in wire order
 with their types, defaults and field docstrings, and the keys each payload travels on (from
 ``shared/bus/catalog.py``). ``python -m motocell.tools.payload_docs`` rewrites the block between the
-markers in ARCHITECTURE.md; ``tests/tools/test_payload_docs.py`` fails when the two disagree.
+markers in docs/payloads.md; ``tests/tools/test_payload_docs.py`` fails when the two disagree.
 """
 
 from __future__ import annotations
@@ -25,6 +25,8 @@ BEGIN = (
     "from shared/bus/schemas.py -->"
 )
 END = "<!-- /payloads -->"
+# Relative to the repository root, where the command is run.
+DEFAULT_PAGE = "docs/payloads.md"
 
 
 def payload_types() -> list[type[msgspec.Struct]]:
@@ -132,7 +134,7 @@ def rewrite(text: str) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    path = Path((argv if argv is not None else sys.argv[1:] or ["ARCHITECTURE.md"])[0])
+    path = Path((argv if argv is not None else sys.argv[1:] or [DEFAULT_PAGE])[0])
     path.write_text(rewrite(path.read_text()))
     print(f"wrote the payload tables into {path}")
     return 0

@@ -1,4 +1,4 @@
-"""ARCHITECTURE.md's payload tables are what the schemas say: regenerated and compared."""
+"""docs/payloads.md's payload tables are what the schemas say: regenerated and compared."""
 
 from __future__ import annotations
 
@@ -10,15 +10,15 @@ from motocell.shared.bus import schemas
 from motocell.shared.bus.catalog import ROUTES
 from motocell.tools import payload_docs
 
-ARCHITECTURE = Path(__file__).resolve().parents[2] / "ARCHITECTURE.md"
+PAGE = Path(__file__).resolve().parents[2] / payload_docs.DEFAULT_PAGE
 
 
 def test_the_document_shows_the_schemas_as_they_are() -> None:
-    text = ARCHITECTURE.read_text()
+    text = PAGE.read_text()
     start = text.index(payload_docs.BEGIN)
     end = text.index(payload_docs.END) + len(payload_docs.END)
     assert text[start:end] == payload_docs.generate(), (
-        "ARCHITECTURE.md's payload tables are stale: run `python -m motocell.tools.payload_docs`"
+        "docs/payloads.md's payload tables are stale: run `python -m motocell.tools.payload_docs`"
     )
 
 
