@@ -8,6 +8,9 @@ and not below anything that ran before count. Threads and processes get a short 
 finish (a listener closing, a cell stopping). A leaked process is killed before the test
 fails, so later tests do not inherit it. Threads Python did not start (Zenoh's, which show up
 as "dummy" threads once they run a callback) are not the test's.
+
+Besides, a test outside the ``cell`` lane starts no process at all (``tests/lanes.py``), so
+``pytest -m "not cell"`` stays fast.
 """
 
 from __future__ import annotations
@@ -17,10 +20,12 @@ import os
 import signal
 import threading
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 
 from motocell.testkit.processes import alive, children, descendants, wait_until
+from tests import lanes
 
 DEADLINE_S = 5.0
 
@@ -89,3 +94,14 @@ def no_leaks_per_module() -> Iterator[None]:
 @pytest.fixture(autouse=True)
 def no_leaks() -> Iterator[None]:
     yield from _check("the test")
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    config.pluginmanager.register(lanes.SpawnGuard(), "spawn-guard")
+
+
+@pytest.fixture
+def dead_pid() -> int:
+    """A pid no process has: pids stay below the kernel's pid_max. Cheaper than starting a
+    process to see it gone, which would put the test in the slow lane."""
+    return int(Path("/proc/sys/kernel/pid_max").read_text())

@@ -604,6 +604,7 @@ def test_a_placement_needs_three_finite_values(tmp_path: Path, base: str) -> Non
 # --- motocell up ----------------------------------------------------------------------------
 
 
+@pytest.mark.cell
 def test_up_refuses_a_bad_file_with_status_2(tmp_path: Path) -> None:
     path = write_cell(tmp_path, '[[groups]]\nname = "R1"\nmodel = "arm9"\n')
     started = time.monotonic()

@@ -30,12 +30,6 @@ def entry(name: str = "cell1", pid: int | None = None) -> CellEntry:
     )
 
 
-def dead_pid() -> int:
-    process = subprocess.Popen([sys.executable, "-c", "pass"])
-    process.wait()
-    return process.pid
-
-
 def test_a_registered_cell_is_found_and_gone_after_unregister() -> None:
     registry.register(entry())
     assert registry.find("cell1") == entry()
@@ -51,8 +45,8 @@ def test_a_live_name_is_refused_naming_the_running_cell() -> None:
         registry.register(entry())
 
 
-def test_a_stale_entry_is_ignored_and_taken_over() -> None:
-    registry.register(entry(pid=dead_pid()))
+def test_a_stale_entry_is_ignored_and_taken_over(dead_pid: int) -> None:
+    registry.register(entry(pid=dead_pid))
     assert registry.running() == []
     registry.register(entry())
     assert registry.find("cell1").pid == os.getpid()
@@ -87,6 +81,7 @@ sys.stdin.readline()
 """
 
 
+@pytest.mark.cell
 def test_of_many_simultaneous_claims_exactly_one_wins(own_registry: Path) -> None:
     env = {**os.environ, registry.ENV: str(own_registry)}
     claimants = [

@@ -62,6 +62,7 @@ print("stopped", flush=True)
 """
 
 
+@pytest.mark.cell
 def test_a_burst_of_signals_from_outside_stops_the_process_once() -> None:
     child = run_child(WAIT_THEN_HOLD)
     assert child.stdout is not None and child.stdin is not None
@@ -91,6 +92,7 @@ print("stopped", flush=True)
 """.replace("COUNT", str(BURST * 10))
 
 
+@pytest.mark.cell
 def test_signals_arriving_while_the_handler_runs_do_not_deadlock() -> None:
     # The handler runs on the main thread; signals sent meanwhile run it again inside itself.
     # With a handler that took a lock (threading.Event.set) this could hang for good.
@@ -118,6 +120,7 @@ with stop_on_signals() as stop:
 """
 
 
+@pytest.mark.cell
 def test_a_signal_whose_handler_runs_inside_set_does_not_deadlock() -> None:
     assert finish(run_child(SIGNAL_INSIDE_SET)) == "True\n"
 
@@ -142,6 +145,7 @@ with stop_on_signals() as stop:
 """
 
 
+@pytest.mark.cell
 def test_a_signal_held_during_start_up_stops_the_process_once_it_can() -> None:
     assert finish(run_child(HELD_DURING_START_UP)) == "True\n"
 

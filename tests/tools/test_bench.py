@@ -8,6 +8,10 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
+pytestmark = pytest.mark.cell
+
 
 def test_the_codec_figure_writes_its_results_to_out(tmp_path: Path) -> None:
     out = tmp_path / "results"

@@ -11,8 +11,6 @@ from __future__ import annotations
 import argparse
 import os
 import re
-import subprocess
-import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -86,11 +84,9 @@ def test_without_a_name_every_running_cell_is_a_target_of_its_own() -> None:
     ]
 
 
-def test_a_cell_whose_launcher_is_gone_is_not_a_target() -> None:
-    gone = subprocess.Popen([sys.executable, "-c", "pass"])
-    gone.wait()
+def test_a_cell_whose_launcher_is_gone_is_not_a_target(dead_pid: int) -> None:
     registry.register(
-        CellEntry(name="old", pid=gone.pid, host="h", port_base=1, zenoh_endpoint="tcp/h:1")
+        CellEntry(name="old", pid=dead_pid, host="h", port_base=1, zenoh_endpoint="tcp/h:1")
     )
     assert cells.targets(build_parser().parse_args(["ps"])) == []
 

@@ -66,6 +66,7 @@ def test_observers_say_where_they_look_by_default(
     assert WELL_KNOWN_ENDPOINT in text
 
 
+@pytest.mark.cell
 def test_help_imports_none_of_the_tools_extra(tmp_path: Path) -> None:
     # In a fresh interpreter and away from the source tree, as an installed motocell runs.
     probe = (
@@ -86,6 +87,7 @@ def test_help_imports_none_of_the_tools_extra(tmp_path: Path) -> None:
     assert done.stdout.splitlines()[-1] == "[]"
 
 
+@pytest.mark.cell
 def test_up_imports_neither_numpy_nor_the_benchmarks_nor_cryptography(tmp_path: Path) -> None:
     # `motocell up` parses its arguments before it starts a single service.
     probe = (

@@ -51,12 +51,14 @@ def test_a_group_given_twice_is_refused() -> None:
         service_command("interpolator/1", ["--group=1"])
 
 
+@pytest.mark.cell
 def test_the_usage_line_names_the_command_that_runs_it() -> None:
     result = motocell("service", "interpolator", "--help")
     assert result.returncode == 0, result.stderr
     assert result.stdout.startswith("usage: motocell service interpolator ")
 
 
+@pytest.mark.cell
 def test_an_unknown_service_is_one_line_and_status_2() -> None:
     result = motocell("service", "bogus")
     assert result.returncode == EXIT_CONFIG
@@ -66,6 +68,7 @@ def test_an_unknown_service_is_one_line_and_status_2() -> None:
     )
 
 
+@pytest.mark.cell
 def test_a_group_the_cell_lacks_is_refused_before_joining_zenoh() -> None:
     result = motocell("service", "interpolator/3", "--zenoh-connect", NOWHERE)
     assert result.returncode == EXIT_CONFIG

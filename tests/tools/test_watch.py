@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 import msgspec
+import pytest
 
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import (
@@ -174,12 +175,14 @@ def watch_until_it_says(argv: list[str], said: str, runtime: Path) -> tuple[int,
     return process.returncode, first + rest
 
 
+@pytest.mark.cell
 def test_with_no_cell_running_watch_waits_for_one_and_says_so_once(tmp_path: Path) -> None:
     status, err = watch_until_it_says(["--count", "1"], "waiting for a cell", tmp_path)
     assert status == 0
     assert err == "motocell watch: waiting for a cell to start here (`motocell up`) ...\n"
 
 
+@pytest.mark.cell
 def test_with_no_router_watch_waits_for_one_and_says_so_once(tmp_path: Path) -> None:
     nowhere = f"tcp/127.0.0.1:{free_port()}"
     argv = ["--count", "1", "--zenoh-connect", nowhere]
@@ -188,6 +191,7 @@ def test_with_no_router_watch_waits_for_one_and_says_so_once(tmp_path: Path) -> 
     assert err == f"motocell watch: waiting for a Zenoh router at {nowhere} ...\n"
 
 
+@pytest.mark.cell
 def test_watch_refuses_a_cell_name_not_running_at_once(tmp_path: Path) -> None:
     result = subprocess.run(
         [sys.executable, "-m", "motocell.tools.cli", "watch", "--cell", "arm"],

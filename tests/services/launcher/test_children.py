@@ -7,6 +7,8 @@ from __future__ import annotations
 import os
 import sys
 
+import pytest
+
 from motocell.services.launcher.children import Child, stop_children, supervise
 from motocell.services.launcher.core import ChildSpec, RestartPolicy
 from motocell.shared.config import EXIT_CONFIG
@@ -21,6 +23,7 @@ def child(name: str, *argv: str) -> Child:
     return Child(ChildSpec(ServiceName(service, instance), argv))
 
 
+@pytest.mark.cell
 def test_a_child_that_exits_with_the_configuration_status_stops_the_cell() -> None:
     children = [
         child("controller/0", *SLEEPER),
@@ -34,6 +37,7 @@ def test_a_child_that_exits_with_the_configuration_status_stops_the_cell() -> No
     assert not any(c.alive() for c in children)
 
 
+@pytest.mark.cell
 def test_every_child_has_a_process_group_of_its_own() -> None:
     children = [child("controller/0", *SLEEPER), child("executor/0", *SLEEPER)]
     stop = StopFlag()
