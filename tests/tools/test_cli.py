@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import ast
 import subprocess
 import sys
 from pathlib import Path
@@ -66,46 +67,41 @@ def test_observers_say_where_they_look_by_default(
     assert WELL_KNOWN_ENDPOINT in text
 
 
-@pytest.mark.cell
-def test_help_imports_none_of_the_tools_extra(tmp_path: Path) -> None:
-    # In a fresh interpreter and away from the source tree, as an installed motocell runs.
-    probe = (
-        "import contextlib, sys\n"
-        "from motocell.tools import cli\n"
-        "with contextlib.suppress(SystemExit):\n"
-        "    cli.main(['--help'])\n"
-        f"print(sorted({{name.split('.')[0] for name in sys.modules}} & {set(HEAVY)!r}))\n"
-    )
+def loaded_after(code: str, modules: set[str], cwd: Path) -> list[str]:
+    """Which of ``modules`` (full dotted names: a package is loaded whenever any module of
+    it is) a fresh interpreter has loaded after running ``code``, away from the source tree
+    (``cwd``), as an installed motocell runs."""
+    probe = f"{code}\nimport sys\nprint(sorted(set(sys.modules) & {modules!r}))\n"
     done = subprocess.run(
         [sys.executable, "-c", probe],
-        cwd=tmp_path,
+        cwd=cwd,
         capture_output=True,
         text=True,
         timeout=60,
         check=True,
     )
-    assert done.stdout.splitlines()[-1] == "[]"
+    return list(ast.literal_eval(done.stdout.splitlines()[-1]))
+
+
+@pytest.mark.cell
+def test_help_imports_none_of_the_tools_extra(tmp_path: Path) -> None:
+    code = (
+        "import contextlib\n"
+        "from motocell.tools import cli\n"
+        "with contextlib.suppress(SystemExit):\n"
+        "    cli.main(['--help'])"
+    )
+    assert loaded_after(code, set(HEAVY), tmp_path) == []
 
 
 @pytest.mark.cell
 def test_up_imports_neither_numpy_nor_the_benchmarks_nor_cryptography(tmp_path: Path) -> None:
     # `motocell up` parses its arguments before it starts a single service.
-    probe = (
-        "import sys\n"
+    code = (
         "from motocell.tools import cli\n"
-        "cli.build_parser().parse_args(['up', '--port-base', '51240'])\n"
-        "loaded = {name.split('.')[0] for name in sys.modules}\n"
-        "print(sorted(loaded & {'bench', 'cryptography', 'numpy'}))\n"
+        "cli.build_parser().parse_args(['up', '--port-base', '51240'])"
     )
-    done = subprocess.run(
-        [sys.executable, "-c", probe],
-        cwd=tmp_path,
-        capture_output=True,
-        text=True,
-        timeout=60,
-        check=True,
-    )
-    assert done.stdout.splitlines()[-1] == "[]"
+    assert loaded_after(code, {"motocell.bench", "cryptography", "numpy"}, tmp_path) == []
 
 
 def test_a_deferred_command_has_its_options_when_run(capsys: pytest.CaptureFixture[str]) -> None:
