@@ -1,12 +1,12 @@
 """A real FS100 (big-endian) session between motoman_driver and MotoROS decodes frame by frame.
 
-Data: <shared>/data/fs100-session.jsonl, one TCP segment per line (see its README.md).
+Data: data/fs100-session.jsonl beside this file, one TCP segment per line, captured from a real
+controller and kept verbatim (data/README.md says where it comes from and what it holds).
 """
 
 from __future__ import annotations
 
 import json
-import os
 import struct
 from pathlib import Path
 from typing import NamedTuple
@@ -25,14 +25,7 @@ from motocell.shared.protocol.messages import (
     UnknownMessage,
 )
 
-REPO_ROOT = Path(__file__).resolve().parents[3]
-SHARED_DIR = Path(os.environ.get("MOTOCELL_SHARED_DIR", REPO_ROOT.parent / "shared"))
-SESSION_FILE = SHARED_DIR / "data" / "fs100-session.jsonl"
-
-pytestmark = pytest.mark.skipif(
-    not SESSION_FILE.is_file(),
-    reason=f"{SESSION_FILE} not found; set MOTOCELL_SHARED_DIR to the shared directory",
-)
+SESSION_FILE = Path(__file__).parent / "data" / "fs100-session.jsonl"
 
 MOTION_PORT, STATE_PORT = 50240, 50241
 
@@ -121,7 +114,7 @@ def test_state_port_sends_feedback_and_status(frames: list[Frame]) -> None:
     for m in state:
         assert (m.comm_type, m.reply_type) == (CommType.TOPIC, 0)
         if isinstance(m.body, RobotStatus):
-            # MotoROS sends 2 in PLAY, not the 2012 spec's 0 (DESIGN.md).
+            # MotoROS sends 2 in PLAY, not the 2012 spec's 0 (docs/behaviour.md): this capture.
             assert m.body.mode == 2
             assert (m.body.drives_powered, m.body.e_stopped, m.body.in_error) == (1, 0, 0)
         else:
