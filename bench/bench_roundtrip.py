@@ -16,7 +16,7 @@ and times send -> reply read (CLOCK_MONOTONIC) for:
   (14) for group 0 and MOTO_JOINT_TRAJ_PT_FULL_EX (2016) for all 4 groups.
 
 Goals, for every reply: p50 <= 0.35 ms and p99 <= 2 ms. For comparison, a real FS100 answered
-points in 0.34 ms median, 1.13 ms worst (the capture in ``../shared/data``).
+points in 0.34 ms median, 1.13 ms worst (a captured session of a real FS100 running MotoROS).
 
 Diagnosis rows: the gateway's own reply time (request decoded -> reply written, from
 ``gateway/metrics``, BUSY and SUCCESS together), to split a round trip into the gateway's
@@ -64,7 +64,7 @@ POINT_INTERVAL_S = 0.004
 SPEED = 0.1
 P50_GOAL_MS = 0.35
 P99_GOAL_MS = 2.0
-FS100 = "a real FS100: 0.34 ms median, 1.13 ms worst (../shared/data)"
+FS100 = "a real FS100: 0.34 ms median, 1.13 ms worst (a captured session)"
 COMMAND_MESSAGES = {"CHECK_MOTION_READY": CHECK_MOTION_READY, "CHECK_QUEUE_CNT": CHECK_QUEUE_CNT}
 """Timed idle, and as the probes (in this order) of a stream while 4 groups move."""
 MOVING = " while 4 groups move"

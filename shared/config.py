@@ -28,8 +28,8 @@ DEFAULT_MAX_LATENESS_PERIODS = 25
 """100 ms at 4 ms. Far shorter than the 0.4-0.5 s after which a client can be told NOT_READY
 (so nothing queued before NOT_READY ever moves), and far longer than the executor's real
 jitter on a shared 2-core machine: SCHED_FIFO ticks were seen 12.8 ms late once in a full test
-run, and without SCHED_FIFO 8-15 ms under load (zenoh-facts §5), either of which a 3-period
-bound turned into a false alarm."""
+run, and without SCHED_FIFO 8-15 ms under load (docs/realtime.md, Why SCHED_FIFO), either
+of which a 3-period bound turned into a false alarm."""
 
 MAX_PENDING_POINTS = 32
 """The deepest pending-point FIFO a cell file may ask for (``pending_points``): ample for a

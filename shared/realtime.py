@@ -42,8 +42,8 @@ def clock_cpus(allowed: Set[int]) -> set[int] | None:
 def tighten_timer_slack() -> None:
     """The calling thread's sleeps end at their deadline, not up to 50 µs after it (the default
     slack lets the kernel batch wake-ups). A SCHED_FIFO thread has no slack anyway; this is for
-    a clock refused real-time priority (zenoh-facts §5: sleep lateness p50 59 µs instead of
-    107). Needs no privilege; nothing to do off Linux."""
+    a clock refused real-time priority (sleep lateness p50 59 µs instead of 107,
+    docs/realtime.md). Needs no privilege; nothing to do off Linux."""
     if sys.platform.startswith("linux"):
         ctypes.CDLL(None, use_errno=True).prctl(PR_SET_TIMERSLACK, TIMER_SLACK_NS)
 

@@ -1,6 +1,6 @@
 """Whether each cell's clock runs SCHED_FIFO, for ``motocell ps`` and ``motocell watch``: a clock
-without it misses periods under load (zenoh-facts §5), so the tools say so loudly, with the
-command that lets it (docs/realtime.md).
+without it misses periods under load (docs/realtime.md, Why SCHED_FIFO), so the tools say so
+loudly, with the command that lets it (docs/realtime.md).
 
 The executor reports it in its metrics, once a second; ``ps`` waits that long at most for the
 executors it found alive.

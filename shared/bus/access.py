@@ -5,7 +5,7 @@ an interpolator only on its own group's keys, every service only its own livelin
 info queryable. Observers receive and ask services who they are; operators may also inject
 faults. Nothing else is written here: change a route in the catalogue and the ACL follows.
 
-How Zenoh applies it (measured in ../shared notes, zenoh-security): the router filters each
+How Zenoh applies it (as measured on this project's machines): the router filters each
 message per connection, ``ingress`` as it arrives from a client and ``egress`` as it leaves
 towards one; a denied message is dropped silently.
 """

@@ -1,6 +1,6 @@
 """Zenoh key expressions of a cell. Everything lives under ``motocell/<cell>/``; entity kinds
 and ids sit at fixed positions so ``*`` selects one level, and no key carries a sequence
-number or a timestamp (those travel in the payload). See ARCHITECTURE.md for the full map.
+number or a timestamp (those travel in the payload). docs/payloads.md lists every key.
 """
 
 from __future__ import annotations

@@ -106,7 +106,7 @@ class IncrementBatch(msgspec.Struct, array_like=True, frozen=True):
     """The highest ``Point.point_id`` its interpolator is done with: every entry of every point
     up to it is in this batch or an earlier one (a point it dropped counts as done). A point
     the executor has heard of beyond it is still owed, and a ring left empty while owed is
-    starved, not finished (ARCHITECTURE.md, "Clearing, epochs")."""
+    starved, not finished (docs/motion-safety.md, What a ring is owed)."""
 
 
 class QueueState(msgspec.Struct, array_like=True, frozen=True):
@@ -157,7 +157,7 @@ class Tick(msgspec.Struct, array_like=True, frozen=True):
 
 class CartesianPose(msgspec.Struct, array_like=True, frozen=True):
     """A frame of an arm in the arm's base frame, from its model's DH table (frames, units and
-    conventions: ARCHITECTURE.md, Poses)."""
+    conventions: docs/poses.md)."""
 
     position: list[float]
     """x, y, z in metres."""

@@ -1,7 +1,7 @@
 """Forward kinematics from a robot model's DH table: every link's frame, the flange and the
 tool centre point (TCP).
 
-Conventions (ARCHITECTURE.md, "Poses"):
+Conventions (docs/poses.md):
 
 - The table is the one MOTO_GET_DH_PARAMETERS answers (``RobotModel.dh``), one row
   [theta, d, a, alpha] per link in ROS joint order, read as *standard* (distal) Denavit-Hartenberg:

@@ -1,5 +1,5 @@
 """The arms' poses on ``state``, end to end: two arms and a positioner, the tool a client selects
-with MOTO_SELECT_TOOL applied to the TCP (ARCHITECTURE.md, Poses)."""
+with MOTO_SELECT_TOOL applied to the TCP (docs/poses.md)."""
 
 from __future__ import annotations
 

@@ -170,10 +170,10 @@ the controller's status at the executor. The others only pause the stream or the
 for the interpolator's (``MAY_STOP_MOTION``)."""
 MAY_STOP_MOTION = {"interpolator"}
 """A ring left empty while its interpolator owes it increments is a broken increment path
-(ARCHITECTURE.md, Clearing, epochs): NOT_READY 5012. Whether the interpolator owed any when it
-stopped (the rest of a segment, a point it had) or had sent all it had (the ring then runs dry
-as for a late client, and the motion resumes) is a matter of where in the stream the stop
-fell; each outcome is checked."""
+(docs/motion-safety.md, What a ring is owed): NOT_READY 5012. Whether the interpolator owed
+any when it stopped (the rest of a segment, a point it had) or had sent all it had (the ring
+then runs dry as for a late client, and the motion resumes) is a matter of where in the stream
+the stop fell; each outcome is checked."""
 
 
 def pids_of(cell: RunningCell, service: str) -> set[int]:
