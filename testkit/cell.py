@@ -193,7 +193,9 @@ def start_cell(
         command += ["--skip", service]
     if cell_file is not None:
         command += ["--config", cell_file]
-    runtime_dir = Path(tempfile.mkdtemp(prefix="motocell-cell-"))
+    # Named after this process: if it dies without stopping the cell, the next test run can
+    # tell the directory is left over (the test suite's tests/leftovers.py).
+    runtime_dir = Path(tempfile.mkdtemp(prefix=f"motocell-cell-{os.getpid()}-"))
     env = {**os.environ, "MOTOCELL_LOG": log_level, RUNTIME_DIR_ENV: str(runtime_dir)}
     spawned_ns = time.monotonic_ns()
     if log is None:

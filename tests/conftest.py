@@ -10,24 +10,31 @@ fails, so later tests do not inherit it. Threads Python did not start (Zenoh's, 
 as "dummy" threads once they run a callback) are not the test's.
 
 Besides, a test outside the ``cell`` lane starts no process at all (``tests/lanes.py``), so
-``pytest -m "not cell"`` stays fast.
+``pytest -m "not cell"`` stays fast. A run starts by removing what earlier runs killed
+outright left outside their process (``tests/leftovers.py``), and gives every test a registry
+of running cells of its own instead of the user's.
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
+import shutil
 import signal
+import tempfile
 import threading
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
+from motocell.shared import registry
 from motocell.testkit.processes import alive, children, descendants, wait_until
-from tests import lanes
+from tests import lanes, leftovers
 
 DEADLINE_S = 5.0
+_REGISTRY = pytest.StashKey[tuple[str, str | None]]()
+"""This run's registry directory, and the value it replaced."""
 
 
 def _own_threads() -> set[threading.Thread]:
@@ -98,6 +105,29 @@ def no_leaks() -> Iterator[None]:
 
 def pytest_configure(config: pytest.Config) -> None:
     config.pluginmanager.register(lanes.SpawnGuard(), "spawn-guard")
+
+
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """Remove what earlier runs left (tests/leftovers.py), one line each; then give this run
+    a registry of its own, so no test, nor a process one starts, touches the user's."""
+    reporter = session.config.pluginmanager.get_plugin("terminalreporter")
+    for line in leftovers.clean():
+        if reporter is not None:
+            reporter.write_line(f"removed what an earlier test run left: {line}")
+    directory = tempfile.mkdtemp(prefix=f"motocell-tests-{os.getpid()}-")
+    session.config.stash[_REGISTRY] = (directory, os.environ.get(registry.ENV))
+    os.environ[registry.ENV] = directory
+
+
+def pytest_sessionfinish(session: pytest.Session) -> None:
+    if _REGISTRY not in session.config.stash:
+        return  # the session did not start
+    directory, before = session.config.stash[_REGISTRY]
+    shutil.rmtree(directory, ignore_errors=True)
+    if before is None:
+        os.environ.pop(registry.ENV, None)
+    else:
+        os.environ[registry.ENV] = before
 
 
 @pytest.fixture

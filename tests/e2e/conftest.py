@@ -19,6 +19,7 @@ import zenoh
 from motocell.shared.bus.catalog import Role
 from motocell.testkit.cell import RunningCell, TickLog, running_cell
 from motocell.testkit.client import MotionClient, StateListener
+from tests.leftovers import why_no_namespaces
 
 TEST_CELLS = Path(__file__).parent / "cells"
 
@@ -27,6 +28,14 @@ TEST_CELLS = Path(__file__).parent / "cells"
 def repo() -> Path:
     """The source tree: ``deploy/`` (cell files, Dockerfile) and ``compose.yaml``."""
     return Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="session")
+def network_namespaces() -> None:
+    """Skips a test on a machine where it cannot make network namespaces (not root, no ip)."""
+    reason = why_no_namespaces()
+    if reason:
+        pytest.skip(reason)
 
 
 @pytest.fixture(scope="module")

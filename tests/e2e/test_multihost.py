@@ -7,10 +7,8 @@ from __future__ import annotations
 
 import os
 import re
-import shutil
 import signal
 import subprocess
-import uuid
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
@@ -18,37 +16,18 @@ import pytest
 
 from motocell.testkit.processes import cmdline, wait_until
 
-pytestmark = pytest.mark.cell
-
 RUN_TIMEOUT_S = 120.0
 """A run takes 8-40 s here; a loaded machine starts a cell's eleven processes slowly."""
+CLEAN_UP_S = 60.0
+"""How long the script's clean-up may take once told to stop (it stops each process within
+10 s, then deletes what it made)."""
 LEFTOVER_WAIT_S = 5.0
 """How long a process the script killed may take to be gone."""
 
+pytestmark = [pytest.mark.cell, pytest.mark.timeout(RUN_TIMEOUT_S + CLEAN_UP_S + 60)]
+"""pytest-timeout stops a test only after the script's own deadline and its clean-up."""
+
 Report = dict[str, str]
-
-
-def _why_no_namespaces() -> str:
-    """Why this machine cannot run the script ("" when it can)."""
-    if os.geteuid() != 0:
-        return "needs root, to create network namespaces"
-    if shutil.which("ip") is None:
-        return "needs the ip command (iproute2)"
-    probe = f"mhprobe{uuid.uuid4().hex[:6]}"
-    added = subprocess.run(
-        ["ip", "netns", "add", probe], capture_output=True, text=True, check=False
-    )
-    if added.returncode != 0:
-        return f"`ip netns add` fails here: {added.stderr.strip()}"
-    subprocess.run(["ip", "netns", "delete", probe], capture_output=True, check=False)
-    return ""
-
-
-@pytest.fixture(scope="module")
-def namespaces() -> None:
-    reason = _why_no_namespaces()
-    if reason:
-        pytest.skip(reason)
 
 
 def _leftovers(tag: str, directory: str) -> list[str]:
@@ -67,7 +46,7 @@ def _leftovers(tag: str, directory: str) -> list[str]:
 
 
 @pytest.fixture
-def multihost(repo: Path, namespaces: None) -> Iterator[Callable[..., tuple[str, Report]]]:
+def multihost(repo: Path, network_namespaces: None) -> Iterator[Callable[..., tuple[str, Report]]]:
     """Runs ``bash scripts/multihost OPTIONS``: its output and its report's ``name: value``
     lines. Afterwards nothing of any run may be left."""
     runs: list[str] = []
@@ -104,11 +83,25 @@ def _run_script(repo: Path, *options: str) -> tuple[int, str]:
     try:
         output, _ = process.communicate(timeout=RUN_TIMEOUT_S)
     except subprocess.TimeoutExpired:
-        # SIGTERM runs the script's clean-up (its trap); wait for it to finish.
-        os.killpg(process.pid, signal.SIGTERM)
-        output, _ = process.communicate(timeout=60)
+        output = _stop(process, signal.SIGTERM)
         return process.returncode, f"{output}\n(hung: stopped after {RUN_TIMEOUT_S} s)"
+    except BaseException:
+        # pytest-timeout or Ctrl-C: the script must not outlive the test, nor its namespaces.
+        _stop(process, signal.SIGTERM)
+        raise
     return process.returncode, output
+
+
+def _stop(script: subprocess.Popen[str], how: signal.Signals) -> str:
+    """Signal the script's process group (its trap then cleans up, as on a terminal) and wait
+    for the clean-up; its output. A clean-up that hangs is killed: the next test run removes
+    what it left (tests/leftovers.py)."""
+    os.killpg(script.pid, how)
+    try:
+        return script.communicate(timeout=CLEAN_UP_S)[0]
+    except subprocess.TimeoutExpired:
+        os.killpg(script.pid, signal.SIGKILL)
+        return script.communicate()[0]
 
 
 def _report(output: str) -> Report:
@@ -151,7 +144,7 @@ def test_cutting_the_interpolators_link_is_told_and_nothing_moves_late(
     assert report.get("new trajectory", "").endswith("0 pulse(s) from the goal (max over 15 axes)")
 
 
-def test_ctrl_c_while_the_cell_starts_leaves_nothing(repo: Path, namespaces: None) -> None:
+def test_ctrl_c_while_the_cell_starts_leaves_nothing(repo: Path, network_namespaces: None) -> None:
     script = subprocess.Popen(
         ["bash", str(repo / "scripts" / "multihost")],
         stdout=subprocess.PIPE,
@@ -166,8 +159,7 @@ def test_ctrl_c_while_the_cell_starts_leaves_nothing(repo: Path, namespaces: Non
         wait_until(lambda: _runs_on(f"{tag}-b"), RUN_TIMEOUT_S, "host B's interpolators")
     finally:
         # What a terminal's Ctrl-C does: SIGINT to the script's process group.
-        os.killpg(script.pid, signal.SIGINT)
-        output = first + script.communicate(timeout=60)[0]
+        output = first + _stop(script, signal.SIGINT)
     assert script.returncode == 130, output
     _assert_left_nothing(output)
 

@@ -3,12 +3,10 @@
 from __future__ import annotations
 
 import os
-import shutil
 import signal
 import subprocess
 import sys
 import threading
-import uuid
 from collections.abc import Iterator
 from contextlib import ExitStack, contextmanager
 from pathlib import Path
@@ -24,6 +22,7 @@ from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
 from motocell.testkit.cell import RunningCell, running_cell, zenoh_router
 from motocell.testkit.client import MotionClient, StateListener, smooth_move, stream, stream_ex
 from motocell.testkit.processes import alive, connectable, wait_until
+from tests.leftovers import suite_tag
 
 pytestmark = pytest.mark.cell
 
@@ -92,26 +91,14 @@ def test_two_cells_on_one_network_are_isolated_and_one_observer_sees_both(
         wait_until(lambda: {"left", "right"} <= seen, 5.0, "the observer to see both cells")
 
 
-def _netns_available() -> bool:
-    if os.geteuid() != 0 or shutil.which("ip") is None:
-        return False
-    probe = f"mcprobe{uuid.uuid4().hex[:6]}"
-    created = (
-        subprocess.run(["ip", "netns", "add", probe], capture_output=True, check=False).returncode
-        == 0
-    )
-    if created:
-        subprocess.run(["ip", "netns", "delete", probe], capture_output=True, check=False)
-    return created
-
-
 @contextmanager
 def other_host() -> Iterator[tuple[str, str, str]]:
     """A network namespace joined to this one by a veth pair: (namespace, our address, its
-    address). Everything is this test's own; it is all deleted afterwards."""
-    tag = uuid.uuid4().hex[:6]
-    namespace, host_side, ns_side = f"mc{tag}", f"mch{tag}", f"mcn{tag}"
-    octet = int(tag[:2], 16) % 250 + 1
+    address). Everything is this test's own, named as the suite's (tests/leftovers.py); it is
+    all deleted afterwards, or by the next run if this one is killed first."""
+    tag = suite_tag()
+    namespace, host_side, ns_side = f"{tag}-host", f"{tag}h", f"{tag}n"
+    octet = os.getpid() % 250 + 1
     ours, theirs = f"10.213.{octet}.1", f"10.213.{octet}.2"
     commands = [
         ["ip", "netns", "add", namespace],
@@ -132,8 +119,9 @@ def other_host() -> Iterator[tuple[str, str, str]]:
         subprocess.run(["ip", "link", "delete", host_side], capture_output=True, check=False)
 
 
-@pytest.mark.skipif(not _netns_available(), reason="needs root and `ip netns`")
-def test_a_groups_interpolator_on_another_host_through_a_router(repo: Path) -> None:
+def test_a_groups_interpolator_on_another_host_through_a_router(
+    repo: Path, network_namespaces: None
+) -> None:
     config = str(repo / "shared" / "cells" / "dual-arm-positioner.toml")
     with ExitStack() as stack:
         namespace, ours, _theirs = stack.enter_context(other_host())
