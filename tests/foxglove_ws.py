@@ -19,6 +19,7 @@ import json
 import socket
 import struct
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 from urllib.parse import urlsplit
@@ -172,10 +173,17 @@ class FoxgloveClient:
         subscriptions = [{"id": sid, "channelId": c.id} for sid, c in wanted.items()]
         self.connection.send(json.dumps({"op": "subscribe", "subscriptions": subscriptions}))
 
-    def messages(self, until: float) -> list[Received]:
-        """Every message that comes before ``until`` (CLOCK_MONOTONIC seconds)."""
-        found = []
-        while (remaining := until - time.monotonic()) > 0:
+    def messages_until(
+        self, enough: Callable[[list[Received]], bool], timeout: float, what: str
+    ) -> list[Received]:
+        """Every message until those so far are ``enough``; TimeoutError naming ``what`` if they
+        are not within ``timeout`` s."""
+        found: list[Received] = []
+        deadline = time.monotonic() + timeout
+        while not enough(found):
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise TimeoutError(f"{what}: {len(found)} messages in {timeout} s")
             frame = self.read(remaining)
             if isinstance(frame, Received):
                 found.append(frame)

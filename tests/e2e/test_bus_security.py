@@ -9,8 +9,6 @@ where it was in every tick, no fault appears, and a trajectory still runs afterw
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 import zenoh
@@ -34,12 +32,17 @@ from motocell.shared.bus.session import open_session
 from motocell.shared.protocol.constants import Command, Result
 from motocell.testkit.cell import RunningCell, TickLog
 from motocell.testkit.client import MotionClient, StateListener, smooth_move, stream
+from motocell.testkit.processes import wait_until
 
 pytestmark = pytest.mark.cell
 
-WATCH_S = 1.0
-"""How long the cell is watched for an effect after an attack: 250 ticks, far more than any
-put or query needs to arrive (well under 10 ms on loopback)."""
+WATCH_TICKS = 250
+"""How long the cell is watched for an effect after an attack, in the executor's ticks (1 s at
+250 Hz): far more than any put or query needs to arrive (well under 10 ms on loopback). Counted
+in ticks, which come through the same router as the attack, so a loaded machine watches as
+much of the cell's life as an idle one. The tick rate itself is benchmark figures 3 and 6."""
+DEADLINE_S = 60.0
+"""For what an idle machine does at once: a bound for a hang, not a speed."""
 
 
 def attacks(cell: RunningCell) -> list[tuple[str, bytes]]:
@@ -80,14 +83,14 @@ def credentials_of(cell: RunningCell, role: Role) -> Credentials:
 
 
 def assert_untouched(cell: RunningCell, ticks: TickLog, bus: zenoh.Session, mark: int) -> None:
-    """No tick since ``mark`` moved the robot; the controller shows no fault."""
-    time.sleep(WATCH_S)  # watching for an effect that must not come: no condition to wait on
+    """No tick of the WATCH_TICKS since ``mark`` moved the robot; the controller shows no
+    fault."""
+    wait_until(lambda: len(ticks) >= mark + WATCH_TICKS, DEADLINE_S, "the executor's ticks")
     seen = ticks.since(mark)
-    assert len(seen) > 100, "the executor kept ticking"
     first = seen[0].groups[0].command_pulses
     assert all(t.groups[0].command_pulses == first for t in seen), "the robot moved"
     assert all(t.motion_ready for t in seen), "motion-ready dropped"
-    replies = list(bus.get(cell.keys.service_info("controller", "0"), timeout=1.0))
+    replies = list(bus.get(cell.keys.service_info("controller", "0"), timeout=DEADLINE_S))
     assert replies, "the controller still answers"
     status = latest_status(bus, cell)
     assert not (status.estop or status.hold or status.alarms or status.error), status
@@ -100,11 +103,11 @@ def latest_status(bus: zenoh.Session, cell: RunningCell) -> ControllerStatus:
     subscriber = bus.declare_subscriber(
         cell.keys.controller_status, lambda s: received.append(decoder.decode(s.payload.to_bytes()))
     )
-    deadline = time.monotonic() + 2.0
-    while not received and time.monotonic() < deadline:
-        time.sleep(0.01)
-    subscriber.undeclare()
-    assert received, "the controller republishes its status every 100 ms"
+    try:
+        # The controller republishes its status at least every second.
+        wait_until(lambda: bool(received), DEADLINE_S, "the controller's status")
+    finally:
+        subscriber.undeclare()
     return received[-1]
 
 
@@ -162,8 +165,8 @@ def test_the_operator_may_inject_a_fault_and_clear_it(
 ) -> None:
     """The positive control: the same query path works for the identity allowed to use it."""
     on, off = encode(CommandRequest(value=1)), encode(CommandRequest(value=0))
-    replies = list(bus.get(cell.keys.controller_fault("hold"), payload=on, timeout=2.0))
+    replies = list(bus.get(cell.keys.controller_fault("hold"), payload=on, timeout=DEADLINE_S))
     assert any(reply.ok for reply in replies)
-    state.wait_for(lambda f: f.status is not None and f.status.motion_possible == 0, 5.0)
-    list(bus.get(cell.keys.controller_fault("hold"), payload=off, timeout=2.0))
+    state.wait_for(lambda f: f.status is not None and f.status.motion_possible == 0, DEADLINE_S)
+    list(bus.get(cell.keys.controller_fault("hold"), payload=off, timeout=DEADLINE_S))
     assert motion.command(Command.START_TRAJ_MODE).result == Result.SUCCESS

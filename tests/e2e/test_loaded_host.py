@@ -1,14 +1,15 @@
 """A loaded host does not make a live cell lose a service (issue 12, point 3).
 
-A CPU hog per core at normal priority runs for LOAD_S while a four-group cell moves one
-trajectory after another: no reply is NOT_READY, the controller declares no service missing,
-and every trajectory ends exactly on its last point.
+A CPU hog per core at normal priority runs while a four-group cell moves MOVES trajectories one
+after another: the controller declares no service missing, every trajectory ends exactly on its
+last point, and whatever the cell refuses meanwhile it refuses as NOT_READY and is ready again
+afterwards. How often a loaded cell refuses, and how late it runs, are timings for the
+benchmark, not for a test that must pass on a machine of any load.
 """
 
 from __future__ import annotations
 
 import os
-import signal
 import subprocess
 import sys
 import threading
@@ -24,21 +25,24 @@ import zenoh
 
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import ControllerStatus, Decoder
-from motocell.shared.bus.session import LEASE_MS
 from motocell.shared.motion.kinematics import AxisMap
 from motocell.shared.protocol.constants import Command, Result
 from motocell.shared.protocol.messages import MotoMotionReply
 from motocell.testkit.cell import RunningCell
 from motocell.testkit.client import Feedback, MotionClient, StateListener, smooth_move, stream_ex
 from motocell.testkit.processes import wait_until
+from tests.e2e.stalling import WITHIN_LEASE_S, beyond_the_lease, stall
 
 pytestmark = [
     pytest.mark.cell,
     pytest.mark.parametrize("cell", ["four-group.toml"], indirect=True),
 ]
 
-LOAD_S = 30.0
-"""How long the hogs run, and the trajectories with them."""
+MOVES = 8
+"""Trajectories streamed while the hogs run, out and back: a count, not a duration, so a loaded
+machine moves as much as an idle one."""
+MOST_REFUSALS = 100
+"""A cell that refuses this often is not recovering: the test stops trying."""
 HOG = (sys.executable, "-c", "while True: pass")
 MOVE_S = 1.0
 POINTS = 6
@@ -46,11 +50,12 @@ OFFSETS = (0.21, 0.17, 0.05, 0.31)
 """How far each group moves and back: radians, metres for the track (B1)."""
 RETRY_S = 0.1
 """Between two START_TRAJ_MODE attempts after a refusal."""
-ARRIVAL_S = 15.0
-"""A bound for a lost trajectory, never reached by one that runs."""
+DEADLINE_S = 60.0
+"""A bound for a lost trajectory or a cell that never gets ready: a hang, not a speed."""
 STALL_S = 2.0
 """Longer than a loaded host was seen to stall a process (issue 12: every service "gone" and
-back about 1 s later), shorter than the lease."""
+back about 1 s later), shorter than the lease; a test whose process went longer without
+running skips (``stalling``)."""
 
 
 @contextmanager
@@ -110,22 +115,23 @@ def positions(feedback: Feedback, run: Run) -> dict[int, tuple[float, ...]]:
     }
 
 
-def start_traj_mode(motion: MotionClient, run: Run, deadline: float) -> bool:
-    """START_TRAJ_MODE until the cell is motion-ready (each refusal counted), or the run is
-    over."""
-    while time.monotonic() < deadline:
+def start_traj_mode(motion: MotionClient, run: Run) -> None:
+    """START_TRAJ_MODE until the cell is motion-ready, each refusal counted."""
+
+    def ready() -> bool:
         reply = motion.command(Command.START_TRAJ_MODE)
         if reply.result != Result.SUCCESS:
             run.refusals.append(reply)
-        elif motion.command(Command.CHECK_MOTION_READY).result == Result.TRUE:
-            return True
-        time.sleep(RETRY_S)
-    return False
+            time.sleep(RETRY_S)  # a client's pause between attempts, as motoman_driver's
+            return False
+        return motion.command(Command.CHECK_MOTION_READY).result == Result.TRUE
+
+    wait_until(ready, DEADLINE_S, "the cell to be motion-ready again")
 
 
 def move(motion: MotionClient, state: StateListener, run: Run, sign: int) -> bool:
     """One trajectory of every group, out or back; whether every point was accepted."""
-    start = positions(state.wait_still(ARRIVAL_S), run)
+    start = positions(state.wait_still(DEADLINE_S), run)
     goals = {g: tuple(p + sign * OFFSETS[g] for p in start[g]) for g in start}
     plans = {g: smooth_move(start[g], goals[g], MOVE_S, POINTS) for g in start}
     result = stream_ex(motion, plans)
@@ -144,7 +150,7 @@ def move(motion: MotionClient, state: StateListener, run: Run, sign: int) -> boo
         }
 
     try:
-        state.wait_for(lambda f: f.status is not None and not errors(f), ARRIVAL_S)
+        state.wait_for(lambda f: f.status is not None and not errors(f), DEADLINE_S)
     except TimeoutError:
         latest = state.latest()
         assert latest is not None
@@ -160,22 +166,19 @@ def test_a_loaded_host_loses_no_service_and_stops_no_trajectory(
     watch = MissingWatch(bus, cell.keys)
     try:
         with cpu_hogs(os.cpu_count() or 2):
-            deadline = time.monotonic() + LOAD_S
-            armed = start_traj_mode(motion, run, deadline)
             sign = 1
-            while armed and time.monotonic() < deadline:
+            while run.moves < MOVES and len(run.refusals) < MOST_REFUSALS:
+                start_traj_mode(motion, run)
                 if move(motion, state, run, sign):
                     sign = -sign
-                else:
-                    armed = start_traj_mode(motion, run, deadline)
     finally:
         watch.subscriber.undeclare()
 
     assert not watch.flaps, f"services declared missing under load: {watch.flaps}"
     refused = Counter((reply.result, reply.subcode) for reply in run.refusals)
-    assert not refused, f"(result, subcode): count refused under load: {dict(refused)}"
+    assert {result for result, _ in refused} <= {Result.NOT_READY}, dict(refused)
+    assert run.moves == MOVES, f"{run.moves} trajectories; (result, subcode): {dict(refused)}"
     assert not run.misses, f"trajectories off their last point (pulses): {run.misses}"
-    assert run.moves >= 2, "the cell hardly moved under load"
 
 
 def test_a_service_stalled_for_less_than_the_lease_is_not_declared_missing(
@@ -183,24 +186,23 @@ def test_a_service_stalled_for_less_than_the_lease_is_not_declared_missing(
 ) -> None:
     """A stall is what a loaded host does to a process at worst: no CPU for a while. The
     broadcaster (the service a loaded host once had "missing" for 9.7 s) stops for STALL_S."""
-    assert STALL_S < LEASE_MS / 1000, "the lease must outlast a loaded host's stalls"
+    assert STALL_S < WITHIN_LEASE_S, "the lease must outlast a loaded host's stalls"
     assert motion.command(Command.START_TRAJ_MODE).result == Result.SUCCESS
     watch = MissingWatch(bus, cell.keys)
     (broadcaster,) = cell.service_pids("broadcaster")
     try:
-        os.kill(broadcaster, signal.SIGSTOP)
-        time.sleep(STALL_S)  # the stall itself, not a wait for something to happen
-    finally:
-        os.kill(broadcaster, signal.SIGCONT)
+        lived = stall([broadcaster], STALL_S)
         resumed_ns = time.monotonic_ns()
-    try:
-        state.wait_for(lambda f: f.received_ns > resumed_ns, ARRIVAL_S)
+        state.wait_for(lambda f: f.received_ns > resumed_ns, DEADLINE_S)
         wait_until(
             lambda: motion.command(Command.CHECK_MOTION_READY).result == Result.TRUE,
-            ARRIVAL_S,
+            DEADLINE_S,
             "motion-ready",
         )
     finally:
         watch.subscriber.undeclare()
 
+    reason = beyond_the_lease(lived, "the broadcaster")
+    if reason:
+        pytest.skip(reason)
     assert not watch.flaps, f"declared missing while stalled: {watch.flaps}"

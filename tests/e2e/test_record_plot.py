@@ -152,7 +152,7 @@ def publish_unknown(endpoint: str, key: str, stdout: Lines) -> None:
     (a put can race the router learning of the recorder's subscription)."""
     session = open_session("client", [endpoint], wait=False)
     try:
-        deadline = time.monotonic() + 5.0
+        deadline = time.monotonic() + 60.0  # a bound for a hang, not a speed
         while f"+ {key} (msgpack, msgpack, not in the catalogue or not decodable)" not in stdout:
             assert time.monotonic() < deadline, "the recorder never recorded the unknown key"
             session.put(key, UNKNOWN_PAYLOAD)

@@ -12,7 +12,6 @@ import struct
 import subprocess
 import sys
 import threading
-import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -28,7 +27,7 @@ from motocell.testkit.cell import RunningCell
 from motocell.testkit.client import Feedback, smooth_move, stream
 from motocell.testkit.processes import wait_until
 from motocell.tools.view_layout import layout_text
-from tests.foxglove_ws import FoxgloveClient
+from tests.foxglove_ws import FoxgloveClient, Received
 from tests.frames import foxglove_steps, in_root, pose_matrix, rotation, vector
 
 pytestmark = pytest.mark.cell
@@ -39,6 +38,8 @@ POSE_TOLERANCE_M = 1e-5
 """A flange pose from float32 joints, about a metre from the base: 1e-7 rad x 1 m, and margin."""
 MOVE = (0.4, -0.3, 0.3, 0.5, -0.4, 0.6)
 STALLED_TICKS = 1000
+DEADLINE_S = 60.0
+"""For what an idle machine does at once: a bound for a hang, not a speed."""
 """Executor ticks (4 s) a client does not read: with the other topics it subscribed, the
 server has more than twice ``tools.view.MESSAGE_BACKLOG`` messages for it, more than its queue
 and the sockets' buffers hold."""
@@ -58,7 +59,7 @@ class View:
         self.lines: list[str] = []
         self._reader = threading.Thread(target=self._read, daemon=True)
         self._reader.start()
-        wait_until(lambda: self.url is not None, 20.0, "the view to serve")
+        wait_until(lambda: self.url is not None, DEADLINE_S, "the view to serve")
 
     def _read(self) -> None:
         assert self.process.stdout is not None
@@ -144,14 +145,14 @@ def subscribed(
 ) -> FoxgloveClient:
     client = view.client(max_queue, receive_buffer)
     wanted = {topics(cell)[kind] for kind in kinds}
-    advertised = client.wait_for_topics(wanted, 20.0)
+    advertised = client.wait_for_topics(wanted, DEADLINE_S)
     client.subscribe([advertised[topic] for topic in sorted(wanted)])
     return client
 
 
 def test_it_offers_the_cells_topics_and_nothing_to_command(view: View, cell: RunningCell) -> None:
     with view.client() as client:
-        advertised = client.wait_for_topics(set(topics(cell).values()), 20.0)
+        advertised = client.wait_for_topics(set(topics(cell).values()), DEADLINE_S)
         assert client.server_info["capabilities"] == []
         assert not {"services", "parameters", "clientPublish"} & set(client.server_info)
     joints = advertised[topics(cell)["joints"]]
@@ -167,7 +168,7 @@ def test_it_offers_the_cells_topics_and_nothing_to_command(view: View, cell: Run
 def test_the_scene_draws_every_link_on_its_frame(view: View, cell: RunningCell) -> None:
     group = cell.cell.groups[0]
     with subscribed(view, cell, "scene") as client:
-        scene = client.next_message(topics(cell)["scene"], 10.0).protobuf()
+        scene = client.next_message(topics(cell)["scene"], DEADLINE_S).protobuf()
     frames = {entity.frame_id for entity in scene.entities}  # type: ignore[attr-defined]
     prefix = f"{cell.cell.name}/{group.name}"
     # The last link's length lies along the one before (its d), so link6 carries nothing.
@@ -196,19 +197,21 @@ def test_joints_and_tool_pose_agree_with_the_state_port(view: View, cell: Runnin
     group = cell.cell.groups[0]
     axes = group.axes
     with cell.state() as state, cell.motion() as motion:
-        state.wait_for(lambda f: f.status is not None, 10.0)
+        state.wait_for(lambda f: f.status is not None, DEADLINE_S)
         with subscribed(view, cell, "joints", "transforms", "tcp") as client:
             reply = motion.command(Command.START_TRAJ_MODE)
             assert (reply.result, reply.subcode) == (Result.SUCCESS, 0)
             start = np.array(state.wait_still().groups[0].positions[:axes])
             trajectory = smooth_move(tuple(start), tuple(start + MOVE), duration=1.0, points=11)
             assert stream(motion, trajectory).points == len(trajectory)
-            state.wait_for(lambda f: not same_joints(f, list(start), axes), 10.0)
-            received = client.messages(until=time.monotonic() + 1.5)
+            state.wait_for(lambda f: not same_joints(f, list(start), axes), DEADLINE_S)
+            received = client.messages_until(
+                lambda found: min(map(len, sent_while_moving(found, cell, start))) >= 20,
+                DEADLINE_S,
+                "20 joint states, tool poses and transform trees while the arm moves",
+            )
         cycles = [c for c in state.cycles if 0 in c.groups]
-    joints = [m for m in received if m.topic == topics(cell)["joints"]]
-    moving = [m for m in joints if not np.allclose(m.json()["positions"], start, atol=1e-3)]
-    assert len(moving) >= 20, f"{len(joints)} joint states, {len(moving)} while moving"
+    moving, tcps, trees = sent_while_moving(received, cell, start)
     matched = [_match(cycles, m.json()["positions"], axes) for m in moving]
     assert matched == sorted(matched), "the view's joint states came out of order"
 
@@ -216,9 +219,6 @@ def test_joints_and_tool_pose_agree_with_the_state_port(view: View, cell: Runnin
     chain = Chain(group.model)
     flanges = chain.flange(np.array([c.groups[0].positions[:axes] for c in cycles]))
     placement = tool_transform([*group.base.xyz, *group.base.rpy])
-    tcps = [m for m in received if m.topic == topics(cell)["tcp"]]
-    trees = [m for m in received if m.topic == topics(cell)["transforms"]]
-    assert len(tcps) >= 20 and len(trees) >= 20, (len(tcps), len(trees))
     for message in tcps[-50:]:
         pose: Any = message.protobuf()
         assert pose.frame_id == f"{cell.cell.name}/{group.name}/base"
@@ -228,6 +228,19 @@ def test_joints_and_tool_pose_agree_with_the_state_port(view: View, cell: Runnin
         tree = message.protobuf()
         _assert_near_one(placement @ flanges, in_cell(tree, cell.cell.name, group.name, "flange"))
         _assert_near_one(placement @ flanges, in_cell(tree, cell.cell.name, group.name, "tcp"))
+
+
+def sent_while_moving(
+    received: list[Received], cell: RunningCell, start: np.ndarray[Any, Any]
+) -> tuple[list[Received], list[Received], list[Received]]:
+    """The joint states that are not at ``start``, and the tool poses and transform trees."""
+    names = topics(cell)
+    joints = [m for m in received if m.topic == names["joints"]]
+    return (
+        [m for m in joints if not np.allclose(m.json()["positions"], start, atol=1e-3)],
+        [m for m in received if m.topic == names["tcp"]],
+        [m for m in received if m.topic == names["transforms"]],
+    )
 
 
 def _match(cycles: list[Feedback], positions: list[float], axes: int) -> int:
@@ -250,10 +263,14 @@ def test_it_outlives_clients_that_never_read_or_vanish(view: View, cell: Running
     stalled = subscribed(view, cell, "joints", "transforms", "executor", max_queue=1)
     try:
         with subscribed(view, cell, "joints") as reader:
-            reader.next_message(joints, 10.0)
-            until = time.monotonic() + 1.0
-            count = len([m for m in reader.messages(until) if m.topic == joints])
-            assert count >= 20, f"{count} joint states in a second beside a stalled client"
+            reader.next_message(joints, DEADLINE_S)
+            # Behaviour, not a rate: the reader goes on being served (the view's rate beside
+            # a stalled client is no benchmark figure yet).
+            reader.messages_until(
+                lambda found: sum(m.topic == joints for m in found) >= 20,
+                DEADLINE_S,
+                "20 joint states beside a stalled client",
+            )
     finally:
         # Gone without a close frame: a reset, as when a laptop drops off the network.
         raw: socket.socket = stalled.connection.socket
@@ -263,7 +280,7 @@ def test_it_outlives_clients_that_never_read_or_vanish(view: View, cell: Running
     with socket.create_connection(view_address(view)):
         pass  # hung up before the WebSocket handshake
     with subscribed(view, cell, "joints") as again:
-        assert again.next_message(joints, 10.0).json()["group_no"] == 0
+        assert again.next_message(joints, DEADLINE_S).json()["group_no"] == 0
     assert view.process.poll() is None
 
 
@@ -281,10 +298,10 @@ def test_a_client_that_never_reads_is_held_a_bounded_backlog(view: View, cell: R
         with subscribed(view, cell, "executor") as reader:
             sent: list[int] = []
             while len(sent) < STALLED_TICKS:
-                sent.append(reader.next_message(executor, 10.0).json()["tick"])
+                sent.append(reader.next_message(executor, DEADLINE_S).json()["tick"])
         kept: list[int] = []
         while not kept or kept[-1] < sent[-1]:
-            kept.append(stalled.next_message(executor, 10.0).json()["tick"])
+            kept.append(stalled.next_message(executor, DEADLINE_S).json()["tick"])
     finally:
         stalled.close()
     assert set(sent) - set(kept), f"all {len(sent)} ticks kept for a client that did not read"

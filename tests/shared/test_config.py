@@ -6,7 +6,6 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -604,10 +603,15 @@ def test_a_placement_needs_three_finite_values(tmp_path: Path, base: str) -> Non
 # --- motocell up ----------------------------------------------------------------------------
 
 
+REFUSAL_DEADLINE_S = 90.0
+"""A hang, not a slow start: an interpreter and its imports take seconds on a loaded machine.
+How fast `motocell up` starts and stops is benchmark figure 9."""
+
+
 @pytest.mark.cell
 def test_up_refuses_a_bad_file_with_status_2(tmp_path: Path) -> None:
+    """Refused before it starts anything: one line, and nothing else."""
     path = write_cell(tmp_path, '[[groups]]\nname = "R1"\nmodel = "arm9"\n')
-    started = time.monotonic()
     result = subprocess.run(
         [
             sys.executable,
@@ -624,14 +628,13 @@ def test_up_refuses_a_bad_file_with_status_2(tmp_path: Path) -> None:
         cwd=REPO,
         capture_output=True,
         text=True,
-        timeout=30,
+        timeout=REFUSAL_DEADLINE_S,
         check=False,
     )
-    elapsed = time.monotonic() - started
     assert result.returncode == 2, result.stderr
     assert "groups[0].model" in result.stderr
     assert "unknown model 'arm9'" in result.stderr
     assert str(path) in result.stderr
     assert "Traceback" not in result.stderr
     assert result.stdout == ""
-    assert elapsed < 10
+    assert result.stderr.count("\n") == 1, result.stderr
