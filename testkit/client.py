@@ -214,11 +214,11 @@ class StateListener:
                     raise TimeoutError(f"no matching state within {timeout} s")
                 self.changed.wait(remaining)
 
-    def wait_still(self, timeout: float = 5.0) -> Feedback:
+    def wait_still(self, timeout: float = 30.0) -> Feedback:
         """The first state cycle, from now on, in which the robot is at rest: not in motion
         (nothing queued, the feedback within 30 pulses of the command) and no axis moving, so
         the feedback is the commanded position exactly (a servo settles after in_motion
-        drops, docs/servo.md)."""
+        drops, docs/servo.md). The default ``timeout`` bounds a hang on a loaded machine."""
         return self.wait_for(
             lambda f: (
                 f.status is not None

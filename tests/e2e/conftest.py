@@ -22,6 +22,11 @@ from motocell.testkit.client import MotionClient, StateListener
 from tests.leftovers import why_no_namespaces
 
 TEST_CELLS = Path(__file__).parent / "cells"
+START_DEADLINE_S = 60.0
+"""For a module's cell to be whole: eleven processes start in about a second here, many times
+that on a loaded machine; a bound for a hang, not a speed (start-up is benchmark figure 9),
+within pytest-timeout's 120 s for the module's first test. A start that fails at once (a
+port taken meanwhile) is tried once more on new ports."""
 
 
 @pytest.fixture(scope="session")
@@ -47,7 +52,7 @@ def cell(request: pytest.FixtureRequest, repo: Path) -> Iterator[RunningCell]:
         path = TEST_CELLS / name
     else:
         path = repo / "shared" / "cells" / name
-    with running_cell(path) as running:
+    with running_cell(path, timeout=START_DEADLINE_S, attempts=2) as running:
         yield running
 
 
