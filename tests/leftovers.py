@@ -129,9 +129,17 @@ def _directories(roots: Iterable[Path], stale: Stale) -> Iterator[Path]:
     for root in sorted(set(roots)):
         for path in sorted(root.glob("motocell-*")):
             owner = directory_owner(path.name)
-            mine = path.is_dir() and path.stat().st_uid == os.getuid()
-            if owner is not None and mine and stale(owner):
+            if owner is not None and _mine(path) and stale(owner):
                 yield path
+
+
+def _mine(path: Path) -> bool:
+    """A directory of this user's (another user's is not ours to judge); False once another
+    run removed it first."""
+    try:
+        return path.is_dir() and path.stat().st_uid == os.getuid()
+    except OSError:
+        return False
 
 
 def _gone(owner: int | None) -> str:
