@@ -15,7 +15,7 @@ from motocell.services.gateway.core.io import IoHandler
 from motocell.services.gateway.core.motion import MotionHandler
 from motocell.services.gateway.metrics import GatewayStats
 from motocell.services.gateway.reporter import Reporter
-from motocell.services.gateway.tcp import RequestServer
+from motocell.services.gateway.tcp import RequestServer, SocketListener
 from motocell.services.gateway.zenoh_cell import ZenohCell
 from motocell.shared.protocol.codec import ByteOrder
 from motocell.shared.service import argument_parser, listen, running_service
@@ -45,7 +45,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         ctx.description.listening("io", io_socket.getsockname())
         motion_server = RequestServer(
             name="motion",
-            server=motion_socket,
+            listener=SocketListener(motion_socket),
             byte_order=byte_order,
             respond=motion.handle,
             error_reply=motion.error_reply,
@@ -55,7 +55,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         )
         io_server = RequestServer(
             name="io",
-            server=io_socket,
+            listener=SocketListener(io_socket),
             byte_order=byte_order,
             respond=io.answer,
             error_reply=io.error_reply,
@@ -71,7 +71,9 @@ def main(argv: Sequence[str] | None = None) -> None:
             "listening on %s:%d and %d (%s-endian)", host, port_base, port_base + 2, byte_order
         )
         ctx.stop.wait()
-        for adapter in adapters:
+        # In reverse: the ports stop taking requests (and a client's clean-up still reaches
+        # the cell) before the cell adapter stops.
+        for adapter in reversed(adapters):
             adapter.close()
 
 

@@ -4,6 +4,15 @@ the handlers.
 A thread per connection keeps the reply path short: recv, decode, decide, send, with no event
 loop hop in between. Connection limits and take-over follow MotoROS 1.9.4+ (motoros1 §2.1,
 motoros1 §8).
+
+Replies are written as each request is answered, by the connection's own thread, and nothing
+else is read meanwhile: a client that does not read its replies fills the kernel's buffers and
+then holds only its own thread, blocked in ``sendall``, with nothing piling up in the gateway.
+The other port is served as usual, and a newcomer that replaces the client (or ``close``)
+shuts its socket down, which ends the blocked write.
+
+The shells take their sockets as ``Stream`` and ``Listener`` (``socket.socket`` is a
+``Stream``; ``SocketListener`` is the real listener), so unit tests script both.
 """
 
 from __future__ import annotations
@@ -14,6 +23,7 @@ import socket
 import threading
 import time
 from collections.abc import Callable
+from typing import Protocol
 
 from motocell.services.gateway.core.answer import Answer
 from motocell.shared.protocol.codec import CLOSED, NEED_DATA, ByteOrder, Role, SimpleMessageCodec
@@ -27,19 +37,68 @@ HANGUP_GRACE_S = 0.3
 """How long a newcomer waits for a previous client that is already closing."""
 CLOSE_DELAY_S = 0.05
 """MotoROS sleeps 50 ms before it closes a motion connection (motoros1 §2.1)."""
+ACCEPT_RETRY_S = 0.1
+"""After a failed accept that was not a close (a client reset before it was taken, no file
+descriptor left): try again this much later rather than in a tight loop."""
+JOIN_S = 5.0
+"""How long closing waits for a connection's thread: a request being handled ends within its
+own timeouts (START_TRAJ_MODE's is the longest, 6 s, and is rare)."""
 
 Respond = Callable[[Message | UnknownMessage], Answer]
 Observe = Callable[[int, Message | None, int], None]
 ErrorReply = Callable[[PeerProtocolError], Message]
 
 
-def configure(client: socket.socket) -> None:
-    client.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-    client.setsockopt(socket.SOL_SOCKET, socket.SO_KEEPALIVE, 1)
+class Stream(Protocol):
+    """What a connection needs of its socket."""
+
+    def recv(self, size: int, /) -> bytes: ...
+
+    def sendall(self, data: bytes, /) -> None: ...
+
+    def shutdown(self, how: int, /) -> None:
+        """Ends a ``recv`` or ``sendall`` blocked in another thread."""
+        ...
+
+    def close(self) -> None: ...
+
+
+class Listener(Protocol):
+    def accept(self) -> tuple[Stream, tuple[str, int]]:
+        """The next client; OSError once closed (and on a client lost before it was taken)."""
+        ...
+
+    def close(self) -> None:
+        """Stop listening; an ``accept`` blocked in another thread raises OSError."""
+        ...
+
+
+class SocketListener:
+    """The real ``Listener``: a listening socket, each client configured for small replies."""
+
+    def __init__(self, sock: socket.socket) -> None:
+        self.sock = sock
+
+    def accept(self) -> tuple[Stream, tuple[str, int]]:
+        client, peer = self.sock.accept()
+        try:
+            client.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            client.setsockopt(socket.SOL_SOCKET, socket.SO_KEEPALIVE, 1)
+        except OSError:
+            client.close()
+            raise
+        return client, peer
+
+    def close(self) -> None:
+        # Closing alone does not wake a thread blocked in accept() on Linux; shutting the
+        # socket down does.
+        with contextlib.suppress(OSError):
+            self.sock.shutdown(socket.SHUT_RDWR)
+        self.sock.close()
 
 
 def serve_requests(
-    client: socket.socket,
+    client: Stream,
     byte_order: ByteOrder,
     respond: Respond,
     error_reply: ErrorReply,
@@ -85,14 +144,15 @@ def serve_requests(
 
 
 class Connection:
-    def __init__(self, sock: socket.socket, thread: threading.Thread) -> None:
+    def __init__(self, sock: Stream, thread: threading.Thread) -> None:
         self.sock = sock
         self.thread = thread
 
     def close(self) -> None:
+        """Shut the socket down (which ends a blocked read or write) and join the thread."""
         with contextlib.suppress(OSError):
             self.sock.shutdown(socket.SHUT_RDWR)
-        self.thread.join(timeout=5.0)
+        self.thread.join(timeout=JOIN_S)
 
 
 class RequestServer:
@@ -101,13 +161,16 @@ class RequestServer:
     A newcomer replaces an idle client; while the robot moves it is refused. The old client's
     clean-up (``on_disconnect``) finishes before the newcomer is served, so a new motion client
     never inherits increments queued by the old one.
+
+    ``start`` starts the accept thread, which starts one thread per client; ``close`` stops
+    and joins them all.
     """
 
     def __init__(
         self,
         *,
         name: str,
-        server: socket.socket,
+        listener: Listener,
         byte_order: ByteOrder,
         respond: Respond,
         error_reply: ErrorReply,
@@ -117,7 +180,7 @@ class RequestServer:
         observe: Observe = lambda msg_type, reply, elapsed_ns: None,
     ) -> None:
         self.name = name
-        self.server = server
+        self.listener = listener
         self.byte_order = byte_order
         self.respond = respond
         self.error_reply = error_reply
@@ -126,58 +189,77 @@ class RequestServer:
         self.on_change = on_change
         self.observe = observe
         self.current: Connection | None = None
-        self.thread = threading.Thread(target=self._accept_loop, name=f"{name}-accept", daemon=True)
+        self._stopping = threading.Event()
+        self._accepting: threading.Thread | None = None
 
     def start(self) -> None:
-        self.thread.start()
+        self._accepting = threading.Thread(
+            target=self._accept_loop, name=f"gateway-{self.name}-accept", daemon=True
+        )
+        self._accepting.start()
 
     def _accept_loop(self) -> None:
-        while True:
+        while not self._stopping.is_set():
             try:
-                client, peer = self.server.accept()
-            except OSError:
-                return
-            configure(client)
-            if self.current is not None:
-                # A client that has just hung up is not a rival: let its clean-up finish.
-                self.current.thread.join(timeout=HANGUP_GRACE_S)
-            if self.current is not None and self.current.thread.is_alive():
-                if self.moving():
-                    log.warning("%s: refused %s:%d, the robot is moving", self.name, *peer)
-                    client.close()
-                    continue
-                log.info("%s: %s:%d replaces the idle client", self.name, *peer)
-                self.current.close()
-                if self.current.thread.is_alive():
-                    # Its request is still being handled (e.g. a START_TRAJ_MODE waiting on a
-                    # controller): two clients must never be served at once.
-                    log.warning("%s: refused %s:%d, the old client is busy", self.name, *peer)
-                    client.close()
-                    continue
-            log.info("%s: client %s:%d connected", self.name, *peer)
-            thread = threading.Thread(
-                target=self._serve, args=(client, peer), name=f"{self.name}-client", daemon=True
-            )
-            self.current = Connection(client, thread)
-            thread.start()
-            self.on_change()
+                client, peer = self.listener.accept()
+            except OSError as exc:
+                if not self._stopping.is_set():
+                    log.warning("%s: accept failed: %s", self.name, exc)
+                    self._stopping.wait(ACCEPT_RETRY_S)
+                continue
+            self._take(client, peer)
 
-    def _serve(self, client: socket.socket, peer: tuple[str, int]) -> None:
+    def _take(self, client: Stream, peer: tuple[str, int]) -> None:
+        """Serve ``client``, replacing the current one, or refuse it."""
+        if self.current is not None:
+            # A client that has just hung up is not a rival: let its clean-up finish.
+            self.current.thread.join(timeout=HANGUP_GRACE_S)
+        if self.current is not None and self.current.thread.is_alive():
+            if self.moving():
+                log.warning("%s: refused %s:%d, the robot is moving", self.name, *peer)
+                client.close()
+                return
+            log.info("%s: %s:%d replaces the idle client", self.name, *peer)
+            self.current.close()
+            if self.current.thread.is_alive():
+                # Its request is still being handled (e.g. a START_TRAJ_MODE waiting on a
+                # controller): two clients must never be served at once.
+                log.warning("%s: refused %s:%d, the old client is busy", self.name, *peer)
+                client.close()
+                return
+        log.info("%s: client %s:%d connected", self.name, *peer)
+        thread = threading.Thread(
+            target=self._serve,
+            args=(client, peer),
+            name=f"gateway-{self.name}-client",
+            daemon=True,
+        )
+        self.current = Connection(client, thread)
+        thread.start()
+        self.on_change()
+
+    def _serve(self, client: Stream, peer: tuple[str, int]) -> None:
         try:
             serve_requests(client, self.byte_order, self.respond, self.error_reply, self.observe)
         except OSError as exc:
             log.info("%s: %s:%d: %s", self.name, *peer, exc)
         finally:
-            threading.Event().wait(CLOSE_DELAY_S)
+            # MotoROS's pause before it closes; a server that is closing does not make it.
+            self._stopping.wait(CLOSE_DELAY_S)
             client.close()
             self.on_disconnect()
             log.info("%s: client %s:%d gone", self.name, *peer)
             self.on_change()
 
     def connected(self) -> bool:
-        return self.current is not None and self.current.thread.is_alive()
+        current = self.current
+        return current is not None and current.thread.is_alive()
 
     def close(self) -> None:
-        self.server.close()
+        """Stop accepting, join the accept thread, then close the client and join its thread."""
+        self._stopping.set()
+        self.listener.close()
+        if self._accepting is not None:
+            self._accepting.join(timeout=JOIN_S)
         if self.current is not None:
             self.current.close()
