@@ -11,6 +11,7 @@ import logging
 import time
 from collections.abc import Sequence
 
+from motocell.services.gateway.bus import ZenohBus
 from motocell.services.gateway.core.io import IoHandler
 from motocell.services.gateway.core.motion import MotionHandler
 from motocell.services.gateway.metrics import GatewayStats
@@ -34,6 +35,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         host = args.host or cell.host
         port_base = args.port_base or cell.port_base
         byte_order = ByteOrder(args.byte_order or cell.byte_order)
+        bus = ZenohBus(ctx.session)
         cell_port = ZenohCell(cell, ctx.keys, ctx.session)
         io = IoHandler(cell_port)
         # Sync ids start from the clock so they differ from a previous gateway's.
@@ -62,7 +64,7 @@ def main(argv: Sequence[str] | None = None) -> None:
             moving=moving,
             observe=stats.observe,
         )
-        reporter = Reporter(ctx.session, ctx.keys, stats=stats, motion=motion_server, io=io_server)
+        reporter = Reporter(bus, ctx.keys, stats=stats, motion=motion_server, io=io_server)
         motion_server.on_change = io_server.on_change = reporter.report_connections
         adapters = (cell_port, motion_server, io_server, reporter)
         for adapter in adapters:

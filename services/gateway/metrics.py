@@ -1,6 +1,7 @@
 """What the gateway measures: requests and reply latency by message type (the known types, and
 one bucket for all others), BUSY, INVALID and NOT_READY answers. Published once a second on
-``gateway/metrics``."""
+``gateway/metrics`` while anyone subscribes; otherwise only the counts are kept and the
+latencies dropped each second (``drop_latencies``), and no percentile is computed."""
 
 from __future__ import annotations
 
@@ -55,6 +56,12 @@ class GatewayStats:
                 self.invalid += 1
             elif body.result == Result.NOT_READY:
                 self.not_ready += 1
+
+    def drop_latencies(self) -> None:
+        """Forget the latencies measured since the last snapshot: nobody took that one."""
+        with self._lock:
+            for window in self._latency.values():
+                window.clear()
 
     def snapshot(self, motion: int, io: int) -> GatewayMetrics:
         """Counts since start; latencies of the replies since the last snapshot."""

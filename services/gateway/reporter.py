@@ -1,47 +1,47 @@
 """What the gateway tells the rest of the cell about itself: which clients are connected, for
 the controller's OT#893 and OT#895 (incremental-motion §4.2, motoros1 §7.4; OT#894, the state
-port's, is the broadcaster's to report), and its metrics on ``gateway/metrics``."""
+port's, is the broadcaster's to report), and its metrics on ``gateway/metrics``, made only
+while a subscriber on the bus matches them."""
 
 from __future__ import annotations
 
 import threading
+from typing import Protocol
 
-import zenoh
-
+from motocell.services.gateway.bus import Bus
 from motocell.services.gateway.metrics import GatewayStats
-from motocell.services.gateway.tcp import RequestServer
 from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.liveness import AT_REST_HEARTBEAT_S
 from motocell.shared.bus.schemas import CommandRequest, encode
-from motocell.shared.bus.session import publisher
 
-REFRESH_S = 1.0
+REFRESH_S = AT_REST_HEARTBEAT_S
 """Connections are reported on every change and also this often: a restarted controller has
-to learn them again."""
+to learn them again. The metrics go out as often, when observed."""
 NOT_SERVED = -1
 """In a ``connections`` notice, the state port: the broadcaster serves it and reports it."""
+STOP_JOIN_S = 5.0
+
+
+class Port(Protocol):
+    def connected(self) -> bool: ...
 
 
 class Reporter:
     def __init__(
-        self,
-        session: zenoh.Session,
-        keys: CellKeys,
-        *,
-        stats: GatewayStats,
-        motion: RequestServer,
-        io: RequestServer,
+        self, bus: Bus, keys: CellKeys, *, stats: GatewayStats, motion: Port, io: Port
     ) -> None:
         self.stats = stats
         self.motion = motion
         self.io = io
-        self._metrics = publisher(session, keys.metrics("gateway"), latest=True)
-        # Called from the port threads on every change and from this one each second: a lost
-        # notice is made good within a second, so it never blocks a port thread.
-        self._connections = publisher(session, keys.controller_cmd("connections"), latest=True)
+        self._metrics = bus.publisher(keys.metrics("gateway"), latest=True)
+        # Called from the port threads on every change and from this one each REFRESH_S: a
+        # lost notice is made good within that, so it never blocks a port thread.
+        self._connections = bus.publisher(keys.controller_cmd("connections"), latest=True)
         self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, name="gateway-reports", daemon=True)
+        self._thread: threading.Thread | None = None
 
     def start(self) -> None:
+        self._thread = threading.Thread(target=self._run, name="gateway-reports", daemon=True)
         self._thread.start()
 
     def connections(self) -> tuple[int, int]:
@@ -53,13 +53,22 @@ class Reporter:
         request = CommandRequest(args=[motion, NOT_SERVED, io])
         self._connections.put(encode(request))
 
+    def report(self) -> None:
+        """One round: the connections, and the metrics if anyone subscribes to them (else the
+        latencies measured meanwhile are dropped, so the next metrics cover one round)."""
+        self.report_connections()
+        if self._metrics.observed():
+            self._metrics.put(encode(self.stats.snapshot(*self.connections())))
+        else:
+            self.stats.drop_latencies()
+
     def _run(self) -> None:
         while True:
-            self.report_connections()
-            self._metrics.put(encode(self.stats.snapshot(*self.connections())))
+            self.report()
             if self._stop.wait(REFRESH_S):
                 return
 
     def close(self) -> None:
         self._stop.set()
-        self._thread.join(timeout=1.0)
+        if self._thread is not None:
+            self._thread.join(timeout=STOP_JOIN_S)
