@@ -36,7 +36,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         port_base = args.port_base or cell.port_base
         byte_order = ByteOrder(args.byte_order or cell.byte_order)
         bus = ZenohBus(ctx.session)
-        cell_port = ZenohCell(cell, ctx.keys, ctx.session)
+        cell_port = ZenohCell(cell, ctx.keys, bus)
         io = IoHandler(cell_port)
         # Sync ids start from the clock so they differ from a previous gateway's.
         motion = MotionHandler(cell, cell_port, io, sync_seed=time.time_ns() // 1000)

@@ -40,6 +40,10 @@ class GroupCredit:
             self.instance = slot.instance
             self.published = slot.taken_id
             self.outstanding.clear()
+        elif slot.taken_id < self.taken:
+            # Older news: an interpolator's taken_id only grows, and its answer to the
+            # gateway's question can arrive after a slot it published later.
+            return
         self.taken = slot.taken_id
         self.trajectory_id = slot.trajectory_id
         # Forget the taken points here, where taken advances: a client sending only type-14

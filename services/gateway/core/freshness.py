@@ -1,77 +1,165 @@
-"""How old the republished state the gateway decides on is. Pure: the adapter passes the time.
+"""How old the republished state the gateway decides on is, and when to ask again for what it
+lacks. Pure: the owner passes the time.
 
-The controller status and each group's queue state are republished every HEARTBEAT_S even when
-nothing changes. A stream not heard for STALE_AFTER_S has stopped reaching the gateway, whatever
-the reason (once a queue state stayed frozen here for minutes while the executor published it
-at 10 Hz); what it last said is then treated as missing (``CellState.expire``), which is logged
-once, and the adapter subscribes again, every STALE_AFTER_S until the stream is heard again.
+The controller status and each group's queue state are republished while unchanged, and every
+sample announces the most its publisher will wait before the next (``heartbeat_ms``: 100 ms
+while motion is possible, 1 s while nothing can move). A stream not heard for STALE_HEARTBEATS
+of the heartbeat its newest sample announced has stopped reaching the gateway, whatever the
+reason (once a queue state stayed frozen here for minutes while the executor published it at
+10 Hz); what it last said is then treated as missing (``CellState.expire``), which is logged
+once, and the owner subscribes again, once per such span until the stream is heard again.
 
-Silence counts only while the gateway itself runs. The adapter checks every HEARTBEAT_S; when
-a check comes much later than that, the gateway was stalled (a loaded host), the samples sent
-meanwhile are still queued behind it, and the stall counts as CHECK_GAP_S at most. Otherwise
-every stall of the gateway would make it forget the whole cell the moment it wakes.
+The owner does not check periodically: it checks when ``next_check`` says a stream could have
+gone stale (an idle cell's gateway sleeps for seconds), and sooner when a sample announced a
+shorter heartbeat than the plan assumed (``sooner``).
+
+Silence counts only while the gateway itself runs. A check that comes more than LATE_CHECK_S
+after the moment it was planned for was held up by a stall of the gateway (a loaded host), and
+the samples sent meanwhile are still queued behind it. The silence is then counted only up to
+LATE_CHECK_S before that moment, so every stream has LATE_CHECK_S of the gateway's running time
+after the stall to be heard. Otherwise every stall of the gateway would make it forget the
+whole cell the moment it wakes.
 """
 
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 
-from motocell.shared.bus.liveness import HEARTBEAT_S
+from motocell.shared.bus.liveness import (
+    HEARTBEAT_S,
+    STALE_HEARTBEATS,
+    heartbeat_ms,
+    silence_bound_s,
+)
 
 log = logging.getLogger("gateway")
 
-STALE_HEARTBEATS = 5
-"""Heartbeats a stream may miss before it counts as stopped: a loaded host delays samples by
-tens of milliseconds, not half a second, and a trajectory point must not be checked against
-older state than that."""
-STALE_AFTER_S = STALE_HEARTBEATS * HEARTBEAT_S
-CHECK_GAP_S = 2 * HEARTBEAT_S
-"""The most one check adds to a stream's silence (see the module's docstring)."""
+SHORTEST_HEARTBEAT_MS = heartbeat_ms(motion_possible=True)
+LONGEST_HEARTBEAT_MS = heartbeat_ms(motion_possible=False)
+"""The heartbeats the bus's publishers announce (``shared.bus.liveness``)."""
+LATE_CHECK_S = HEARTBEAT_S
+"""A loaded host delays a thread by tens of milliseconds; a check later than this was held up
+by a stall of the gateway itself."""
+
+
+def stale_after_s(announced_ms: int) -> float:
+    """How long a stream whose newest sample announced ``announced_ms`` may stay silent. The
+    heartbeat is taken within the bus's range: a nonsense announcement must neither make the
+    owner check in a tight loop (0) nor switch ageing off (a huge one)."""
+    heartbeat = min(max(announced_ms, SHORTEST_HEARTBEAT_MS), LONGEST_HEARTBEAT_MS)
+    return silence_bound_s(heartbeat, STALE_HEARTBEATS)
+
+
+@dataclass
+class _Stream:
+    bound: float
+    """Seconds of silence after which it has stopped (``stale_after_s``)."""
+    since: float
+    """The instant from which its silence is not counted yet."""
+    silent: float = 0.0
+    """Seconds of silence counted up to ``since``, while the gateway ran."""
+    tried: float | None = None
+    """Once stopped: its silence when it was last subscribed to again."""
+
+    def due(self) -> float:
+        """When it goes stale or, stopped, is due to be subscribed to again, if the gateway
+        runs until then and hears nothing."""
+        counted = self.silent if self.tried is None else self.silent - self.tried
+        return self.since + self.bound - counted
 
 
 class Freshness:
     """How long each stream has been silent, and which have stopped."""
 
     def __init__(self) -> None:
-        self._silent: dict[str, float] = {}
-        """Per stream heard at least once: seconds of silence since, while the gateway ran."""
-        self._stale: dict[str, float] = {}
-        """The streams that stopped, and their silence when last subscribed to again."""
-        self._checked: float | None = None
+        self._streams: dict[str, _Stream] = {}
+        """Every stream heard at least once."""
+        self._planned: float | None = None
+        """What ``next_check`` answered since the last check: when the owner means to check."""
+        self._sooner = False
 
-    def heard(self, stream: str) -> None:
-        self._silent[stream] = 0.0
-        if self._stale.pop(stream, None) is not None:
+    def heard(self, stream: str, now: float, announced_ms: int) -> None:
+        """A sample of ``stream`` that announced its next within ``announced_ms``."""
+        bound = stale_after_s(announced_ms)
+        entry = self._streams.get(stream)
+        if entry is None:
+            entry = self._streams[stream] = _Stream(bound, now)
+        elif entry.tried is not None:
             log.info("%s heard again", stream)
+        entry.bound, entry.since, entry.silent, entry.tried = bound, now, 0.0, None
+        if self._planned is None or now + bound < self._planned:
+            self._sooner = True
+
+    def sooner(self) -> bool:
+        """Whether something was heard since the last ``next_check`` that may go stale before
+        the check it planned (a shorter heartbeat, a first sample): plan again."""
+        return self._sooner
 
     def went_stale(self, now: float) -> list[str]:
-        """Call every HEARTBEAT_S: the streams that stopped since the last call (each logged
-        once). A stream never heard has not stopped: its publisher may not run yet."""
-        gap = 0.0 if self._checked is None else min(now - self._checked, CHECK_GAP_S)
-        self._checked = now
-        for stream in self._silent:
-            self._silent[stream] += gap
-        stopped = [
-            stream
-            for stream, silent in self._silent.items()
-            if stream not in self._stale and silent > STALE_AFTER_S
-        ]
-        for stream in stopped:
-            log.warning(
-                "%s not heard for %.2f s: treated as missing; subscribing again",
-                stream,
-                self._silent[stream],
-            )
-            self._stale[stream] = self._silent[stream]
+        """Count the silence since the last check; the streams that stopped since then (each
+        logged once). A stream never heard has not stopped: its publisher may not run yet."""
+        planned, self._planned = self._planned, None
+        until = now
+        if planned is not None and now > planned + LATE_CHECK_S:
+            until = planned - LATE_CHECK_S
+        stopped = []
+        for stream, entry in self._streams.items():
+            entry.silent += max(0.0, until - entry.since)
+            entry.since = now
+            if entry.tried is None and entry.silent >= entry.bound:
+                log.warning(
+                    "%s not heard for %.2f s: treated as missing; subscribing again",
+                    stream,
+                    entry.silent,
+                )
+                entry.tried = entry.silent
+                stopped.append(stream)
         return stopped
 
     def retry_due(self) -> list[str]:
-        """The streams still stopped STALE_AFTER_S after they were last subscribed to again."""
+        """After ``went_stale``: the streams still stopped one span (their bound) after they
+        were last subscribed to again."""
         due = [
             stream
-            for stream, tried in self._stale.items()
-            if self._silent[stream] - tried > STALE_AFTER_S
+            for stream, entry in self._streams.items()
+            if entry.tried is not None and entry.silent - entry.tried >= entry.bound
         ]
         for stream in due:
-            self._stale[stream] = self._silent[stream]
+            entry = self._streams[stream]
+            entry.tried = entry.silent
         return due
+
+    def next_check(self) -> float | None:
+        """When a stream could go stale, or a stopped one is due to be subscribed to again,
+        if nothing is heard meanwhile; None while no stream has been heard. The owner checks
+        (``went_stale``) then: a check much later than that was held up by a stall."""
+        self._sooner = False
+        self._planned = min((entry.due() for entry in self._streams.values()), default=None)
+        return self._planned
+
+
+class Asking:
+    """When to ask again for something the gateway needs and lacks (a group's slot, the
+    controller's liveliness token): at once, then at most once per ``every`` s after the last
+    question finished. A question never finished counts as finished after ``timeout`` (the
+    bus ends every query by then), so one lost answer cannot stop the asking."""
+
+    def __init__(self, every: float, timeout: float) -> None:
+        self.every = every
+        self.timeout = timeout
+        self.next = 0.0
+        """The earliest moment to ask again."""
+
+    def due(self, now: float) -> bool:
+        return now >= self.next
+
+    def asked(self, now: float) -> None:
+        self.next = now + self.timeout + self.every
+
+    def finished(self, now: float) -> None:
+        self.next = now + self.every
+
+    def renew(self) -> None:
+        """An answer has become likely (whoever answers came back): ask at once."""
+        self.next = 0.0

@@ -50,8 +50,9 @@ STOP_WAIT_S = 0.05
 START_TRAJ_MODE_TIMEOUT_S = 6.0
 """The controller itself gives up after 5 s (motoros1 §7.3); this only bounds a lost reply."""
 SLOTS_WAIT_S = 1.0
-"""Interpolators report their slot at start and every 0.5 s; one just (re)started may not
-have been heard from yet when the controller is ready."""
+"""An interpolator just (re)started may not have been heard from yet when the controller is
+ready: its first slot, or its answer to the gateway's question (``CellState.slots_to_ask``),
+is on its way."""
 
 
 class _Close:

@@ -29,6 +29,8 @@ INSTANCE = 7
 EPOCH = 3
 CAPACITY = 200
 SYNC_SEED = 1000
+NOW = 1000.0
+"""The instant samples arrive at in tests that do not age the state."""
 OK_REPLY = CommandReply(int(Result.SUCCESS))
 
 
@@ -41,10 +43,15 @@ def two_groups() -> Cell:
 
 
 def status(
-    ready: bool = True, subcode: int = 0, missing: Sequence[str] = (), seq: int = 1
+    ready: bool = True,
+    subcode: int = 0,
+    missing: Sequence[str] = (),
+    seq: int = 1,
+    heartbeat: int = 100,
 ) -> ControllerStatus:
     return ready_status(
         seq=seq,
+        heartbeat_ms=heartbeat,
         servo_on=ready,
         operating=ready,
         job_ready=ready,
@@ -59,6 +66,7 @@ def queue(
     epoch: int = EPOCH,
     command_pulses: Sequence[int] = (0,) * 8,
     ready: bool = True,
+    heartbeat: int = 100,
 ) -> QueueState:
     return QueueState(
         epoch=epoch,
@@ -68,6 +76,7 @@ def queue(
         command_pulses=list(command_pulses),
         tick=0,
         ready=ready,
+        heartbeat_ms=heartbeat,
     )
 
 
@@ -139,11 +148,12 @@ class FakeCell:
         return [call.verb for call in self.calls if call.service == service]
 
     # -- the rest of the cell, as its samples would arrive --------------------------------
-    def ready(self) -> FakeCell:
-        """Motion-ready: controller status, executor rings and every interpolator heard."""
-        self.state.on_status(status())
+    def ready(self, heartbeat: int = 100) -> FakeCell:
+        """Motion-ready: controller status, executor rings and every interpolator heard (at
+        NOW, the status and queue states announcing ``heartbeat`` ms)."""
+        self.state.on_status(status(heartbeat=heartbeat), NOW)
         for group in range(len(self.state.groups)):
-            self.state.on_queue(group, queue())
+            self.state.on_queue(group, queue(heartbeat=heartbeat), NOW)
             self.state.on_slot(group, slot())
         return self
 

@@ -13,7 +13,15 @@ from motocell.shared.config import LOOK_AHEAD_POINTS, parse_cell
 from motocell.shared.motion.interpolation import Knot, Trajectory, max_segment_entries
 from motocell.shared.motion.kinematics import AxisMap
 from motocell.shared.protocol.constants import NotReadySubcode
-from tests.services.gateway.core.fake_cell import CAPACITY, EPOCH, INSTANCE, queue, slot, status
+from tests.services.gateway.core.fake_cell import (
+    CAPACITY,
+    EPOCH,
+    INSTANCE,
+    NOW,
+    queue,
+    slot,
+    status,
+)
 
 POINT = Point(0, 1, 0.1, [0.0] * 6, [0.0] * 6)
 INC_MOVE_ERROR = int(NotReadySubcode.INC_MOVE_ERROR)
@@ -43,6 +51,16 @@ def test_numbering_counts_up_and_carries_the_ring_epoch() -> None:
     assert list(group.outstanding) == [(1, 0), (2, 27)]
     assert not group.free
     assert group.moving
+
+
+def test_an_older_slot_of_the_same_interpolator_is_ignored() -> None:
+    """A slot the gateway asked for can arrive after one the interpolator published later."""
+    group = credit()
+    group.number(POINT, 0)
+    group.number(POINT, 0)
+    group.on_slot(slot(taken=2, trajectory_id=1))
+    group.on_slot(slot(taken=1, trajectory_id=1))
+    assert (group.taken, group.free) == (2, True)
 
 
 def test_a_point_numbered_without_a_ring_carries_epoch_0() -> None:
@@ -207,9 +225,9 @@ def test_a_queued_ring_means_the_group_moves() -> None:
 # -- the whole cell ------------------------------------------------------------------------
 def ready_state(groups: int = 2) -> CellState:
     state = CellState(groups)
-    state.on_status(status())
+    state.on_status(status(), NOW)
     for group in range(groups):
-        state.on_queue(group, queue())
+        state.on_queue(group, queue(), NOW)
         state.on_slot(group, slot())
     return state
 
@@ -217,7 +235,7 @@ def ready_state(groups: int = 2) -> CellState:
 def test_readiness_follows_the_controller_status() -> None:
     state = ready_state()
     assert state.readiness(controller_alive=True) == (True, 0)
-    state.on_status(status(ready=False, subcode=int(NotReadySubcode.SERVO_OFF)))
+    state.on_status(status(ready=False, subcode=int(NotReadySubcode.SERVO_OFF)), NOW)
     assert state.readiness(controller_alive=True) == (False, int(NotReadySubcode.SERVO_OFF))
 
 
@@ -228,31 +246,31 @@ def test_without_a_status_or_a_live_controller_nothing_is_ready() -> None:
 
 def test_ready_only_once_every_interpolator_and_ring_is_ready() -> None:
     state = CellState(2)
-    state.on_status(status())
-    state.on_queue(0, queue())
-    state.on_queue(1, queue())
+    state.on_status(status(), NOW)
+    state.on_queue(0, queue(), NOW)
+    state.on_queue(1, queue(), NOW)
     state.on_slot(0, slot())
     assert not state.rings_ready()
     assert state.readiness(controller_alive=True) == (False, INC_MOVE_ERROR)
     state.on_slot(1, slot())
     assert state.rings_ready()
-    state.on_queue(1, queue(ready=False))
+    state.on_queue(1, queue(ready=False), NOW)
     assert not state.rings_ready()
 
 
 def test_not_ready_statuses_are_counted() -> None:
     state = ready_state()
-    state.on_status(status())
+    state.on_status(status(), NOW)
     assert state.not_ready_count == 0
-    state.on_status(status(ready=False))
-    state.on_status(status(ready=False))
-    state.on_status(status())
+    state.on_status(status(ready=False), NOW)
+    state.on_status(status(ready=False), NOW)
+    state.on_status(status(), NOW)
     assert state.not_ready_count == 2
 
 
 def test_a_missing_executor_takes_every_ring_with_it() -> None:
     state = ready_state()
-    state.on_status(status(ready=False, missing=["executor/0"]))
+    state.on_status(status(ready=False, missing=["executor/0"]), NOW)
     assert [group.queue for group in state.groups] == [None, None]
     assert not state.rings_ready()
 
@@ -260,14 +278,14 @@ def test_a_missing_executor_takes_every_ring_with_it() -> None:
 def test_a_missing_interpolator_makes_its_group_unknown() -> None:
     state = ready_state()
     state.on_status(
-        status(ready=False, missing=["interpolator/1", "interpolator/9", "broadcaster/0"])
+        status(ready=False, missing=["interpolator/1", "interpolator/9", "broadcaster/0"]), NOW
     )
     assert [group.known for group in state.groups] == [True, False]
 
 
 def test_samples_for_groups_the_cell_does_not_have_are_ignored() -> None:
     state = ready_state(1)
-    state.on_queue(1, queue(depth=5))
+    state.on_queue(1, queue(depth=5), NOW)
     state.on_slot(-1, slot(taken=9))
     assert len(state.groups) == 1
     assert state.groups[0].queue == queue()
@@ -282,7 +300,7 @@ def test_the_cell_moves_while_any_group_has_points_or_entries() -> None:
     assert state.moving()
     assert not state.slots_free()
     state.on_slot(1, slot(taken=1))
-    state.on_queue(0, queue(depth=1))
+    state.on_queue(0, queue(depth=1), NOW)
     assert state.moving()
     assert state.slots_free()
 

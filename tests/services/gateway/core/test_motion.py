@@ -44,6 +44,7 @@ from motocell.shared.protocol.replies import (
     traj_point,
 )
 from tests.services.gateway.core.fake_cell import (
+    NOW,
     FakeCell,
     exchange,
     gateway,
@@ -80,21 +81,21 @@ def test_check_motion_ready_when_ready() -> None:
 
 def test_check_motion_ready_when_not_ready_gives_the_reason() -> None:
     handler, cell = gateway()
-    cell.state.on_status(status(ready=False, subcode=SERVO_OFF))
+    cell.state.on_status(status(ready=False, subcode=SERVO_OFF), NOW)
     reply = exchange(handler, command(Command.CHECK_MOTION_READY)).reply
     assert verdict_of(reply) == (int(Result.FALSE), SERVO_OFF)
 
 
 def test_check_motion_ready_waits_for_every_interpolator() -> None:
     handler, cell = gateway(two_groups())
-    cell.state.on_status(status(missing=["interpolator/1"]))
+    cell.state.on_status(status(missing=["interpolator/1"]), NOW)
     reply = exchange(handler, command(Command.CHECK_MOTION_READY)).reply
     assert verdict_of(reply) == (int(Result.FALSE), int(NotReadySubcode.INC_MOVE_ERROR))
 
 
 def test_check_queue_cnt_counts_the_entries_in_the_groups_ring_without_asking() -> None:
     handler, cell = gateway(two_groups())
-    cell.state.on_queue(1, queue(depth=17))
+    cell.state.on_queue(1, queue(depth=17), NOW)
     reply = exchange(handler, command(Command.CHECK_QUEUE_CNT, group=1)).reply
     assert verdict_of(reply) == (int(Result.SUCCESS), 17)
     assert reply_of(reply).group_no == 1
@@ -117,7 +118,7 @@ def test_check_queue_cnt_of_a_group_the_cell_lacks_fails_with_minus_1(group: int
 
 def test_check_queue_cnt_without_a_known_ring_fails_with_minus_1() -> None:
     handler, cell = gateway()
-    cell.state.on_status(status(ready=False, missing=["executor/0"]))
+    cell.state.on_status(status(ready=False, missing=["executor/0"]), NOW)
     reply = exchange(handler, command(Command.CHECK_QUEUE_CNT)).reply
     assert verdict_of(reply) == (int(Result.FAILURE), -1)
 
@@ -193,7 +194,7 @@ def test_start_traj_mode_succeeds_once_the_cell_is_ready() -> None:
 
 def test_start_traj_mode_waits_for_an_interpolator_to_report() -> None:
     handler, cell = gateway(two_groups())
-    cell.state.on_status(status(missing=["interpolator/1"]))
+    cell.state.on_status(status(missing=["interpolator/1"]), NOW)
     cell.while_waiting.append(lambda: cell.state.on_slot(1, slot(instance=99)))
     assert verdict_of(exchange(handler, command(Command.START_TRAJ_MODE)).reply) == SUCCESS
     assert cell.waits == [SLOTS_WAIT_S]
@@ -201,7 +202,7 @@ def test_start_traj_mode_waits_for_an_interpolator_to_report() -> None:
 
 def test_start_traj_mode_is_not_ready_while_an_interpolator_stays_silent() -> None:
     handler, cell = gateway(two_groups())
-    cell.state.on_status(status(missing=["interpolator/1"]))
+    cell.state.on_status(status(missing=["interpolator/1"]), NOW)
     reply = exchange(handler, command(Command.START_TRAJ_MODE)).reply
     assert verdict_of(reply) == (int(Result.NOT_READY), int(NotReadySubcode.INC_MOVE_ERROR))
 
@@ -217,7 +218,7 @@ def test_start_traj_mode_passes_on_the_controllers_not_ready() -> None:
 def test_start_traj_mode_without_a_controller_answer_is_not_ready_with_the_reason() -> None:
     handler, cell = gateway()
     cell.replies["controller/start_traj_mode"] = None
-    cell.state.on_status(status(ready=False, subcode=int(NotReadySubcode.NOT_REMOTE)))
+    cell.state.on_status(status(ready=False, subcode=int(NotReadySubcode.NOT_REMOTE)), NOW)
     reply = exchange(handler, command(Command.START_TRAJ_MODE)).reply
     assert verdict_of(reply) == (int(Result.NOT_READY), int(NotReadySubcode.NOT_REMOTE))
 
@@ -264,7 +265,7 @@ def test_disconnect_closes_without_a_reply() -> None:
 
 def test_disconnect_that_cannot_stop_replies_failure_and_keeps_the_connection() -> None:
     handler, cell = gateway()
-    cell.state.on_queue(0, queue(depth=4))
+    cell.state.on_queue(0, queue(depth=4), NOW)
     answer = exchange(handler, command(Command.DISCONNECT))
     assert not answer.close
     assert verdict_of(answer.reply) == FAILURE

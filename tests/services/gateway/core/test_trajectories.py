@@ -14,6 +14,7 @@ from motocell.shared.protocol.replies import ex_group, traj_point, traj_point_ex
 from tests.services.gateway.core.fake_cell import (
     CAPACITY,
     EPOCH,
+    NOW,
     SYNC_SEED,
     exchange,
     gateway,
@@ -78,7 +79,7 @@ def test_a_refused_point_publishes_nothing() -> None:
 
 def test_not_ready_is_answered_with_the_controllers_subcode() -> None:
     handler, cell = gateway()
-    cell.state.on_status(status(ready=False, subcode=int(NotReadySubcode.HOLD)))
+    cell.state.on_status(status(ready=False, subcode=int(NotReadySubcode.HOLD)), NOW)
     reply = exchange(handler, point(0, 0.0)).reply
     assert verdict_of(reply) == (int(Result.NOT_READY), int(NotReadySubcode.HOLD))
     assert cell.sent == []
@@ -111,7 +112,7 @@ def test_missing_fields_and_times_beyond_4_hours_are_refused_before_the_slot() -
 
 def test_the_start_point_must_be_within_30_pulses_of_the_commanded_position() -> None:
     handler, cell = gateway()
-    cell.state.on_queue(0, queue(command_pulses=[58670 * 2, 0, 0, 0, 0, 0, 0, 0]))
+    cell.state.on_queue(0, queue(command_pulses=[58670 * 2, 0, 0, 0, 0, 0, 0, 0]), NOW)
     far = exchange(handler, point(0, 0.0))
     assert verdict_of(far.reply) == invalid(InvalidSubcode.DATA_START_POS)
     near = exchange(handler, point(0, 0.0, positions=(2.0, 0, 0, 0, 0, 0)))
@@ -167,19 +168,19 @@ def test_busy_ends_when_the_interpolator_takes_the_points() -> None:
 
 def test_busy_when_the_outstanding_segments_do_not_fit_the_ring() -> None:
     handler, cell = gateway()
-    cell.state.on_queue(0, queue(depth=CAPACITY - 26))
+    cell.state.on_queue(0, queue(depth=CAPACITY - 26), NOW)
     assert verdict_of(exchange(handler, point(0, 0.0)).reply) == OK
     assert verdict_of(exchange(handler, point(1, 0.1)).reply) == OK  # its 27 entries unchecked
     assert verdict_of(exchange(handler, point(2, 0.2)).reply) == BUSY  # 27 > 26 free
     cell.state.on_slot(0, slot(taken=1, trajectory_id=1))
     assert verdict_of(exchange(handler, point(2, 0.2)).reply) == BUSY
-    cell.state.on_queue(0, queue(depth=CAPACITY - 27))
+    cell.state.on_queue(0, queue(depth=CAPACITY - 27), NOW)
     assert verdict_of(exchange(handler, point(2, 0.2)).reply) == OK
 
 
 def test_pending_points_4_accepts_four_points_the_ring_has_no_room_for() -> None:
     handler, cell = gateway(parse_cell({"pending_points": 4}))
-    cell.state.on_queue(0, queue(depth=CAPACITY))
+    cell.state.on_queue(0, queue(depth=CAPACITY), NOW)
     exchange(handler, point(0, 0.0))
     cell.take_all()
     for sequence in range(1, 5):
@@ -194,7 +195,7 @@ def test_pending_points_4_holds_every_group_of_a_2016_to_it() -> None:
         parse_cell({"groups": [{"name": "R1"}, {"name": "R2"}], "pending_points": 4})
     )
     for group in (0, 1):
-        cell.state.on_queue(group, queue(depth=CAPACITY))
+        cell.state.on_queue(group, queue(depth=CAPACITY), NOW)
     exchange(handler, ex(0, *both(0.0)))
     cell.take_all(0)
     cell.take_all(1)
@@ -234,8 +235,8 @@ def test_a_resend_is_recognised_even_while_the_slot_is_busy() -> None:
 def test_a_trajectory_is_over_once_motion_ready_dropped() -> None:
     handler, cell = gateway()
     exchange(handler, point(0, 0.0))
-    cell.state.on_status(status(ready=False))
-    cell.state.on_status(status())
+    cell.state.on_status(status(ready=False), NOW)
+    cell.state.on_status(status(), NOW)
     reply = exchange(handler, point(1, 0.1)).reply
     assert verdict_of(reply) == invalid(InvalidSubcode.SEQUENCE)
     assert verdict_of(exchange(handler, point(0, 0.0)).reply) == OK
@@ -258,7 +259,7 @@ def test_a_trajectory_still_running_goes_on() -> None:
 
 def test_an_interpolator_not_heard_from_again_makes_points_not_ready() -> None:
     handler, cell = gateway()
-    cell.state.on_status(status(missing=["interpolator/0"]))
+    cell.state.on_status(status(missing=["interpolator/0"]), NOW)
     assert verdict_of(exchange(handler, point(0, 0.0)).reply) == INC_MOVE_ERROR
 
 
@@ -322,7 +323,7 @@ def test_a_failing_check_in_a_later_group_publishes_nothing_for_any_group() -> N
 
 def test_a_failing_start_check_in_a_later_group_publishes_nothing() -> None:
     handler, cell = gateway(two_groups())
-    cell.state.on_queue(1, queue(command_pulses=[1000, 0, 0, 0, 0, 0, 0, 0]))
+    cell.state.on_queue(1, queue(command_pulses=[1000, 0, 0, 0, 0, 0, 0, 0]), NOW)
     reply = exchange(handler, ex(0, *both(0.0))).reply
     assert verdict_of(reply) == invalid(InvalidSubcode.DATA_START_POS)
     assert reply_of(reply).group_no == 1
@@ -387,7 +388,7 @@ def test_2016_group_minus_1_is_not_taken_for_the_last_group() -> None:
 
 def test_2016_not_ready_answers_for_the_last_group() -> None:
     handler, cell = gateway(two_groups())
-    cell.state.on_status(status(ready=False, subcode=int(NotReadySubcode.SERVO_OFF)))
+    cell.state.on_status(status(ready=False, subcode=int(NotReadySubcode.SERVO_OFF)), NOW)
     reply = exchange(handler, ex(0, *both(0.0))).reply
     assert verdict_of(reply) == (int(Result.NOT_READY), int(NotReadySubcode.SERVO_OFF))
     assert reply_of(reply).group_no == 1
