@@ -154,6 +154,10 @@ class StopFlag:
     def is_set(self) -> bool:
         return self._requested
 
+    def fileno(self) -> int:
+        """A descriptor that becomes readable once the flag is set, for ``poll``."""
+        return self._wake_read
+
     def wait(self, timeout: float | None = None) -> bool:
         """True once set; False when ``timeout`` seconds passed first (None: no limit)."""
         if not self._requested:

@@ -165,14 +165,16 @@ class Watcher:
         for name in target.names:
             for suffix in SUBSCRIBED:
                 session.declare_subscriber(f"{ROOT}/{name}/{suffix}", self._on_sample)
-        # Liveness asks as it starts. Not a liveliness subscriber with history: a query right
-        # after one found nothing 29 times in 30 (zenoh-python 1.x, a client of a router).
+        # Not a liveliness subscriber with history: a query right after one found nothing 29
+        # times in 30 (zenoh-python 1.x, a client of a router).
         watched = [
             Liveness(session, f"{ALIVE_ROOT}/{name}/alive/*/*", self._tokens_changed)
             for name in target.names
         ]
         with self.lock:
             self._liveness[target] = watched
+        for answered in [liveness.ask() for liveness in watched]:
+            answered.wait(Liveness.QUERY_TIMEOUT_S)
         self._tokens_changed()
 
     def unfollow(self, target: Target) -> None:

@@ -130,6 +130,9 @@ ROUTES: tuple[Route, ...] = (
         _roles(INTERPOLATOR, EXECUTOR) | WATCHERS,
     ),
     Route("group/*/slot", Op.PUT, Slot, _roles(INTERPOLATOR), _roles(GATEWAY) | WATCHERS),
+    # The slot as it is now, for a gateway that starts or lost track of it: the interpolator
+    # publishes it only when it changes.
+    Route("group/*/slot", Op.QUERY, None, _roles(GATEWAY), _roles(INTERPOLATOR), Slot),
     Route(
         "group/*/increments",
         Op.PUT,
@@ -188,15 +191,17 @@ def suffix_of(key: str) -> str:
     return "/".join(parts)
 
 
-def route_of(key: str) -> Route | None:
+def route_of(key: str, op: Op | None = None) -> Route | None:
     """The route a concrete key (``motocell/<cell>/...`` or ``@motocell/<cell>/...``) is on;
-    an exact suffix wins over a wildcard one."""
+    an exact suffix wins over a wildcard one. A key that is both published and asked (a
+    group's slot) is on its publication's route unless ``op`` says otherwise."""
     parts = key.split("/")[2:]
     matches = [
         route
         for route in ROUTES
         if _matches(route.suffix.split("/"), parts)
         and (route.op is Op.TOKEN) == key.startswith("@")
+        and (op is None or route.op is op)
     ]
     matches.sort(key=lambda route: route.suffix.count("*"))
     return matches[0] if matches else None

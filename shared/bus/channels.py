@@ -8,8 +8,14 @@ non-empty msgpack array, so an empty sample can only be a doorbell.
 
 from __future__ import annotations
 
+import contextlib
 import logging
-from typing import TypeVar
+import math
+import os
+import select
+import threading
+import time
+from typing import Protocol, TypeVar
 
 import msgspec
 import zenoh
@@ -37,6 +43,72 @@ class Doorbell:
 
     def close(self) -> None:
         self._publisher.undeclare()
+
+
+class StopSignal(Protocol):
+    def is_set(self) -> bool: ...
+
+    def fileno(self) -> int:
+        """Readable once set."""
+        ...
+
+
+class Waker:
+    """The timer of a thread that blocks in a channel's ``recv()``: rings ``doorbell`` at the
+    deadline its owner sets (``wake_at``) and once at stop. Its own thread sleeps in ``poll``
+    until then, so a service waiting for nothing but its inputs costs no wake-up at all.
+
+    A deadline is rung once; the owner sets the next one each time it is about to block.
+    """
+
+    def __init__(self, doorbell: Doorbell, stop: StopSignal, name: str) -> None:
+        self._doorbell = doorbell
+        self._stop = stop
+        self._deadline: float | None = None
+        self._lock = threading.Lock()
+        self._poke_read, self._poke_write = os.pipe()
+        for fd in (self._poke_read, self._poke_write):
+            os.set_blocking(fd, False)
+        self._thread = threading.Thread(target=self._run, name=name)
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def wake_at(self, deadline: float | None) -> None:
+        """Ring at ``deadline`` (CLOCK_MONOTONIC seconds; None: only at stop) instead of the
+        deadline set before. Only an earlier one wakes the thread now; a later one is found
+        when it wakes for the old one."""
+        with self._lock:
+            earlier = deadline is not None and (self._deadline is None or deadline < self._deadline)
+            self._deadline = deadline
+        if earlier:
+            with contextlib.suppress(BlockingIOError):  # a poke is pending already
+                os.write(self._poke_write, b"\0")
+
+    def _run(self) -> None:
+        poller = select.poll()
+        poller.register(self._stop.fileno(), select.POLLIN)
+        poller.register(self._poke_read, select.POLLIN)
+        while not self._stop.is_set():
+            with self._lock:
+                deadline = self._deadline
+            wait = None if deadline is None else deadline - time.monotonic()
+            if wait is not None and wait <= 0:
+                with self._lock:
+                    if self._deadline == deadline:
+                        self._deadline = None
+                self._doorbell.ring()
+                continue
+            poller.poll(None if wait is None else math.ceil(wait * 1000))
+            with contextlib.suppress(BlockingIOError):
+                os.read(self._poke_read, 64)
+        self._doorbell.ring()
+
+    def close(self) -> None:
+        """After the stop flag is set: the thread ends, having rung once more."""
+        self._thread.join()
+        os.close(self._poke_read)
+        os.close(self._poke_write)
 
 
 def is_doorbell(sample: zenoh.Sample) -> bool:

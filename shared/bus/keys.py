@@ -18,6 +18,7 @@ class CellKeys:
         self.executor_tick = f"{self.prefix}/executor/tick"
         self.state = f"{self.prefix}/state"
         self.group_slot_all = f"{self.prefix}/group/*/slot"
+        self.group_point_all = f"{self.prefix}/group/*/point"
         self.alive_all = f"{ALIVE_ROOT}/{cell}/alive/*/*"
 
     def controller_cmd(self, verb: str) -> str:

@@ -1,5 +1,5 @@
 """What counts as alive on the bus, without Zenoh: the evidence that a service is there or gone
-(``Presence``), and how fresh republished state is kept (``HEARTBEAT_S``). Pure, so the
+(``Presence``), and how often republished state comes (``heartbeat_ms``). Pure, so the
 services' cores can use it; ``shared.bus.session.Liveness`` feeds a ``Presence`` from Zenoh.
 See docs/liveness.md.
 """
@@ -10,8 +10,29 @@ from collections.abc import Iterable
 
 HEARTBEAT_S = 0.1
 """State that is republished while unchanged (the controller status, each group's queue state)
-goes out at least this often, so a subscriber can tell a stream that stopped reaching it from
-a value that stays the same."""
+goes out at least this often while motion is possible, so a subscriber can tell a stream that
+stopped reaching it from a value that stays the same within a few of these: the executor stops
+motion after ``SILENT_HEARTBEATS`` unheard, the gateway says NOT_READY after
+``STALE_HEARTBEATS``."""
+AT_REST_HEARTBEAT_S = 1.0
+"""The same while nothing can move (not motion-ready, or the executor's clock at rest): a
+stream found stopped a few seconds late then delays nothing and moves nothing, and an idle cell
+is not woken ten times a second to be told that nothing changed."""
+SILENT_HEARTBEATS = 4
+"""Heartbeats the executor may miss from the controller before it stops motion: fewer than
+``STALE_HEARTBEATS``, so motion has stopped before a client can be told NOT_READY."""
+STALE_HEARTBEATS = 5
+"""Heartbeats a subscriber may miss before it takes a stream as stopped."""
+
+
+def heartbeat_ms(motion_possible: bool) -> int:
+    """The heartbeat a stream announces in its samples (``heartbeat_ms`` fields)."""
+    return round(1000 * (HEARTBEAT_S if motion_possible else AT_REST_HEARTBEAT_S))
+
+
+def silence_bound_s(heartbeat: int, heartbeats: int) -> float:
+    """How long ``heartbeats`` of a stream that announced ``heartbeat`` ms last."""
+    return heartbeats * heartbeat / 1000
 
 
 class Presence:

@@ -42,6 +42,10 @@ class ControllerStatus(msgspec.Struct, array_like=True, frozen=True):
     """The NOT_READY subcode (motoros1 §7.2) when not ready, else 0."""
     tools: list[int]
     """Selected tool per group."""
+    heartbeat_ms: int = 100
+    """The next status comes within this even when nothing changes
+    (``shared.bus.liveness.heartbeat_ms``): subscribers that age what they hold, and the
+    executor's controller-silence rule, count in these."""
 
 
 class Point(msgspec.Struct, array_like=True, frozen=True):
@@ -126,6 +130,9 @@ class QueueState(msgspec.Struct, array_like=True, frozen=True):
     ready: bool = False
     """Whether the executor itself takes increments now (it learns readiness from the
     controller a little after the controller decides it); the gateway waits for it."""
+    heartbeat_ms: int = 100
+    """The next queue state comes within this even when nothing changes: short while the
+    executor's clock runs, long while it rests (``shared.bus.liveness``)."""
 
 
 class GroupTick(msgspec.Struct, array_like=True, frozen=True):
@@ -153,6 +160,9 @@ class Tick(msgspec.Struct, array_like=True, frozen=True):
     """Periods missed since start (each is caught up, so simulated motion never slips)."""
     motion_ready: bool
     groups: list[GroupTick]
+    resting: bool = False
+    """The clock rests after this tick: nothing is queued, owed or settling, so no tick comes
+    until motion is asked for again, and the cell stays exactly as this tick says."""
 
 
 class CartesianPose(msgspec.Struct, array_like=True, frozen=True):

@@ -272,21 +272,29 @@ def observed(publisher: zenoh.Publisher) -> bool:
 class Inbox:
     """One queue that several Zenoh callbacks feed, drained by the service's own thread.
 
-    Zenoh callbacks run on Zenoh's threads; they only append here (style §10), so no service
-    logic ever runs on them. Bounded: what a producer that outruns the consumer sends is
-    dropped and counted (``dropped``) rather than growing memory without limit.
+    Zenoh callbacks run on Zenoh's threads; they only append here, so no service logic ever
+    runs on them. Bounded: what a producer that outruns the consumer sends is dropped and
+    counted (``dropped``) rather than growing memory without limit.
     """
 
     def __init__(self, maxsize: int = 10_000) -> None:
         self._queue: queue.Queue[tuple[str, Any]] = queue.Queue(maxsize)
-        self.dropped = 0
+        self._dropped = 0
+        self._dropped_lock = threading.Lock()
+        """Several Zenoh threads may find the queue full at once."""
+
+    @property
+    def dropped(self) -> int:
+        with self._dropped_lock:
+            return self._dropped
 
     def feed(self, tag: str) -> Callable[[Any], None]:
         def callback(item: Any) -> None:
             try:
                 self._queue.put_nowait((tag, item))
             except queue.Full:
-                self.dropped += 1
+                with self._dropped_lock:
+                    self._dropped += 1
 
         return callback
 
@@ -345,16 +353,18 @@ def answer(query: zenoh.Query, reply: CommandReply) -> None:
 
 class Liveness:
     """The liveliness tokens present under a key expression (``Presence``), current within
-    milliseconds of a change.
+    milliseconds of a change, with no thread of its own: Zenoh's threads deliver the events
+    and the answers, and only update ``Presence`` under a lock.
 
-    The subscriber takes no history: a query asked after it is declared gives the tokens that
-    were there before. With history a token's DELETE could arrive before its history PUT and
-    leave a departed service present for good (seen with clients of a router, 6 of 200 races).
-    A background thread asks again every RECONCILE_S, so a token that events missed is found
-    all the same; it never removes one (``Presence``).
+    The subscriber takes no history: a query (``ask``) asked after it is declared gives the
+    tokens that were there before. With history a token's DELETE could arrive before its
+    history PUT and leave a departed service present for good (seen with clients of a router,
+    6 of 200 races). The owner asks once when it starts, and again only while it waits for a
+    token it needs (a declaration the events might have missed), never periodically: a token
+    that stays is news to nobody, and its DELETE is an event.
     """
 
-    RECONCILE_S = 1.0
+    QUERY_TIMEOUT_S = 1.0
 
     def __init__(
         self,
@@ -362,36 +372,40 @@ class Liveness:
         key_expr: str,
         on_change: Callable[[], None] | None = None,
     ) -> None:
+        """Declares the subscriber only; nothing is asked until ``ask``."""
         self._presence = Presence()
         self._lock = threading.Lock()
         self._on_change = on_change
         self._session = session
         self._key_expr = key_expr
         self._subscriber = session.liveliness().declare_subscriber(key_expr, self._on_sample)
-        self._ask()
-        self._thread = threading.Thread(target=self._reconcile, name="liveness", daemon=True)
-        self._thread.start()
 
-    def _ask(self) -> set[str]:
-        """One liveliness query; the tokens it found that events had not shown."""
+    def ask(self) -> threading.Event:
+        """Ask which tokens are there; returns at once, with an event set once the answers
+        are in. They count when the query is finished (``Presence.on_answer``), and
+        ``on_change`` runs if they found any new."""
         with self._lock:
             asked = self._presence.asking()
-        replies = self._session.liveliness().get(self._key_expr, timeout=self.RECONCILE_S)
-        tokens = {str(reply.ok.key_expr) for reply in replies if reply.ok is not None}
-        with self._lock:
-            return self._presence.on_answer(tokens, asked)
+        tokens: list[str] = []
+        answered = threading.Event()
 
-    def _reconcile(self) -> None:
-        while True:
-            time.sleep(self.RECONCILE_S)
-            try:
-                found = self._ask()
-            except zenoh.ZError:
-                return  # the session is closing
-            if found:
-                log.warning("liveliness events missed: appeared %s", sorted(found))
-                if self._on_change is not None:
-                    self._on_change()
+        def on_reply(reply: zenoh.Reply) -> None:
+            if reply.ok is not None:
+                tokens.append(str(reply.ok.key_expr))
+
+        def on_finished() -> None:
+            with self._lock:
+                found = self._presence.on_answer(tokens, asked)
+            if found and self._on_change is not None:
+                self._on_change()
+            answered.set()
+
+        self._session.liveliness().get(
+            self._key_expr,
+            zenoh.handlers.Callback(on_reply, on_finished),
+            timeout=self.QUERY_TIMEOUT_S,
+        )
+        return answered
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
         with self._lock:
@@ -404,3 +418,6 @@ class Liveness:
     def present(self) -> frozenset[str]:
         with self._lock:
             return self._presence.present
+
+    def close(self) -> None:
+        self._subscriber.undeclare()

@@ -127,6 +127,11 @@ class Servos:
         self._at_rest = True
         return held.astype(np.int64)
 
+    @property
+    def at_rest(self) -> bool:
+        """Every axis settled exactly on its command: stepping again would change nothing."""
+        return self._at_rest
+
     def feedback_pulses(self) -> IntArray:
         """The encoder's whole pulses."""
         return np.rint(self.position).astype(np.int64)

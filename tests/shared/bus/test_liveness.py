@@ -86,6 +86,8 @@ def test_liveness_over_a_router(router: str) -> None:
         tokens = [early.liveliness().declare_token(A)]  # a token lives while referenced
         wait_until(lambda: _queried(watcher) == {A}, 5.0, "the first token at the router")
         liveness = Liveness(watcher, "@motocell/c/alive/*/*")
+        assert liveness.present() == frozenset()  # nothing asked yet, no event yet
+        assert liveness.ask().wait(5.0)
         assert liveness.present() == {A}
 
         tokens.append(late.liveliness().declare_token(B))
