@@ -1,5 +1,5 @@
 """Real-time scheduling of the executor's clock: where it may run, and the one command that lets
-it run SCHED_FIFO. The executor applies these (``services/executor/__main__.py``); the launcher,
+it run SCHED_FIFO. The executor applies these (``services/executor/clock.py``); the launcher,
 ``motocell ps`` and ``motocell watch`` show the command when it runs without (docs/realtime.md).
 """
 

@@ -1,22 +1,22 @@
-"""The executor's state as a function of (state, input): rings, epochs, one tick. No clock, no I/O.
+"""The executor's decisions as a function of (state, input): readiness, the rings, one tick, when
+the clock may rest. No clock, no I/O: every time is passed in (CLOCK_MONOTONIC nanoseconds).
 
-Each group has a 200-entry ring (MotoROS Q_SIZE, motoros1 §3.1). Entries arrive in
-numbered batches; the ring's *epoch* changes whenever it is cleared, so batches produced for a
-cleared trajectory are recognised and dropped instead of moving the robot.
+What it tells the controller (the IncMove error, a stall, a range limit) waits in ``notices``
+until the caller sends it.
 """
 
 from __future__ import annotations
 
 import logging
-from collections import deque
-from dataclasses import dataclass, field
-from enum import Enum
 
 import numpy as np
 
-from motocell.shared.bus.liveness import HEARTBEAT_S
+from motocell.services.executor.readiness import Action, Event, Readiness, ReadinessMachine
+from motocell.services.executor.rings import RING_CAPACITY, ZERO, BatchOutcome, GroupRing
+from motocell.shared.bus.liveness import SILENT_HEARTBEATS, heartbeat_ms, silence_bound_s
 from motocell.shared.bus.schemas import (
     CommandReply,
+    ControllerStatus,
     GroupTick,
     IncrementBatch,
     Point,
@@ -30,52 +30,11 @@ from motocell.shared.protocol.constants import MAX_AXES, Result
 
 log = logging.getLogger("executor")
 
-RING_CAPACITY = 200
-QUEUE_HEARTBEAT_TICKS = 25
-"""An unchanged queue state is still published every 100 ms at the default 4 ms period, for
-late joiners and for the gateway, which ages what it holds (``heartbeat_ticks``)."""
-
-ZERO = (0,) * MAX_AXES
-
 SOFT_LIMIT_ALARM = 4416
 """The alarm the controller raises when an increment would take an axis past its motion range
 (soft limit): Yaskawa's PULSE LIMIT alarm, whose limits are pulse counts in the controller's
 parameters (docs/behaviour.md, "Joint limits"). Sent as ``CommandReply.value`` of the
 increment-path notice, with the group as its subcode."""
-
-
-@dataclass(frozen=True)
-class Entry:
-    increments: tuple[int, ...]
-    partial: bool
-    tool: int
-    sync_id: int = 0
-    """Non-zero on the first entry of a trajectory that starts together with ``sync_groups``."""
-    sync_groups: tuple[int, ...] = ()
-
-
-class BatchOutcome(Enum):
-    ACCEPTED = "accepted"
-    STALE = "stale"
-    """For an older epoch: the trajectory it belongs to was cleared."""
-    DUPLICATE = "duplicate"
-    GAP = "gap"
-    """Entries are missing before this batch: motion must stop (DESIGN invariant)."""
-    OVERFLOW = "overflow"
-    NOT_READY = "not ready"
-    MALFORMED = "malformed"
-    """Sizes that do not add up: treated like a gap, never allowed to crash the clock."""
-
-    @property
-    def breaks_increment_path(self) -> bool:
-        """Entries were lost or cannot be taken: motion must stop (DESIGN invariant)."""
-        return self in (BatchOutcome.GAP, BatchOutcome.OVERFLOW, BatchOutcome.MALFORMED)
-
-
-BARRIER_TIMEOUT_TICKS = 250
-"""How long a synchronized start waits for a partner group (1 s at 4 ms). Longer means the
-partner's increments are not coming: the increment path is broken."""
-
 
 STALL_ALARM = 4200
 """The alarm the controller raises when the motion system missed its clock (the executor
@@ -83,9 +42,17 @@ stalled past its lateness bound, or went without a controller status): a real co
 motion system stops the servo with a system alarm when its interpolation clock overruns, it
 never replays the missed periods. Sent as ``CommandReply.value`` of the increment-path
 notice; 0 there means the IncMove error."""
-STATUS_SILENCE_HEARTBEATS = 4
-"""How many controller heartbeats may go unheard before motion stops: fewer than the
-gateway's 5 (``STALE_AFTER_S``), so motion has stopped before a client can be told NOT_READY."""
+
+BARRIER_TIMEOUT_TICKS = 250
+"""How long a synchronized start waits for a partner group (1 s at 4 ms). Longer means the
+partner's increments are not coming: the increment path is broken."""
+
+NOTICE_EVERY_NS = 1_000_000_000
+"""How often an unconfirmed stall is told again."""
+
+REST_AFTER_NS = 1_000_000_000
+"""How long the clock keeps ticking with nothing to do before it rests: a client between two
+points of one trajectory (motoman_driver streams several a second) keeps it running."""
 
 
 def stalled(lateness_ns: int, period_ns: int, max_lateness_periods: int) -> bool:
@@ -94,9 +61,12 @@ def stalled(lateness_ns: int, period_ns: int, max_lateness_periods: int) -> bool
     return lateness_ns > max_lateness_periods * period_ns
 
 
-def heartbeat_ticks(period_ns: int) -> int:
-    """The ticks between heartbeats that keep a queue state at least HEARTBEAT_S fresh."""
-    return max(1, int(HEARTBEAT_S * 1e9) // period_ns)
+def next_on_grid(origin_ns: int, period_ns: int, now_ns: int) -> int:
+    """The first deadline at or after ``now_ns`` on the clock's grid (``origin_ns`` plus whole
+    periods): a clock that rested resumes in the phase it had, so the first increment of a
+    trajectory lands on the tick boundary it would have had if the clock had never stopped."""
+    periods = max(0, -(-(now_ns - origin_ns) // period_ns))
+    return origin_ns + periods * period_ns
 
 
 def pulse_ranges(cell: Cell) -> list[tuple[list[int], list[int]]]:
@@ -133,79 +103,105 @@ def starting_pulses(cell: Cell, remembered: CommandReply | None) -> list[list[in
     return pulses
 
 
-@dataclass
-class GroupRing:
-    epoch: int
-    received: int = 0
-    entries: deque[Entry] = field(default_factory=deque)
-    promised: int = 0
-    """The highest point (``Point.point_id``, sequence > 0) the gateway published for this
-    epoch: its entries are owed to this ring."""
-    through: int = 0
-    """The highest point whose entries have all arrived (``IncrementBatch.through``)."""
-    starved_ticks: int = 0
-    """Ticks in a row this ring was empty while owed."""
-
-    @property
-    def owed(self) -> bool:
-        return self.promised > self.through
-
-
 class ExecutorCore:
     def __init__(
         self,
         command_pulses: list[list[int]],
         first_epoch: int,
         max_increments: list[list[int]] | None = None,
-        heartbeat_ticks: int = QUEUE_HEARTBEAT_TICKS,
         ranges: list[tuple[list[int], list[int]]] | None = None,
         *,
+        period_ns: int = 4_000_000,
         servos: Servos | None = None,
-        max_starved_ticks: int = DEFAULT_MAX_LATENESS_PERIODS,
+        max_lateness_periods: int = DEFAULT_MAX_LATENESS_PERIODS,
     ) -> None:
         """``max_increments``: per group and Motoman axis, the most pulses the motion system
-        takes in one period (None: no limit). ``heartbeat_ticks``: how often an unchanged queue
-        state is published all the same, and the controller's status arrives at least.
-        ``servos``: how the feedback follows the command, resting at ``command_pulses``
-        (None: ideal, feedback = command). ``max_starved_ticks``: how long a ring may stay
-        empty while its interpolator owes it increments (``starved``)."""
+        takes in one period (None: no limit). ``ranges``: per group, the (lower, upper) pulses
+        of each Motoman axis (None: no limits). ``servos``: how the feedback follows the
+        command, resting at ``command_pulses`` (None: ideal, feedback = command).
+        ``max_lateness_periods``: how late a tick may be, and how long a ring may stay empty
+        while its interpolator owes it increments (``starved``)."""
         self.command = [list(p) for p in command_pulses]
         self.servos = servos or Servos([IdealServo()] * len(command_pulses), 1.0, command_pulses)
         self.servo_powered = True
         """The controller's last status had the servo on (and not in eco mode); assumed until
         the first status, which changes nothing at rest."""
-        self.heartbeat_ticks = heartbeat_ticks
+        self.period_ns = period_ns
+        self.max_lateness_periods = max_lateness_periods
         self.max_increments = max_increments
         self.ranges = ranges
-        """Per group, the (lower, upper) pulses of each Motoman axis (None: no limits)."""
-        self.beyond_range: dict[int, str] = {}
-        """The groups the last tick refused because an axis would pass its range, and why."""
-        self.max_starved_ticks = max_starved_ticks
-        self.starved: set[int] = set()
-        """The groups the last tick stopped because the increments of points the gateway had
-        published stopped coming (``GroupRing.owed``) for longer than ``max_starved_ticks``:
-        the interpolator, or the network to it, stalled; what it sends late must not move."""
-        self._held_ticks = [0] * len(command_pulses)
+        self.readiness = ReadinessMachine()
         self.rings = [GroupRing(first_epoch + g) for g in range(len(command_pulses))]
         self._next_epoch = first_epoch + len(command_pulses)
-        self.ready = False
-        self.status_ready = False
-        """The controller's last status said motion-ready."""
-        self.controller_present = False
-        """The controller's liveliness token is present."""
-        self.awaiting_not_ready = False
-        """Motion stopped for a stall: ready statuses are older news until a not-ready one."""
-        self._unconfirmed_status = False
-        """A ready status arrived while the stall is unconfirmed: the controller is heard again
-        (after a router restart, say) and has not had the notice, so it is due at once."""
-        self._silent_ticks = 0
         self.tick = 0
         self.last_increment: list[tuple[int, ...]] = [ZERO] * len(command_pulses)
+        self.beyond_range: dict[int, str] = {}
+        """The groups the last tick refused because an axis would pass its range, and why."""
+        self.starved: set[int] = set()
+        """The groups the last tick stopped because the increments of points the gateway had
+        published stopped coming (``GroupRing.owed``) for longer than the lateness bound: the
+        interpolator, or the network to it, stalled; what it sends late must not move."""
+        self._held_ticks = [0] * len(command_pulses)
+        self.notices: list[CommandReply] = []
+        """What the controller must be told (``controller/cmd/incmove_error``), oldest first."""
+        self._last_status_ns: int | None = None
+        self._status_heartbeat_ms = heartbeat_ms(motion_possible=True)
+        self._last_notice_ns = 0
+        self.resting = False
+        """The clock stopped: nothing queued, owed or settling for ``REST_AFTER_NS``."""
+        self._quiet_since_ns: int | None = None
         self._published_queues: list[tuple[object, ...] | None] = [None] * len(command_pulses)
+        self._next_queue_heartbeat_ns = 0
 
-    def accept(self, group: int, batch: IncrementBatch) -> BatchOutcome:
+    # -- readiness ---------------------------------------------------------------------------
+
+    @property
+    def ready(self) -> bool:
+        return self.readiness.ready
+
+    def on_status(self, status: ControllerStatus, received_ns: int) -> None:
+        """A controller status, in the order they were published, as it arrived."""
+        self._last_status_ns = received_ns
+        self._status_heartbeat_ms = status.heartbeat_ms
+        self.servo_powered = status.servo_on and not status.eco
+        if any(alarm.code == STALL_ALARM for alarm in status.alarms):
+            event = Event.ALARM_STATUS
+        elif status.motion_ready:
+            event = Event.READY_STATUS
+        else:
+            event = Event.NOT_READY_STATUS
+        self._take(event, received_ns, "stall not yet confirmed by the controller")
+
+    def on_controller(self, present: bool, now_ns: int) -> None:
+        """Whether the controller's liveliness token is present."""
+        self._take(Event.CONTROLLER_BACK if present else Event.CONTROLLER_GONE, now_ns)
+
+    def _take(self, event: Event, now_ns: int, reason: str = "") -> None:
+        before = self.readiness.state
+        actions = self.readiness.on(event)
+        if Action.CLEAR_RINGS in actions:
+            self.clear_all()
+        if Action.NOTICE in actions:
+            if before is not Readiness.STALLED:
+                log.error("%s; stopping motion (alarm %d)", reason, STALL_ALARM)
+            self.notices.append(CommandReply(Result.FAILURE, value=STALL_ALARM, detail=reason))
+            self._last_notice_ns = now_ns
+
+    def controller_silent(self, now_ns: int) -> bool:
+        """A ready executor has heard no controller status for ``SILENT_HEARTBEATS`` of the
+        heartbeat the controller announced (the controller or the router stalled)."""
+        if not self.ready or self._last_status_ns is None:
+            return False
+        bound = silence_bound_s(self._status_heartbeat_ms, SILENT_HEARTBEATS)
+        return now_ns - self._last_status_ns > bound * 1e9
+
+    # -- inputs ------------------------------------------------------------------------------
+
+    def accept(self, group: int, batch: IncrementBatch | None) -> BatchOutcome:
+        """A batch from ``group``'s interpolator (None: it did not decode). One that breaks the
+        increment path stops motion (``notices``)."""
         ring = self.rings[group]
-        if batch.epoch != ring.epoch:
+        if batch is not None and batch.epoch != ring.epoch:
             return BatchOutcome.STALE
         if not self.ready:
             # Nothing may be queued while motion is not ready (motoros1 §3.3); renewing the
@@ -213,100 +209,76 @@ class ExecutorCore:
             # a gap.
             self._clear(ring)
             return BatchOutcome.NOT_READY
-        if (
-            batch.count < 0
-            or batch.first_seq < 0
-            or len(batch.increments) != batch.count * MAX_AXES * 4
-            or len(batch.times_ns) not in (0, batch.count)
-            or any(not 0 <= index < batch.count for index in batch.partial)
-        ):
-            return BatchOutcome.MALFORMED
-        if batch.first_seq + batch.count <= ring.received:
-            return BatchOutcome.DUPLICATE
-        if batch.first_seq != ring.received:
-            return BatchOutcome.GAP
-        if len(ring.entries) + batch.count > RING_CAPACITY:
-            return BatchOutcome.OVERFLOW
-        rows = np.frombuffer(batch.increments, dtype="<i4").reshape(batch.count, MAX_AXES)
-        partial = set(batch.partial)
-        for index, row in enumerate(rows.tolist()):
-            if index == 0 and batch.sync_id:
-                entry = Entry(
-                    tuple(row),
-                    index in partial,
-                    batch.tool,
-                    batch.sync_id,
-                    tuple(batch.sync_groups),
-                )
-            else:
-                entry = Entry(tuple(row), index in partial, batch.tool)
-            ring.entries.append(entry)
-        ring.received += batch.count
-        ring.through = max(ring.through, batch.through)
-        return BatchOutcome.ACCEPTED
+        outcome = BatchOutcome.MALFORMED if batch is None else ring.check(batch)
+        if outcome is BatchOutcome.ACCEPTED and batch is not None:
+            ring.append(batch)
+            self._run_clock()
+        elif outcome.breaks_increment_path:
+            self._increment_path_broken(group, f"increment batch {outcome.value}")
+        return outcome
 
     def on_point(self, group: int, point: Point) -> None:
-        """A point the gateway published to ``group``'s interpolator: once it is for this
-        ring's epoch and continues a trajectory (sequence > 0), its entries are owed. A
-        sequence-0 point only starts a trajectory: nothing is owed until its next point."""
+        """A point the gateway published to ``group``'s interpolator: increments follow, so
+        the clock runs. Once it is for this ring's epoch and continues a trajectory (sequence
+        > 0), its entries are owed. A sequence-0 point only starts a trajectory: nothing is
+        owed until its next point."""
+        self._run_clock()
         ring = self.rings[group]
         if point.epoch == ring.epoch and point.sequence > 0:
             ring.promised = max(ring.promised, point.point_id)
 
+    def on_stop(self) -> None:
+        """STOP_MOTION: every ring cleared before the next tick applies anything."""
+        self.clear_all()
+
     def _clear(self, ring: GroupRing) -> None:
-        ring.entries.clear()
-        ring.epoch = self._next_epoch
-        ring.received = 0
-        ring.promised = ring.through = 0
-        ring.starved_ticks = 0
+        ring.clear(self._next_epoch)
         self._next_epoch += 1
 
     def clear_all(self) -> None:
         for ring in self.rings:
             self._clear(ring)
 
-    def set_ready(self, ready: bool) -> None:
-        """Motion-ready from the controller; dropping it clears every ring (motoros1 §3.3)."""
-        if self.ready and not ready:
-            self.clear_all()
-        self.ready = ready
-
-    def on_status(self, motion_ready: bool, servo_powered: bool) -> None:
-        """A controller status, in the order they were published."""
-        self._silent_ticks = 0
-        self.servo_powered = servo_powered
-        if self.awaiting_not_ready and motion_ready:
-            self._unconfirmed_status = True
-            return
-        self.awaiting_not_ready = False
-        self.status_ready = motion_ready
-        self.update_ready()
-
-    def controller_silent(self) -> bool:
-        """Counts one tick; true once a ready executor has heard no controller status for
-        ``STATUS_SILENCE_HEARTBEATS`` heartbeats (the controller or the router stalled)."""
-        self._silent_ticks += 1
-        return self.ready and self._silent_ticks > STATUS_SILENCE_HEARTBEATS * self.heartbeat_ticks
-
-    def stop_for_stall(self) -> None:
-        """A stall past the lateness bound: every ring cleared, nothing applied late, and not
-        ready until the controller has said so itself (its alarm), so no ready status sent
-        before the alarm restarts motion."""
+    def _increment_path_broken(self, group: int, reason: str, alarm: int = 0) -> None:
+        """Stop everything and have the controller raise the IncMove error (NOT_READY 5012
+        until START_TRAJ_MODE), as MotoROS 1.9.5 does when an increment is rejected, or
+        ``alarm`` when it is not 0."""
+        log.error("group %d: %s; stopping motion", group, reason)
         self.clear_all()
-        self.status_ready = False
-        self.awaiting_not_ready = True
-        self.update_ready()
+        self.notices.append(CommandReply(Result.FAILURE, group, value=alarm, detail=reason))
 
-    def stall_notice_due(self, ticks_per_second: int) -> bool:
-        """Once a second while the controller has not confirmed the stall, and at once when it
-        is heard saying ready: a notice lost while the router itself stalled is sent again
-        (without waiting up to a second, in which a client would see the cell ready)."""
-        heard, self._unconfirmed_status = self._unconfirmed_status, False
-        return self.awaiting_not_ready and (heard or self.tick % ticks_per_second == 0)
+    def take_notices(self) -> list[CommandReply]:
+        notices, self.notices = self.notices, []
+        return notices
 
-    def update_ready(self) -> None:
-        """Motion-ready needs both a ready status and a controller alive to have sent it."""
-        self.set_ready(self.status_ready and self.controller_present)
+    # -- the tick ----------------------------------------------------------------------------
+
+    def on_tick(self, deadline_ns: int, lateness_ns: int, periods: int = 1) -> bool:
+        """One tick, ``periods`` after the last (more after a rest): the stall checks, then
+        ``step``. Returns whether the clock must restart from now: a tick past the lateness
+        bound is not caught up on."""
+        now_ns = deadline_ns + lateness_ns
+        self.tick += periods
+        late = stalled(lateness_ns, self.period_ns, self.max_lateness_periods)
+        if late:
+            self._take(Event.STALL, now_ns, f"tick {lateness_ns / 1e6:.1f} ms late")
+        elif self.controller_silent(now_ns):
+            self._take(Event.STALL, now_ns, "no controller status heard")
+        self.notice_if_due(now_ns)
+        for group in self.step():
+            if group in self.beyond_range:
+                self._increment_path_broken(group, self.beyond_range[group], SOFT_LIMIT_ALARM)
+            elif group in self.starved:
+                self._increment_path_broken(group, "increments stopped mid-trajectory")
+            else:
+                self._increment_path_broken(group, "refused by the motion system")
+        self._note_quiet(now_ns)
+        return late
+
+    def notice_if_due(self, now_ns: int) -> None:
+        """Tell an unconfirmed stall again once a second."""
+        if self.readiness.stalled and now_ns - self._last_notice_ns >= NOTICE_EVERY_NS:
+            self._take(Event.NOTICE_DUE, now_ns, "stall not yet confirmed by the controller")
 
     def step(self) -> list[int]:
         """One interpolation period: at most one (merged) increment per group, all applied
@@ -315,16 +287,13 @@ class ExecutorCore:
         Returns the groups whose increments the motion system refused (beyond an axis's
         maximum per period, or past its range: ``beyond_range``), whose synchronized start
         waited too long, or whose increments stopped coming mid-trajectory (``starved``).
-        Then nothing is applied this tick, as a rejected IncMove call moves no group; the
-        caller stops motion (MotoROS 1.9.5: NOT_READY 5012 until
-        START_TRAJ_MODE; at a range limit, alarm ``SOFT_LIMIT_ALARM``)."""
-        self.tick += 1
+        Then nothing is applied this tick, as a rejected IncMove call moves no group."""
         held = self._waiting_for_partners()
         broken = [g for g in held if self._held_ticks[g] > BARRIER_TIMEOUT_TICKS]
         self.starved = self._starved_groups()
         broken += sorted(self.starved)
         increments = [
-            self._pop_period(ring) if self.ready and group not in held else ZERO
+            ring.pop_period() if self.ready and group not in held else ZERO
             for group, ring in enumerate(self.rings)
         ]
         broken += [g for g, inc in enumerate(increments) if not self._within_limits(g, inc)]
@@ -351,7 +320,7 @@ class ExecutorCore:
                 ring.starved_ticks += 1
             else:
                 ring.starved_ticks = 0
-            if ring.starved_ticks > self.max_starved_ticks:
+            if ring.starved_ticks > self.max_lateness_periods:
                 starved.add(group)
         return starved
 
@@ -408,25 +377,47 @@ class ExecutorCore:
             self._held_ticks[group] = self._held_ticks[group] + 1 if group in held else 0
         return held
 
-    @staticmethod
-    def _pop_period(ring: GroupRing) -> tuple[int, ...]:
-        """Pop the head entry and, while the last popped is a partial period (an off-grid
-        waypoint), the next one too, so every tick moves one full period (motoros1 §5.3
-        merge)."""
-        if not ring.entries:
-            return ZERO
-        entry = ring.entries.popleft()
-        total = list(entry.increments)
-        while (
-            entry.partial
-            and ring.entries
-            and ring.entries[0].tool == entry.tool
-            and not ring.entries[0].sync_id
-        ):
-            entry = ring.entries.popleft()
-            for axis in range(MAX_AXES):
-                total[axis] += entry.increments[axis]
-        return tuple(total)
+    # -- rest --------------------------------------------------------------------------------
+
+    def _run_clock(self) -> None:
+        """Motion is asked for: a resting clock runs again, and its queue states announce the
+        short heartbeat from the next one on, which must then come that soon."""
+        if self.resting:
+            self.resting = False
+            self._next_queue_heartbeat_ns = 0
+
+    def quiet(self) -> bool:
+        """Nothing for the clock to do: every ring empty and owed nothing, no synchronized
+        start waiting, every axis settled on its command."""
+        return (
+            all(not ring.entries and not ring.owed for ring in self.rings)
+            and not any(self._held_ticks)
+            and self.servos.at_rest
+        )
+
+    def _note_quiet(self, now_ns: int) -> None:
+        if not self.quiet():
+            self._quiet_since_ns = None
+        elif self._quiet_since_ns is None:
+            self._quiet_since_ns = now_ns
+        elif now_ns - self._quiet_since_ns >= REST_AFTER_NS:
+            self.resting = True
+            self._quiet_since_ns = None
+            self._next_queue_heartbeat_ns = 0  # tell the new heartbeat at once
+
+    def rest_deadline(self) -> int:
+        """When a resting clock must wake even if nothing arrives: the queue heartbeat, or the
+        next notice of an unconfirmed stall."""
+        if self.readiness.stalled:
+            return min(self._next_queue_heartbeat_ns, self._last_notice_ns + NOTICE_EVERY_NS)
+        return self._next_queue_heartbeat_ns
+
+    # -- reports -----------------------------------------------------------------------------
+
+    def queue_heartbeat_ms(self) -> int:
+        """Short while the clock runs; long while it rests, when the queues cannot change
+        without a point or a status waking it first."""
+        return heartbeat_ms(motion_possible=not self.resting)
 
     def queue_state(self, group: int) -> QueueState:
         ring = self.rings[group]
@@ -438,7 +429,31 @@ class ExecutorCore:
             command_pulses=list(self.command[group]),
             tick=self.tick,
             ready=self.ready,
+            heartbeat_ms=self.queue_heartbeat_ms(),
         )
+
+    def queue_updates(self, now_ns: int, force: bool = False) -> list[tuple[int, QueueState]]:
+        """The queue states to publish now: each that changed (every tick while moving), and
+        all of them at the heartbeat or when ``force``d, so idle interpolators and gateways
+        need not wake 250 times a second."""
+        heartbeat = force or now_ns >= self._next_queue_heartbeat_ns
+        if heartbeat:
+            self._next_queue_heartbeat_ns = now_ns + self.queue_heartbeat_ms() * 1_000_000
+        updates = []
+        for group in range(len(self.rings)):
+            state = self.queue_state(group)
+            content = (
+                state.epoch,
+                state.received,
+                state.depth,
+                tuple(state.command_pulses),
+                state.ready,
+                state.heartbeat_ms,
+            )
+            if heartbeat or content != self._published_queues[group]:
+                self._published_queues[group] = content
+                updates.append((group, state))
+        return updates
 
     def group_ticks(self) -> list[GroupTick]:
         feedback = self.servos.feedback_pulses().tolist()
@@ -454,26 +469,6 @@ class ExecutorCore:
             for g, ring in enumerate(self.rings)
         ]
 
-    def queue_updates(self, force: bool = False) -> list[tuple[int, QueueState]]:
-        """The queue states to publish now: each that changed (every tick while moving), and
-        all of them at the heartbeat or when ``force``d, so idle interpolators and gateways
-        need not wake 250 times a second."""
-        heartbeat = force or self.tick % self.heartbeat_ticks == 0
-        updates = []
-        for group in range(len(self.rings)):
-            state = self.queue_state(group)
-            content = (
-                state.epoch,
-                state.received,
-                state.depth,
-                tuple(state.command_pulses),
-                state.ready,
-            )
-            if heartbeat or content != self._published_queues[group]:
-                self._published_queues[group] = content
-                updates.append((group, state))
-        return updates
-
     def tick_report(self, deadline_ns: int, lateness_ns: int, missed: int) -> Tick:
         """What the motion system did this period, for the broadcaster and observers."""
         return Tick(
@@ -483,4 +478,5 @@ class ExecutorCore:
             missed=missed,
             motion_ready=self.ready,
             groups=self.group_ticks(),
+            resting=self.resting,
         )

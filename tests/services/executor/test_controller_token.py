@@ -7,13 +7,12 @@ from collections.abc import Iterator
 
 import pytest
 
-from motocell.services.executor.controller_token import ControllerToken
+from motocell.services.executor.controller_token import ASK_EVERY_NS, ControllerToken
 from motocell.shared.bus.session import open_session
 from motocell.shared.ports import free_port
 from motocell.testkit.processes import wait_until
 
 TOKEN = "@motocell/c/alive/controller/0"
-ASK_EVERY = 10
 
 
 @pytest.fixture
@@ -25,15 +24,16 @@ def router() -> Iterator[str]:
 
 
 class Clock:
-    """Ticks, as the executor's loop calls ``present`` once per tick."""
+    """The executor's looks at the token, each at a time that steps past the re-ask period, so
+    every look while the controller is absent asks again."""
 
     def __init__(self, watch: ControllerToken) -> None:
         self.watch = watch
-        self.tick = 0
+        self.now_ns = 0
 
     def present(self) -> bool:
-        self.tick += 1
-        return self.watch.present(self.tick)
+        self.now_ns += ASK_EVERY_NS
+        return self.watch.present(self.now_ns)
 
 
 def test_the_controller_token_over_a_router(router: str) -> None:
@@ -42,7 +42,7 @@ def test_the_controller_token_over_a_router(router: str) -> None:
     second = open_session("client", [router], wait=False)
     try:
         tokens = [first.liveliness().declare_token(TOKEN)]  # a token lives while referenced
-        clock = Clock(ControllerToken(executor, TOKEN, ASK_EVERY))
+        clock = Clock(ControllerToken(executor, TOKEN))
         wait_until(clock.present, 5.0, "the token declared before")
 
         first.close()

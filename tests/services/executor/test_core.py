@@ -13,18 +13,29 @@ import pytest
 
 from motocell.services.executor.core import (
     BARRIER_TIMEOUT_TICKS,
-    QUEUE_HEARTBEAT_TICKS,
-    RING_CAPACITY,
-    STATUS_SILENCE_HEARTBEATS,
-    BatchOutcome,
+    NOTICE_EVERY_NS,
+    REST_AFTER_NS,
+    STALL_ALARM,
     ExecutorCore,
-    heartbeat_ticks,
+    next_on_grid,
     pulse_ranges,
     stalled,
     starting_pulses,
 )
-from motocell.shared.bus.schemas import CommandReply, GroupTick, IncrementBatch, Point, QueueState
-from motocell.shared.config import parse_cell
+from motocell.services.executor.readiness import Readiness
+from motocell.services.executor.rings import RING_CAPACITY, BatchOutcome
+from motocell.shared.bus.liveness import AT_REST_HEARTBEAT_S, HEARTBEAT_S, SILENT_HEARTBEATS
+from motocell.shared.bus.schemas import (
+    Alarm,
+    CommandReply,
+    ControllerStatus,
+    GroupTick,
+    IncrementBatch,
+    Point,
+    QueueState,
+)
+from motocell.shared.config import PositionLoop, parse_cell
+from motocell.shared.motion.servo import Servos
 from motocell.shared.protocol.constants import Result
 
 FIRST_EPOCH = 100
@@ -56,9 +67,47 @@ def unit(value: int, axis: int = 0) -> list[int]:
     return row
 
 
+PERIOD_NS = 4_000_000
+MS = 1_000_000
+
+
+def status(
+    motion_ready: bool = True,
+    heartbeat_ms: int = 100,
+    servo_on: bool = True,
+    alarms: Sequence[Alarm] = (),
+) -> ControllerStatus:
+    return ControllerStatus(
+        seq=1,
+        servo_on=servo_on,
+        estop=False,
+        hold=False,
+        alarms=list(alarms),
+        error=0,
+        play=True,
+        remote=True,
+        operating=True,
+        job_ready=True,
+        pfl_active=False,
+        incmove_error=False,
+        eco=False,
+        missing_services=[],
+        motion_ready=motion_ready,
+        not_ready_subcode=0,
+        tools=[0, 0],
+        heartbeat_ms=heartbeat_ms,
+    )
+
+
+def set_ready(core: ExecutorCore, ready: bool, now_ns: int = 0) -> None:
+    """What the executor hears from a live controller that says ``ready`` (or not)."""
+    core.on_controller(True, now_ns)
+    core.on_status(status(ready), now_ns)
+
+
 def ready_core() -> ExecutorCore:
     core = ExecutorCore(START, FIRST_EPOCH)
-    core.set_ready(True)
+    set_ready(core, True)
     return core
 
 
@@ -92,8 +141,8 @@ def test_queue_state_numbers_follow_accepts_and_steps() -> None:
     core = ready_core()
     assert core.accept(0, batch(100, 0, [unit(1)] * 5)) is BatchOutcome.ACCEPTED
     assert core.accept(0, batch(100, 5, [unit(2)] * 3)) is BatchOutcome.ACCEPTED
-    core.step()
-    core.step()
+    core.on_tick(PERIOD_NS, 0)
+    core.on_tick(2 * PERIOD_NS, 0)
     state = core.queue_state(0)
     assert state == QueueState(
         epoch=100,
@@ -111,35 +160,44 @@ def test_queue_state_numbers_follow_accepts_and_steps() -> None:
     assert core.command[0][0] == 12
 
 
-# -- accept ---------------------------------------------------------------------------------
+# -- accept (the ring's own checks: test_rings.py) -----------------------------------------
 
 
-def test_batches_are_accepted_only_in_order() -> None:
+@pytest.mark.parametrize(
+    "bad",
+    [
+        batch(100, 5, [unit(9)]),  # a gap
+        batch(100, 4, [unit(1)] * 197),  # past the ring's 200 entries
+        msgspec.structs.replace(batch(100, 4, [unit(1)]), count=3),  # sizes that do not add up
+        None,  # undecodable
+    ],
+)
+def test_a_batch_that_breaks_the_increment_path_stops_everything(
+    bad: IncrementBatch | None,
+) -> None:
     core = ready_core()
-    first = batch(100, 0, [unit(1), unit(2), unit(3)])
-    assert core.accept(0, first) is BatchOutcome.ACCEPTED
-    assert core.accept(0, first) is BatchOutcome.DUPLICATE
-    assert core.accept(0, batch(100, 1, [unit(2), unit(3)])) is BatchOutcome.DUPLICATE
-    assert core.accept(0, batch(100, 4, [unit(5)])) is BatchOutcome.GAP
-    assert core.queue_state(0).received == 3
-    assert core.queue_state(0).depth == 3
-    assert core.accept(0, batch(100, 3, [unit(4)])) is BatchOutcome.ACCEPTED
-    assert core.accept(0, batch(100, 4, [unit(5)])) is BatchOutcome.ACCEPTED
-    assert applied(core) == [1, 2, 3, 4, 5, 0]
+    core.accept(0, batch(100, 0, [unit(7)] * 4))
+    core.accept(1, batch(101, 0, [unit(7)] * 4))
+    assert core.accept(0, bad).breaks_increment_path
+    assert [len(ring.entries) for ring in core.rings] == [0, 0]
+    assert [ring.epoch for ring in core.rings] == [102, 103]
+    assert [(n.result, n.subcode, n.value) for n in core.take_notices()] == [
+        (Result.FAILURE, 0, 0)  # the IncMove error, group 0
+    ]
 
 
-def test_duplicates_and_gaps_do_not_change_the_ring() -> None:
+def test_duplicates_and_stale_batches_change_nothing() -> None:
     core = ready_core()
     core.accept(0, batch(100, 0, [unit(7)] * 4))
     before = core.queue_state(0)
     for outcome, b in [
         (BatchOutcome.DUPLICATE, batch(100, 0, [unit(9)] * 2)),
-        (BatchOutcome.GAP, batch(100, 5, [unit(9)])),
         (BatchOutcome.STALE, batch(99, 4, [unit(9)])),
         (BatchOutcome.STALE, batch(101, 4, [unit(9)])),
     ]:
         assert core.accept(0, b) is outcome
         assert core.queue_state(0) == before
+    assert core.take_notices() == []
     assert applied(core) == [7, 7, 7, 7, 0]
 
 
@@ -149,27 +207,6 @@ def test_stale_epoch_is_refused_even_for_the_right_sequence() -> None:
     assert core.accept(1, batch(101, 0, [unit(1)])) is BatchOutcome.ACCEPTED
 
 
-def test_ring_holds_exactly_200_entries() -> None:
-    core = ready_core()
-    for i in range(4):
-        assert core.accept(0, batch(100, 50 * i, [unit(1)] * 50)) is BatchOutcome.ACCEPTED
-    assert core.queue_state(0).depth == 200
-    assert core.accept(0, batch(100, 200, [unit(1)])) is BatchOutcome.OVERFLOW
-    assert core.queue_state(0).received == 200
-    assert core.queue_state(0).depth == 200
-    core.step()
-    assert core.accept(0, batch(100, 200, [unit(1)] * 2)) is BatchOutcome.OVERFLOW
-    assert core.accept(0, batch(100, 200, [unit(1)])) is BatchOutcome.ACCEPTED
-    assert core.queue_state(0).depth == 200
-
-
-def test_single_batch_larger_than_the_ring_overflows() -> None:
-    core = ready_core()
-    assert core.accept(0, batch(100, 0, [unit(1)] * 201)) is BatchOutcome.OVERFLOW
-    assert core.queue_state(0).received == 0
-    assert core.accept(0, batch(100, 0, [unit(1)] * 200)) is BatchOutcome.ACCEPTED
-
-
 def test_not_ready_refuses_and_renews_the_epoch() -> None:
     core = ExecutorCore(START, FIRST_EPOCH)
     assert core.accept(0, batch(100, 0, [unit(1)])) is BatchOutcome.NOT_READY
@@ -177,7 +214,7 @@ def test_not_ready_refuses_and_renews_the_epoch() -> None:
     assert (state.epoch, state.received, state.depth) == (102, 0, 0)
     assert core.queue_state(1).epoch == 101  # other groups untouched
     # The rest of that trajectory is now stale, even once ready again.
-    core.set_ready(True)
+    set_ready(core, True)
     assert core.accept(0, batch(100, 1, [unit(1)])) is BatchOutcome.STALE
     assert core.accept(0, batch(102, 0, [unit(1)])) is BatchOutcome.ACCEPTED
 
@@ -212,17 +249,17 @@ def test_set_ready_false_clears_every_ring() -> None:
     core = ready_core()
     core.accept(0, batch(100, 0, [unit(1)] * 3))
     core.accept(1, batch(101, 0, [unit(1)] * 2))
-    core.set_ready(False)
+    set_ready(core, False)
     assert core.ready is False
     assert [core.queue_state(g).depth for g in (0, 1)] == [0, 0]
     assert [core.queue_state(g).epoch for g in (0, 1)] == [102, 103]
     # Already not ready: no further renewal.
-    core.set_ready(False)
+    set_ready(core, False)
     assert [core.queue_state(g).epoch for g in (0, 1)] == [102, 103]
     # Becoming ready does not renew either.
-    core.set_ready(True)
+    set_ready(core, True)
     assert [core.queue_state(g).epoch for g in (0, 1)] == [102, 103]
-    core.set_ready(True)
+    set_ready(core, True)
     assert [core.queue_state(g).epoch for g in (0, 1)] == [102, 103]
 
 
@@ -234,7 +271,6 @@ def test_step_applies_one_entry_per_group_per_tick() -> None:
     core.accept(0, batch(100, 0, [[1, 2, 3, 4, 5, 6, 0, 0], [10, 20, 30, 40, 50, 60, 0, 0]]))
     core.accept(1, batch(101, 0, [[-1, 1, 0, 0, 0, 0, 0, 0]]))
     core.step()
-    assert core.tick == 1
     assert core.last_increment == [(1, 2, 3, 4, 5, 6, 0, 0), (-1, 1, 0, 0, 0, 0, 0, 0)]
     assert core.command == [[11, 22, 33, 44, 55, 66, 0, 0], [-6, 6, 0, 0, 0, 0, 0, 0]]
     core.step()
@@ -312,13 +348,12 @@ def test_nothing_is_applied_while_not_ready() -> None:
     core = ExecutorCore(START, FIRST_EPOCH)
     for _ in range(3):
         core.step()
-    assert core.tick == 3
     assert core.command == START
     assert core.last_increment == [(0,) * 8, (0,) * 8]
-    core.set_ready(True)
+    set_ready(core, True)
     core.accept(0, batch(100, 0, [unit(5)] * 3))
     core.step()
-    core.set_ready(False)
+    set_ready(core, False)
     core.step()
     core.step()
     assert core.command[0][0] == 15
@@ -345,30 +380,10 @@ def test_every_accepted_pulse_is_applied_exactly_once(rows: int) -> None:
 # -- what the motion system refuses -----------------------------------------------------------
 
 
-@pytest.mark.parametrize(
-    "change",
-    [
-        {"count": 3},
-        {"count": -1},
-        {"first_seq": -5},
-        {"partial": [7]},
-        {"increments": b"\x00" * 31},
-        {"times_ns": [1, 2, 3]},
-    ],
-)
-def test_malformed_batches_are_refused_not_crashed_on(change: dict[str, object]) -> None:
-    core = ready_core()
-    good = batch(FIRST_EPOCH, 0, [unit(1), unit(2)])
-    bad = msgspec.structs.replace(good, **change)
-    assert core.accept(0, bad) is BatchOutcome.MALFORMED
-    assert core.queue_state(0).depth == 0
-    assert core.accept(0, good) is BatchOutcome.ACCEPTED
-
-
 def test_an_increment_beyond_the_axis_maximum_is_refused_and_nothing_moves() -> None:
     limits = [[10] * 8 for _ in START]
     core = ExecutorCore(START, FIRST_EPOCH, max_increments=limits)
-    core.set_ready(True)
+    set_ready(core, True)
     for group in range(len(START)):
         assert core.accept(group, batch(core.rings[group].epoch, 0, [unit(10), unit(11)]))
     assert core.step() == []
@@ -386,7 +401,7 @@ def ranged_core(*rows: list[int]) -> ExecutorCore:
     """A ready core with ``RANGES`` whose group 0 holds ``rows`` and group 1 one S-axis pulse
     per row."""
     core = ExecutorCore(START, FIRST_EPOCH, ranges=RANGES)
-    core.set_ready(True)
+    set_ready(core, True)
     assert core.accept(0, batch(core.rings[0].epoch, 0, rows)) is BatchOutcome.ACCEPTED
     assert core.accept(1, batch(core.rings[1].epoch, 0, [unit(1)] * len(rows)))
     return core
@@ -412,7 +427,7 @@ def test_an_increment_past_a_limit_is_refused_and_nothing_moves(past: list[int])
 
 def test_a_range_is_checked_on_every_motoman_axis() -> None:
     core = ExecutorCore(START, FIRST_EPOCH, ranges=[([0] * 8, [60] * 8)] * 2)
-    core.set_ready(True)
+    set_ready(core, True)
     assert core.accept(0, batch(core.rings[0].epoch, 0, [unit(1, axis=5)]))
     assert core.step() == [0]
     assert "axis 5 would reach 61 pulses" in core.beyond_range[0]
@@ -420,7 +435,7 @@ def test_a_range_is_checked_on_every_motoman_axis() -> None:
 
 def test_an_axis_outside_a_narrowed_range_may_move_back_towards_it() -> None:
     core = ExecutorCore([[150, *[0] * 7], [0] * 8], FIRST_EPOCH, ranges=RANGES)
-    core.set_ready(True)
+    set_ready(core, True)
     assert core.accept(0, batch(core.rings[0].epoch, 0, [unit(-10), unit(1)]))
     assert core.step() == []
     assert core.command[0][0] == 140
@@ -457,40 +472,29 @@ def test_a_synchronized_start_that_waits_too_long_is_reported() -> None:
     assert core.step() == [0]
 
 
-# -- readiness ------------------------------------------------------------------------------
+# -- readiness (every transition: tests/services/executor/test_readiness.py) ---------------
 
 
-@pytest.mark.parametrize(
-    ("status_ready", "controller_present", "ready"),
-    [(True, True, True), (True, False, False), (False, True, False), (False, False, False)],
-)
-def test_ready_needs_a_ready_status_from_a_live_controller(
-    status_ready: bool, controller_present: bool, ready: bool
-) -> None:
+def test_ready_needs_a_ready_status_from_a_live_controller() -> None:
     core = ExecutorCore(START, FIRST_EPOCH)
-    core.status_ready, core.controller_present = status_ready, controller_present
-    core.update_ready()
-    assert core.ready is ready
+    core.on_status(status(True), 0)
+    assert not core.ready  # its token not seen yet: maybe a dead controller's last word
+    core.on_controller(True, 0)
+    assert not core.ready  # back: the next status decides
+    core.on_status(status(True), 0)
+    assert core.ready
 
 
 def test_the_controller_going_away_clears_the_rings() -> None:
-    core = ExecutorCore(START, FIRST_EPOCH)
-    core.status_ready = core.controller_present = True
-    core.update_ready()
+    core = ready_core()
     assert core.accept(0, batch(FIRST_EPOCH, 0, [unit(1)])) is BatchOutcome.ACCEPTED
-    core.controller_present = False
-    core.update_ready()
+    core.on_controller(False, 0)
+    assert not core.ready
     assert core.queue_state(0).depth == 0
     assert core.rings[0].epoch != FIRST_EPOCH
 
 
 # -- what the adapter sends ---------------------------------------------------------------
-
-
-@pytest.mark.parametrize("outcome", list(BatchOutcome))
-def test_only_lost_or_unusable_entries_break_the_increment_path(outcome: BatchOutcome) -> None:
-    breaking = {BatchOutcome.GAP, BatchOutcome.OVERFLOW, BatchOutcome.MALFORMED}
-    assert outcome.breaks_increment_path is (outcome in breaking)
 
 
 def test_the_queue_state_counts_the_entries_in_the_ring() -> None:
@@ -503,58 +507,41 @@ def test_the_queue_state_counts_the_entries_in_the_ring() -> None:
 def test_every_queue_is_published_first() -> None:
     core = ExecutorCore(START, FIRST_EPOCH)
     core.step()
-    assert [group for group, _ in core.queue_updates()] == [0, 1]
+    assert [group for group, _ in core.queue_updates(0)] == [0, 1]
 
 
 def test_an_unchanged_queue_waits_for_the_heartbeat() -> None:
     core = ExecutorCore(START, FIRST_EPOCH)
-    core.step()
-    core.queue_updates()
-    for _ in range(QUEUE_HEARTBEAT_TICKS - 2):
+    core.queue_updates(0)
+    heartbeat_ns = round(HEARTBEAT_S * 1e9)
+    for now in range(PERIOD_NS, heartbeat_ns, PERIOD_NS):
         core.step()
-        assert core.queue_updates() == []
-    core.step()
-    assert core.tick == QUEUE_HEARTBEAT_TICKS
-    assert [group for group, _ in core.queue_updates()] == [0, 1]
-
-
-@pytest.mark.parametrize(
-    ("period_ms", "ticks"), [(4, QUEUE_HEARTBEAT_TICKS), (0.5, 200), (30, 3), (100, 1)]
-)
-def test_the_heartbeat_keeps_queue_states_at_most_100_ms_old(period_ms: float, ticks: int) -> None:
-    """The gateway ages the queue states it holds by HEARTBEAT_S, whatever the period."""
-    assert heartbeat_ticks(round(period_ms * 1_000_000)) == ticks
-    core = ExecutorCore(START, FIRST_EPOCH, heartbeat_ticks=ticks)
-    published = []
-    for _ in range(3 * ticks):
-        core.step()
-        published.append(bool(core.queue_updates()))
-    assert [core_tick for core_tick, sent in enumerate(published, 1) if sent] == [
-        1,
-        *[k * ticks for k in (1, 2, 3) if k * ticks > 1],
-    ]
+        assert core.queue_updates(now) == []
+    updates = core.queue_updates(heartbeat_ns)
+    assert [group for group, _ in updates] == [0, 1]
+    assert {state.heartbeat_ms for _, state in updates} == {100}
 
 
 def test_a_changed_queue_is_published_at_once() -> None:
     core = ready_core()
     core.step()
-    core.queue_updates()
+    core.queue_updates(0)
     core.accept(1, batch(core.rings[1].epoch, 0, [unit(1)]))
-    updates = core.queue_updates()
+    updates = core.queue_updates(MS)
     assert [(group, state.depth) for group, state in updates] == [(1, 1)]
 
 
 def test_forced_queue_updates_include_unchanged_queues() -> None:
     core = ExecutorCore(START, FIRST_EPOCH)
     core.step()
-    core.queue_updates()
-    assert len(core.queue_updates(force=True)) == 2
+    core.queue_updates(0)
+    assert len(core.queue_updates(MS, force=True)) == 2
 
 
 def test_tick_report() -> None:
     core = ready_core()
     core.accept(0, batch(core.rings[0].epoch, 0, [unit(7)]))
-    core.step()
+    core.on_tick(deadline_ns=4_000_000, lateness_ns=120)
     tick = core.tick_report(deadline_ns=4_000_000, lateness_ns=120, missed=3)
     assert (tick.tick, tick.deadline_ns, tick.lateness_ns, tick.missed) == (1, 4_000_000, 120, 3)
     assert tick.motion_ready is True
@@ -608,68 +595,192 @@ def test_a_tick_later_than_the_bound_is_a_stall() -> None:
 
 
 def stalled_core() -> ExecutorCore:
+    """A ready core with entries queued, then a tick past the lateness bound (25 periods)."""
     core = ready_core()
-    core.controller_present = True
-    core.on_status(True, True)
     core.accept(0, batch(FIRST_EPOCH, 0, [unit(1)] * 5))
-    core.stop_for_stall()
+    assert core.on_tick(deadline_ns=0, lateness_ns=26 * PERIOD_NS)  # the clock restarts
     return core
 
 
-def test_a_stall_clears_every_ring_and_applies_nothing() -> None:
+def test_a_late_tick_clears_every_ring_applies_nothing_and_tells_the_controller() -> None:
     core = stalled_core()
     assert all(not ring.entries for ring in core.rings)
     assert core.rings[0].epoch != FIRST_EPOCH
-    core.step()
     assert core.command == START
+    assert core.readiness.state is Readiness.STALLED
+    assert [(n.result, n.value) for n in core.take_notices()] == [(Result.FAILURE, STALL_ALARM)]
+
+
+def test_a_late_tick_with_nothing_queued_stops_nothing() -> None:
+    core = ExecutorCore(START, FIRST_EPOCH)
+    core.on_controller(True, 0)
+    assert core.on_tick(deadline_ns=0, lateness_ns=26 * PERIOD_NS)  # restarts all the same
+    assert core.take_notices() == []
+
+
+STALL_STATUS = status(False, alarms=[Alarm(STALL_ALARM)])
+"""What the controller says once it has raised the stall's alarm."""
+
+
+def test_after_a_stall_statuses_are_old_news_until_one_shows_the_alarm() -> None:
+    core = stalled_core()
+    core.on_status(status(True), MS)
     assert not core.ready
+    seen = []
+    for when, heard in enumerate((status(False), STALL_STATUS, status(True)), start=2):
+        core.on_status(heard, when * MS)  # first not ready for another reason: services missing
+        seen.append(core.readiness.state)
+    assert seen == [Readiness.STALLED, Readiness.WAITING, Readiness.READY]
 
 
-def test_after_a_stall_ready_statuses_are_old_news_until_a_not_ready_one() -> None:
+def test_an_unconfirmed_stall_is_told_again_every_second() -> None:
     core = stalled_core()
-    core.on_status(True, True)
-    assert not core.ready
-    core.on_status(False, True)
-    assert not core.awaiting_not_ready
-    core.on_status(True, True)
-    assert core.ready
+    start = core.take_notices()[0]
+    told = []
+    for tick in range(1, 551):
+        core.on_tick(tick * PERIOD_NS, 0)
+        told += core.take_notices()
+    assert [(n.result, n.value) for n in told] == [(start.result, start.value)] * 2  # 1 s, 2 s
+    core.on_status(STALL_STATUS, 551 * PERIOD_NS)
+    for tick in range(552, 1052):
+        core.on_tick(tick * PERIOD_NS, 0)
+    assert core.take_notices() == []
 
 
-def test_an_unconfirmed_stall_is_reported_again_every_second() -> None:
+def test_an_unconfirmed_stall_is_told_again_as_soon_as_the_controller_says_ready() -> None:
     core = stalled_core()
-    due = []
-    for _ in range(500):
-        core.step()
-        due.append(core.stall_notice_due(250))
-    assert due.count(True) == 2
-    core.on_status(False, True)
-    core.step()
-    assert not any(core.stall_notice_due(1) for _ in range(3))
-
-
-def test_an_unconfirmed_stall_is_reported_again_as_soon_as_the_controller_says_ready() -> None:
-    core = stalled_core()
-    core.step()
-    assert not core.stall_notice_due(250)
-    core.on_status(True, True)  # heard again (a router back), the notice not yet had
-    assert core.stall_notice_due(250)
-    assert not core.stall_notice_due(250)  # once per status heard
+    core.take_notices()
+    core.on_status(status(True), MS)  # heard again (a router back), the notice not yet had
+    assert len(core.take_notices()) == 1
 
 
 def test_a_silent_controller_stops_a_ready_executor() -> None:
-    core = ExecutorCore(START, FIRST_EPOCH, heartbeat_ticks=25)
-    core.controller_present = True
-    core.on_status(True, True)
-    limit = STATUS_SILENCE_HEARTBEATS * 25
-    assert not any(core.controller_silent() for _ in range(limit))
-    assert core.controller_silent()
-    core.on_status(True, True)
-    assert not core.controller_silent()
+    core = ready_core()
+    bound = SILENT_HEARTBEATS * 100 * MS
+    assert not core.controller_silent(bound)
+    assert core.controller_silent(bound + 1)
+    core.accept(0, batch(FIRST_EPOCH, 0, [unit(1)] * 5))
+    core.on_tick(bound + PERIOD_NS, 0)
+    assert core.readiness.state is Readiness.STALLED
+    assert core.command == START
+
+
+def test_silence_counts_in_the_heartbeats_the_controller_announced() -> None:
+    core = ExecutorCore(START, FIRST_EPOCH)
+    core.on_controller(True, 0)
+    core.on_status(status(True, heartbeat_ms=1000), 0)
+    assert not core.controller_silent(SILENT_HEARTBEATS * 1000 * MS)
+    assert core.controller_silent(SILENT_HEARTBEATS * 1000 * MS + 1)
 
 
 def test_silence_while_not_ready_is_no_stall() -> None:
-    core = ExecutorCore(START, FIRST_EPOCH, heartbeat_ticks=1)
-    assert not any(core.controller_silent() for _ in range(100))
+    core = ExecutorCore(START, FIRST_EPOCH)
+    set_ready(core, False)
+    assert not core.controller_silent(100 * NOTICE_EVERY_NS)
+
+
+# -- rest: the clock stops while nothing can move -------------------------------------------
+
+
+def run_quiet(core: ExecutorCore, start_ns: int, duration_ns: int) -> int:
+    """Ticks from ``start_ns`` for ``duration_ns``, with a status every 100 ms from a controller
+    that keeps its readiness; the time of the last tick."""
+    now = start_ns
+    while now < start_ns + duration_ns:
+        now += PERIOD_NS
+        if now % (100 * MS) == 0:
+            core.on_status(status(core.ready), now)
+        core.on_tick(now, 0)
+    return now
+
+
+def test_the_clock_rests_after_a_quiet_second() -> None:
+    core = ready_core()
+    run_quiet(core, 0, REST_AFTER_NS)
+    assert not core.resting
+    core.on_tick(REST_AFTER_NS + 2 * PERIOD_NS, 0)
+    assert core.resting
+    tick = core.tick_report(0, 0, 0)
+    assert tick.resting
+    assert {state.heartbeat_ms for _, state in core.queue_updates(REST_AFTER_NS)} == {
+        round(AT_REST_HEARTBEAT_S * 1000)
+    }
+
+
+def test_the_clock_runs_while_anything_is_queued_owed_or_settling() -> None:
+    core = ExecutorCore(START, FIRST_EPOCH, servos=settling_servos(), max_lateness_periods=1000)
+    set_ready(core, True)
+    core.accept(0, batch(FIRST_EPOCH, 0, [unit(500)] * 3))
+    promise(core, 7)  # a point whose increments have not come yet
+    now = run_quiet(core, 0, 2 * REST_AFTER_NS)
+    assert not core.resting
+    core.accept(0, through(FIRST_EPOCH, 3, [unit(500)], done=7))
+    now = run_quiet(core, now, PERIOD_NS)
+    assert not core.servos.at_rest
+    while not core.quiet():  # the feedback settles well after the last increment
+        now = run_quiet(core, now, PERIOD_NS)
+        assert not core.resting
+    now = run_quiet(core, now, REST_AFTER_NS - PERIOD_NS)
+    assert not core.resting
+    run_quiet(core, now, PERIOD_NS)
+    assert core.resting
+
+
+def settling_servos() -> Servos:
+    return Servos([PositionLoop()] * 2, PERIOD_NS / 1e9, START)
+
+
+def test_a_point_or_a_batch_wakes_a_resting_clock() -> None:
+    core = ready_core()
+    now = run_quiet(core, 0, REST_AFTER_NS + PERIOD_NS)
+    assert core.resting
+    core.on_point(0, Point(1, 0, 0.0, [], [], epoch=FIRST_EPOCH))
+    assert not core.resting
+    run_quiet(core, now, REST_AFTER_NS + 2 * PERIOD_NS)
+    assert core.resting
+    core.accept(0, batch(FIRST_EPOCH, 0, [unit(1)]))
+    assert not core.resting
+
+
+def test_a_clock_woken_from_rest_keeps_the_short_heartbeat_it_announces() -> None:
+    core = ready_core()
+    now = run_quiet(core, 0, REST_AFTER_NS + PERIOD_NS)
+    assert {s.heartbeat_ms for _, s in core.queue_updates(now)} == {1000}  # next in a second
+    core.on_point(0, Point(1, 0, 0.0, [], [], epoch=FIRST_EPOCH))
+    updates = core.queue_updates(now + PERIOD_NS)
+    assert [(g, s.heartbeat_ms) for g, s in updates] == [(0, 100), (1, 100)]
+    assert core.queue_updates(now + 2 * PERIOD_NS) == []
+    heartbeat = now + PERIOD_NS + round(HEARTBEAT_S * 1e9)
+    assert len(core.queue_updates(heartbeat)) == 2
+
+
+def test_a_resting_clock_wakes_for_its_heartbeat() -> None:
+    core = ready_core()
+    now = run_quiet(core, 0, REST_AFTER_NS + 2 * PERIOD_NS)
+    core.queue_updates(now)
+    assert core.rest_deadline() == now + round(AT_REST_HEARTBEAT_S * 1e9)
+
+
+def test_a_resting_clock_wakes_to_tell_an_unconfirmed_stall_again() -> None:
+    core = stalled_core()  # told at 104 ms
+    told_at = [26 * PERIOD_NS]
+    now = told_at[0]
+    core.take_notices()
+    while not core.resting:  # no status comes: the controller never confirms
+        now += PERIOD_NS
+        core.on_tick(now, 0)
+        told_at += [now] * len(core.take_notices())
+    assert told_at == [26 * PERIOD_NS, 26 * PERIOD_NS + NOTICE_EVERY_NS]
+    core.queue_updates(now)
+    assert core.rest_deadline() == told_at[-1] + NOTICE_EVERY_NS
+
+
+@pytest.mark.parametrize(
+    ("now", "expected"),
+    [(0, 100), (100, 100), (101, 104), (103, 104), (104, 104), (105, 108), (50, 100)],
+)
+def test_a_rested_clock_resumes_on_its_grid(now: int, expected: int) -> None:
+    assert next_on_grid(100, 4, now) == expected
 
 
 # -- starved rings: increments that stop coming mid-trajectory ------------------------------
@@ -686,8 +797,8 @@ def through(epoch: int, first_seq: int, rows: Sequence[Sequence[int]], done: int
 
 
 def starving_core() -> ExecutorCore:
-    core = ExecutorCore(START, FIRST_EPOCH, max_starved_ticks=3)
-    core.set_ready(True)
+    core = ExecutorCore(START, FIRST_EPOCH, max_lateness_periods=3)
+    set_ready(core, True)
     return core
 
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 from motocell.services.executor.core import ExecutorCore
 from motocell.shared.config import PositionLoop
 from motocell.shared.motion.servo import Servos
-from tests.services.executor.test_core import FIRST_EPOCH, batch, unit
+from tests.services.executor.test_core import FIRST_EPOCH, batch, set_ready, status, unit
 
 PERIOD_S = 0.004
 START = [[0] * 8]
@@ -22,9 +22,7 @@ def moving_core(entries: int = 50) -> ExecutorCore:
         ranges=[([-100_000] * 8, [100_000] * 8)],
         servos=Servos([PositionLoop()], PERIOD_S, START),
     )
-    core.on_status(True, True)
-    core.controller_present = True
-    core.update_ready()
+    set_ready(core, True)
     core.accept(0, batch(FIRST_EPOCH, 0, [unit(STEP)] * entries))
     return core
 
@@ -79,14 +77,14 @@ def test_servo_off_freezes_the_feedback_and_the_command_follows_it() -> None:
     for _ in range(30):
         core.step()
     _, feedback_before, _ = axis0(core)
-    core.on_status(False, False)
+    core.on_status(status(False, servo_on=False), 0)
     core.step()
     command, feedback, moved = axis0(core)
     assert command == feedback
     assert abs(feedback - feedback_before) <= 1
     assert moved == 0.0
     assert core.queue_state(0).command_pulses[0] == feedback, "what START_TRAJ_MODE reads"
-    core.on_status(False, True)
+    core.on_status(status(False), 0)
     for _ in range(20):
         core.step()
         assert axis0(core) == (command, command, 0.0)

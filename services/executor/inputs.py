@@ -1,0 +1,145 @@
+"""What reaches the executor, as its clock thread reads it.
+
+While the clock runs, the thread drains everything at the start of each tick: increment
+batches, points and the controller token's events wait in Zenoh's own channels, so no Python
+runs on Zenoh's threads for them. A Python callback holding the GIL on an ordinary thread would
+make the real-time clock thread wait for it (up to the interpreter's 5 ms switch interval); a
+batch per tick per group would do that often.
+
+While the clock rests it blocks in the point channel's ``recv()``: every trajectory starts with
+a point the gateway publishes (and the executor counts), before any of its increments exist.
+Two rarer inputs must wake it too: a controller status whose readiness is not the executor's
+own (the gateway waits for the executor's ``ready`` after START_TRAJ_MODE; a controller back
+after a router restart says ready unchanged, but the executor lost it meanwhile), and
+STOP_MOTION's query. They arrive in callbacks that only append to a queue and, while the clock
+rests, ring the point channel's doorbell (an empty sample that never leaves this session). The
+status callback is tiny and runs ten times a second at most while anything moves. A ``Waker``
+rings the same doorbell at the deadline the resting clock sets, and at stop.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections import deque
+from collections.abc import Iterator
+
+import msgspec
+import zenoh
+
+from motocell.services.executor.controller_token import ControllerToken
+from motocell.shared.bus.channels import Doorbell, StopSignal, Waker
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.schemas import ControllerStatus, Decoder, IncrementBatch, Point
+
+log = logging.getLogger("executor")
+
+CHANNEL_DEPTH = 10_000
+"""Zenoh-side queue per key, and the bound of the callbacks' queues. A full channel would stall
+Zenoh's network thread; four groups at 250 Hz never come near it, since every tick drains them
+all."""
+
+_status = Decoder(ControllerStatus)
+_batch = Decoder(IncrementBatch)
+_point = Decoder(Point)
+
+
+def _group_of(key: object) -> int:
+    """``motocell/<cell>/group/<g>/...`` -> g."""
+    return int(str(key).split("/")[3])
+
+
+class Inputs:
+    def __init__(self, session: zenoh.Session, keys: CellKeys, groups: int, stop: StopSignal):
+        self._points = session.declare_subscriber(
+            keys.group_point_all, zenoh.handlers.FifoChannel(CHANNEL_DEPTH)
+        )
+        self._batches = [
+            session.declare_subscriber(
+                keys.group_increments(g), zenoh.handlers.FifoChannel(CHANNEL_DEPTH)
+            )
+            for g in range(groups)
+        ]
+        self._statuses: deque[tuple[int, ControllerStatus]] = deque(maxlen=CHANNEL_DEPTH)
+        self._stops: deque[zenoh.Query] = deque(maxlen=CHANNEL_DEPTH)
+        self._status_sub = session.declare_subscriber(
+            keys.controller_status, zenoh.handlers.Callback(self._on_status, indirect=False)
+        )
+        self._stop_queries = session.declare_queryable(
+            keys.executor_cmd("stop"), zenoh.handlers.Callback(self._on_stop, indirect=False)
+        )
+        self.controller = ControllerToken(session, keys.alive("controller", "0"))
+        self._doorbell = Doorbell(session, keys.group_point(0))
+        self._waker = Waker(self._doorbell, stop, "executor-waker")
+        self._resting = False
+        self.executor_ready = False
+        """What the clock thread last made of readiness; a status saying otherwise wakes it."""
+        self._woken_by: zenoh.Sample | None = None
+
+    def start(self) -> None:
+        self._waker.start()
+
+    def close(self) -> None:
+        """Once stopped: the waker ends with the stop flag."""
+        self._waker.close()
+        self._doorbell.close()
+
+    def _on_status(self, sample: zenoh.Sample) -> None:
+        try:
+            status = _status.decode(sample.payload.to_bytes())
+        except msgspec.DecodeError:
+            log.warning("undecodable controller status ignored")
+            return
+        self._statuses.append((time.monotonic_ns(), status))
+        if self._resting and status.motion_ready != self.executor_ready:
+            self._doorbell.ring()
+
+    def _on_stop(self, query: zenoh.Query) -> None:
+        self._stops.append(query)
+        if self._resting:
+            self._doorbell.ring()
+
+    def rest(self, deadline_s: float) -> None:
+        """Block until a point arrives, a status changes what may move, STOP_MOTION is asked,
+        ``deadline_s`` (CLOCK_MONOTONIC) passes, or the service stops."""
+        self._resting = True
+        try:
+            if self._statuses or self._stops:
+                return  # arrived before the flag was up
+            self._waker.wake_at(deadline_s)
+            self._woken_by = self._points.recv()
+        finally:
+            self._resting = False
+
+    def statuses(self) -> Iterator[tuple[int, ControllerStatus]]:
+        """Every status since the last call, in order, with when it arrived."""
+        while self._statuses:
+            yield self._statuses.popleft()
+
+    def points(self) -> Iterator[tuple[int, Point]]:
+        """The points the gateway published since the last call, with their group. One that
+        does not decode is not owed either: the interpolator cannot decode it."""
+        sample, self._woken_by = self._woken_by, None
+        if sample is None:
+            sample = self._points.try_recv()
+        while sample is not None:
+            payload = sample.payload.to_bytes()
+            if payload:  # empty: the doorbell
+                try:
+                    yield _group_of(sample.key_expr), _point.decode(payload)
+                except msgspec.DecodeError:
+                    log.warning("undecodable point ignored on %s", sample.key_expr)
+            sample = self._points.try_recv()
+
+    def batches(self, group: int) -> Iterator[IncrementBatch | None]:
+        """``group``'s batches since the last call; None for one that does not decode."""
+        channel = self._batches[group]
+        while (sample := channel.try_recv()) is not None:
+            try:
+                yield _batch.decode(sample.payload.to_bytes())
+            except msgspec.DecodeError:
+                yield None
+
+    def stop_queries(self) -> Iterator[zenoh.Query]:
+        while self._stops:
+            yield self._stops.popleft()

@@ -1,0 +1,49 @@
+"""What the executor publishes: each tick, the queue states, its notices to the controller, its
+metrics (only while someone subscribes), and its answers to STOP_MOTION."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import zenoh
+
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.schemas import CommandReply, ExecutorMetrics, QueueState, Tick, encode
+from motocell.shared.bus.session import answer, observed, publisher
+from motocell.shared.protocol.constants import Result
+
+
+class Outputs:
+    def __init__(self, session: zenoh.Session, keys: CellKeys, groups: int) -> None:
+        self._tick = publisher(session, keys.executor_tick, realtime=True, latest=True)
+        self._queues = [
+            publisher(session, keys.group_queue(g), realtime=True, latest=True)
+            for g in range(groups)
+        ]
+        # Every notice matters (a stall, a broken increment path): it blocks rather than drops.
+        self._notices = publisher(session, keys.controller_cmd("incmove_error"), realtime=True)
+        self._metrics = publisher(session, keys.metrics("executor"), latest=True)
+
+    def tick(self, tick: Tick) -> None:
+        self._tick.put(encode(tick))
+
+    def queues(self, updates: Iterable[tuple[int, QueueState]]) -> None:
+        for group, state in updates:
+            self._queues[group].put(encode(state))
+
+    def notices(self, replies: Iterable[CommandReply]) -> None:
+        for reply in replies:
+            self._notices.put(encode(reply))
+
+    def metrics_wanted(self) -> bool:
+        """Whether anyone subscribes to the metrics: nothing is summarised for nobody."""
+        return observed(self._metrics)
+
+    def metrics(self, metrics: ExecutorMetrics) -> None:
+        self._metrics.put(encode(metrics))
+
+    @staticmethod
+    def stopped(queries: Iterable[zenoh.Query]) -> None:
+        """STOP_MOTION done: the rings were cleared before the next tick."""
+        for query in queries:
+            answer(query, CommandReply(Result.SUCCESS))
