@@ -17,7 +17,6 @@ import msgspec
 from motocell.services.controller.core.io_table import IoTable
 from motocell.services.controller.core.model import OT_ROS_READY, START_TIMEOUT_S, Controller
 from motocell.shared.bus.keys import service_of_alive
-from motocell.shared.bus.liveness import HEARTBEAT_S
 from motocell.shared.bus.schemas import Alarm, CommandReply, CommandRequest, ControllerStatus
 from motocell.shared.protocol.constants import TOOL_NUMBERS, InvalidSubcode, Result
 
@@ -246,15 +245,25 @@ class Dispatcher(Generic[Q]):
         self.outbox.append((query, reply))
 
     def status_due(self, now: float) -> ControllerStatus | None:
-        """The status to publish now, numbered: on every change, and every HEARTBEAT_S for
-        subscribers that join late and for those that age what they hold (the gateway)."""
+        """The status to publish now, numbered: on every change, and at the heartbeat it
+        announces for subscribers that join late and for those that age what they hold (the
+        gateway, the executor): short while motion is possible, long while nothing can move."""
         status = self.model.status()
         if status == self._published and now < self._next_refresh:
             return None
         self.sequence += 1
         self._published = status
-        self._next_refresh = now + HEARTBEAT_S
+        self._next_refresh = now + status.heartbeat_ms / 1000
         return msgspec.structs.replace(status, seq=self.sequence)
+
+    def next_deadline(self) -> float:
+        """When the service must look again if no command, fault or notice comes first: the
+        status heartbeat, a reply's time-out, or the model's own next step."""
+        times = [self._next_refresh, *(pending.deadline for pending in self.pending)]
+        model_event = self.model.next_event()
+        if model_event is not None:
+            times.append(model_event)
+        return min(times)
 
     def take_replies(self) -> list[tuple[Q, CommandReply]]:
         """The replies to send, each naming the last status published (which shows their

@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from motocell.services.controller.core.job import Job, JobAction, JobEvent, step
+from motocell.shared.bus.liveness import heartbeat_ms
 from motocell.shared.bus.schemas import Alarm, ControllerStatus
 from motocell.shared.protocol.constants import NotReadySubcode, Result
 
@@ -123,6 +124,7 @@ class Controller:
             motion_ready=self.motion_ready(),
             not_ready_subcode=self.not_ready_subcode(),
             tools=list(self.tools),
+            heartbeat_ms=heartbeat_ms(motion_possible=self.motion_ready()),
         )
 
     # -- the INIT_ROS job ---------------------------------------------------------------
@@ -162,6 +164,14 @@ class Controller:
             self.fire(JobEvent.TIMER_DONE, now)
         if self.outputs.get(OT_ROS_DONE, 0):
             self.fire(JobEvent.ROS_DONE, now)
+
+    def next_event(self) -> float | None:
+        """When ``advance`` next has something to do on its own (servo power-up, the job's
+        TIMER step), or None: the rest happens only when a command or fault comes."""
+        times = [self.servo_on_at] if self.servo_on_at is not None else []
+        if self.job is Job.TIMER:
+            times.append(self.job_timer_until)
+        return min(times, default=None)
 
     def servo_possible(self) -> bool:
         return not self.estop and not self.alarms

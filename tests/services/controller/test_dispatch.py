@@ -18,7 +18,7 @@ from motocell.services.controller.core.model import (
     START_TIMEOUT_S,
     Controller,
 )
-from motocell.shared.bus.liveness import HEARTBEAT_S
+from motocell.shared.bus.liveness import AT_REST_HEARTBEAT_S, HEARTBEAT_S
 from motocell.shared.bus.schemas import Alarm, CommandReply, CommandRequest
 from motocell.shared.config import ControllerModel
 from motocell.shared.protocol.constants import InvalidSubcode, IoResult, NotReadySubcode, Result
@@ -446,13 +446,28 @@ def test_the_first_status_is_always_due_and_numbered_after_first_seq() -> None:
     assert status.seq == FIRST_SEQ + 1
 
 
-def test_an_unchanged_status_waits_for_the_refresh() -> None:
+def test_an_unchanged_status_waits_for_the_heartbeat_it_announced() -> None:
+    """Nothing can move: the slow heartbeat; the dispatcher's next deadline is the refresh."""
     d = dispatcher()
-    d.status_due(0.0)
-    assert d.status_due(HEARTBEAT_S / 2) is None
-    refreshed = d.status_due(HEARTBEAT_S)
+    first = d.status_due(0.0)
+    assert first is not None
+    assert not first.motion_ready
+    assert first.heartbeat_ms == AT_REST_HEARTBEAT_S * 1000
+    assert d.next_deadline() == AT_REST_HEARTBEAT_S
+    assert d.status_due(AT_REST_HEARTBEAT_S / 2) is None
+    refreshed = d.status_due(AT_REST_HEARTBEAT_S)
     assert refreshed is not None
     assert refreshed.seq == FIRST_SEQ + 2
+
+
+def test_a_motion_ready_status_announces_the_short_heartbeat() -> None:
+    d = dispatcher()
+    ready(d)
+    status = d.status_due(10.0)
+    assert status is not None
+    assert status.motion_ready
+    assert status.heartbeat_ms == HEARTBEAT_S * 1000
+    assert d.next_deadline() == 10.0 + HEARTBEAT_S
 
 
 def test_a_changed_status_is_due_at_once() -> None:

@@ -297,10 +297,11 @@ def test_status_reports_every_field() -> None:
         motion_ready=False,
         not_ready_subcode=5012,
         tools=[0, 5],
+        heartbeat_ms=1000,  # nothing can move: the slow heartbeat
     )
     c.set_missing_services([])
     status = c.status()
-    assert (status.motion_ready, status.not_ready_subcode) == (True, 0)
+    assert (status.motion_ready, status.not_ready_subcode, status.heartbeat_ms) == (True, 0, 100)
 
 
 # -- perturbations --------------------------------------------------------------------------
