@@ -11,7 +11,7 @@ from motocell.services.broadcaster.controller_watch import ControllerWatch
 from motocell.services.broadcaster.core import Broadcaster
 from motocell.services.broadcaster.loop import StateLoop
 from motocell.services.broadcaster.reports import Reports
-from motocell.services.broadcaster.state_port import StatePort
+from motocell.services.broadcaster.state_port import Acceptor, StatePort
 from motocell.services.broadcaster.ticks import TickSource
 from motocell.shared.bus.session import observed, publisher
 from motocell.shared.protocol.codec import ByteOrder
@@ -32,12 +32,13 @@ def main(argv: Sequence[str] | None = None) -> None:
         byte_order = ByteOrder(args.byte_order or ctx.cell.byte_order)
         state_socket = listen(host, port)
         ctx.description.listening("state", state_socket.getsockname())
-        state_port = StatePort(state_socket)
         watch = ControllerWatch(ctx.session, ctx.keys)
         broadcaster = Broadcaster(ctx.cell, watch)
         state_pub = publisher(ctx.session, ctx.keys.state, realtime=True, latest=True)
         reports = Reports(ctx.session, ctx.keys)
-        ticks = TickSource(ctx.session, ctx.keys, broadcaster.silence_s, ctx.stop)
+        ticks = TickSource(ctx.session, ctx.keys, ctx.stop)
+        acceptor = Acceptor(state_socket, ticks.ring)
+        state_port = StatePort(acceptor)
         loop = StateLoop(
             broadcaster,
             ticks,
@@ -48,10 +49,13 @@ def main(argv: Sequence[str] | None = None) -> None:
             reports=reports,
         )
         log.info("state port on %s:%d (%s-endian)", host, port, byte_order)
+        ticks.start()
+        acceptor.start()
         try:
             while not ctx.stop.is_set():
                 loop.cycle()
         finally:
+            ctx.stop.set()  # on an error too: it ends the waker
             ticks.close()
             loop.close()
             for adapter in (reports, watch):

@@ -21,6 +21,7 @@ class ControllerWatch:
         self._status: ControllerStatus | None = None
         self._token = keys.alive("controller", "0")
         self._liveness = Liveness(session, self._token)
+        self._liveness.ask()
         self._subscriber = session.declare_subscriber(
             keys.controller_status, zenoh.handlers.RingChannel(1)
         )
@@ -36,3 +37,4 @@ class ControllerWatch:
 
     def close(self) -> None:
         self._subscriber.undeclare()
+        self._liveness.close()

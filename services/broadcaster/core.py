@@ -6,6 +6,12 @@ due time), so feedback leaves as soon as its tick arrives and the rate is exact 
 when the state period is not a whole number of ticks. MotoROS 1.9 sends "work time + 25 ms"
 per client, a little under 40 Hz (motoros1 §6); a steady configurable rate is what users ask
 for (motoman#516).
+
+Without ticks the state port still beats, from the last tick (``Pacing``): every state period
+while the executor's clock rests (nothing moves, so the last tick is the robot as it is) and a
+client is connected, every ``AT_REST_HEARTBEAT_S`` for observers only; every ``silence_s`` when
+ticks stop unannounced (an executor stalled or gone), so clients see motion_possible drop
+instead of silence.
 """
 
 from __future__ import annotations
@@ -16,6 +22,7 @@ from typing import Protocol
 import msgspec
 import numpy as np
 
+from motocell.shared.bus.liveness import AT_REST_HEARTBEAT_S
 from motocell.shared.bus.schemas import (
     CartesianPose,
     ControllerStatus,
@@ -191,16 +198,26 @@ class Schedule:
         return True
 
 
+class Pacing(Enum):
+    """What sets the state port's beat now."""
+
+    WAITING = "no tick yet: nothing to send"
+    TICKS = "the executor's ticks"
+    AT_REST = "the executor's clock rests: the broadcaster's own clock, from the last tick"
+    SILENT = "ticks stopped unannounced: a beat every silence_s, from the last tick"
+
+
 class Broadcaster:
-    """Ticks in, numbered State snapshots out, at the cell's state period."""
+    """Ticks in, numbered State snapshots out, at the cell's state period. Times are the
+    broadcaster's own CLOCK_MONOTONIC seconds, passed in."""
 
     def __init__(self, cell: Cell, controller: ControllerView) -> None:
         self.feedback = Feedback(cell)
         self.schedule = Schedule(cell.state_period_ns)
+        self.state_period_s = cell.state_period_ns / 1e9
         self.controller = controller
         self.silence_s = max(MIN_SILENCE_S, 3 * cell.state_period_ns / 1e9)
-        """Without ticks (no executor) the state port still beats this often, from the last
-        tick, so clients see motion_possible drop instead of silence."""
+        """Ticks unheard this long while the executor's clock runs: it stalled or went."""
         self.last: Tick | None = None
         self.seq = 0
         self.poses = Poses(cell)
@@ -208,23 +225,71 @@ class Broadcaster:
         """The tool per group in the newest controller status a snapshot read, kept when the
         controller has none to give, so the TCP never jumps back to the flange for a snapshot
         (tool 0 until a status says otherwise)."""
+        self._next_beat: float | None = None
+        """When to send without a tick (``Pacing``); None: only on a tick."""
+        self._last_tick_at = 0.0
+        self._groups_of: tuple[Tick | None, list[GroupState]] = (None, [])
 
-    def on_tick(self, tick: Tick) -> State | None:
-        """The snapshot to send now, if this tick is the first at or after the due time."""
+    @property
+    def pacing(self) -> Pacing:
+        if self.last is None:
+            return Pacing.WAITING
+        if self.last.resting:
+            return Pacing.AT_REST
+        return Pacing.TICKS if self._next_beat is None else Pacing.SILENT
+
+    def on_tick(self, tick: Tick, now: float) -> State | None:
+        """The snapshot to send now, if this tick is the first at or after the due time. The
+        tick the executor rests after is always sent: it is the robot from now on."""
         self.last = tick
+        self._last_tick_at = now
+        if tick.resting:
+            self._next_beat = now + self.state_period_s
+            return self._snapshot(tick)
+        self._next_beat = None
         if not self.schedule.due(tick.deadline_ns):
             return None
         return self._snapshot(tick)
 
+    def on_wake(self, now: float, clients: bool) -> State | None:
+        """Woken without a tick: the snapshot due now from the last tick, with the controller
+        as it is now, if a beat is due (``Pacing``). ``clients``: a state client is
+        connected."""
+        if self.last is None:
+            return None
+        if self._next_beat is None:
+            if now - self._last_tick_at < self.silence_s:
+                return None
+            self._next_beat = now  # ticks stopped unannounced
+        elif self.last.resting and clients and self._next_beat > now + self.state_period_s:
+            self._next_beat = now  # a client came while only observers were paced
+        if now < self._next_beat:
+            return None
+        beat = self._beat_s(clients)
+        self._next_beat += beat
+        if self._next_beat <= now:
+            self._next_beat = now + beat  # fell behind: no burst to catch up
+        return self._snapshot(self.last)
+
+    def next_wake(self, now: float, clients: bool) -> float | None:
+        """When the caller must wake if no tick comes first (None: only for a tick)."""
+        if self.last is None:
+            return None
+        if self._next_beat is None:
+            return self._last_tick_at + self.silence_s
+        if self.last.resting and clients:
+            return min(self._next_beat, now + self.state_period_s)
+        return self._next_beat
+
+    def _beat_s(self, clients: bool) -> float:
+        """How often to beat without ticks, in the pacing of the last tick."""
+        if self.last is None or not self.last.resting:
+            return self.silence_s
+        return self.state_period_s if clients else AT_REST_HEARTBEAT_S
+
     def motion_queued(self) -> bool:
         """Whether the newest tick had motion data queued (no tick yet: nothing is)."""
         return self.last is not None and queued(self.last)
-
-    def on_silence(self) -> State | None:
-        """No tick for ``silence_s``: the last tick again, with the controller as it is now."""
-        if self.last is None:
-            return None
-        return self._snapshot(self.last)
 
     def with_poses(self, state: State) -> State:
         """``state`` with its arms' poses, for observers: computed after the TCP clients have
@@ -236,10 +301,13 @@ class Broadcaster:
         status = self.controller.status()
         if status is not None:
             self.tools = status.tools
+        if tick is not self._groups_of[0]:
+            # A beat without ticks repeats the last tick: its feedback is converted once.
+            self._groups_of = (tick, self.feedback.groups(tick))
         return State(
             seq=self.seq,
             tick=tick.tick,
             tick_ns=tick.deadline_ns + tick.lateness_ns,
-            groups=self.feedback.groups(tick),
+            groups=self._groups_of[1],
             status=robot_status(status, tick, self.controller.alive()),
         )

@@ -1,6 +1,6 @@
 """What the broadcaster tells the cell about its state port, from its own thread: the client
 count for the controller's OT#894 (motoros1 §6, incremental-motion §4.2) on every change and
-every second, and ``broadcaster/metrics`` every second."""
+every second, and ``broadcaster/metrics`` every second while anyone subscribes to them."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import zenoh
 
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import BroadcasterMetrics, CommandRequest, encode
-from motocell.shared.bus.session import publisher
+from motocell.shared.bus.session import observed, publisher
 from motocell.shared.metrics import Window
 
 REFRESH_S = 1.0
@@ -44,9 +44,15 @@ class Reports:
             self._reported_clients = clients
         if due:
             self._next_s = now + REFRESH_S
-            metrics = BroadcasterMetrics(clients, self._ages.summary(), replaced, stuck_closed)
+            if observed(self._metrics):
+                metrics = BroadcasterMetrics(clients, self._ages.summary(), replaced, stuck_closed)
+                self._metrics.put(encode(metrics))
             self._ages.clear()
-            self._metrics.put(encode(metrics))
+
+    @property
+    def next_due(self) -> float:
+        """When ``report`` must run again at the latest (time.monotonic())."""
+        return self._next_s
 
     def close(self) -> None:
         self._connections.undeclare()

@@ -1,10 +1,12 @@
 """Port 50241 (port_base + 1): the state clients, served by the broadcaster's one thread.
 
-Everything here is non-blocking and is called from the thread that reads the ticks: new
-connections are taken from a non-blocking listening socket once per cycle (no accept thread,
-no lock), each cycle's frames are written to every client with ``send``, and what a client
-cannot take waits in its ``Backlog`` for the next cycle. The server never reads from these
-sockets (motoros1 §6); a client goes when a send fails or it takes nothing for ``STUCK_S``.
+An ``Acceptor`` thread blocks in ``accept`` and hands each connection over, waking the
+broadcaster's thread, which may otherwise sleep for as long as nothing is due. Everything else
+is non-blocking and is called from the thread that reads the ticks: whether a newcomer is taken
+(motoros1 §6 limits), each cycle's frames written to every client with ``send``, and what a
+client cannot take waiting in its ``Backlog`` for the next cycle. The server never reads from
+these sockets (motoros1 §6); a client goes when a send fails or it takes nothing for
+``STUCK_S``.
 """
 
 from __future__ import annotations
@@ -12,6 +14,9 @@ from __future__ import annotations
 import contextlib
 import logging
 import socket
+import threading
+from collections import deque
+from collections.abc import Callable
 
 from motocell.services.broadcaster.backlog import STUCK_S, Backlog, Cycle
 from motocell.services.broadcaster.core import Admission, admission
@@ -39,27 +44,67 @@ class StateClient:
         self.sock.close()
 
 
-class StatePort:
-    def __init__(self, server: socket.socket) -> None:
-        server.setblocking(False)  # polled once a cycle by the broadcaster's one thread
+WAITING_CONNECTIONS = 16
+"""Connections accepted but not yet taken by the broadcaster's thread: far more than the four
+clients it serves; beyond that the oldest waiting is closed."""
+
+
+class Acceptor:
+    """Accepts connections in a thread of its own and hands them over (``take``), calling
+    ``wake`` for each so the broadcaster's thread takes it at once."""
+
+    def __init__(self, server: socket.socket, wake: Callable[[], None]) -> None:
+        server.setblocking(True)
         self.server = server
+        self._wake = wake
+        self._waiting: deque[tuple[socket.socket, tuple[str, int]]] = deque()
+        self._lock = threading.Lock()
+        self._thread = threading.Thread(target=self._run, name="state-accept")
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def _run(self) -> None:
+        while True:
+            try:
+                sock, peer = self.server.accept()
+            except ConnectionError:
+                continue  # gone before it was taken
+            except OSError:
+                return  # the listening socket was shut down: stopping
+            with self._lock:
+                self._waiting.append((sock, peer))
+                if len(self._waiting) > WAITING_CONNECTIONS:
+                    self._waiting.popleft()[0].close()
+            self._wake()
+
+    def take(self) -> list[tuple[socket.socket, tuple[str, int]]]:
+        with self._lock:
+            taken = list(self._waiting)
+            self._waiting.clear()
+        return taken
+
+    def close(self) -> None:
+        """Stop accepting: the blocked ``accept`` returns, the thread ends."""
+        with contextlib.suppress(OSError):
+            self.server.shutdown(socket.SHUT_RDWR)
+        self._thread.join()
+        self.server.close()
+        for sock, _peer in self.take():
+            sock.close()
+
+
+class StatePort:
+    def __init__(self, acceptor: Acceptor) -> None:
+        self.acceptor = acceptor
         self.clients: list[StateClient] = []
         self.replaced = 0
         """Cycles that clients which went missed because a newer one replaced them."""
         self.closed_stuck = 0
 
     def admit(self, motion_queued: bool) -> None:
-        """Take every connection waiting at the listening socket (motoros1 §6 limits)."""
-        while True:
-            try:
-                sock, peer = self.server.accept()
-            except BlockingIOError:
-                return
-            except ConnectionError:
-                continue  # gone before it was taken
-            except OSError as exc:
-                log.warning("state: cannot take a client now: %s", exc)
-                return
+        """Take every connection the acceptor has (motoros1 §6 limits)."""
+        for sock, peer in self.acceptor.take():
             decision = admission(len(self.clients), motion_queued)
             if decision is Admission.REFUSE:
                 log.warning("state: refused %s:%d, 4 clients and motion queued", *peer)
@@ -102,6 +147,6 @@ class StatePort:
         return self.replaced + sum(client.backlog.replaced for client in self.clients)
 
     def close(self) -> None:
-        self.server.close()
+        self.acceptor.close()
         for client in list(self.clients):
             self._drop(client, "the broadcaster stops")

@@ -1,26 +1,30 @@
-"""The executor's ticks as the broadcaster's main thread reads them: straight from a Zenoh ring
-channel, with no Python callback and no queue in between (style §10).
+"""The executor's ticks as the broadcaster's thread reads them: straight from a Zenoh ring channel,
+with no Python callback and no queue in between.
 
-zenoh-python 1.10 has no ``recv`` with a timeout, and the thread must also wake when ticks stop
-(the state port keeps beating without them) and when the service stops. A small watch thread
-does that: it rings a doorbell, an empty sample put on the tick key that never leaves this
-session (``Locality.SESSION_LOCAL``), after ``silence_s`` without a tick and once at stop. It
-touches neither the state nor the sockets; only ticks and the doorbell reach the main thread.
+While ticks come, the thread blocks in the channel's ``recv``. zenoh-python 1.10 has no ``recv``
+with a timeout, so a ``Waker`` rings a doorbell (an empty sample put on the tick key that never
+leaves this session) when ticks have been silent too long, and at stop. While the executor's
+clock rests no tick is expected: the thread sleeps on a pipe until the next beat it must send
+from the last tick (``core.Pacing``), then takes whatever tick came meanwhile; that wake-up is
+its only one per beat. Either wait ends early when the state port's acceptor has a new client
+(``ring``).
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
-import threading
+import math
+import os
+import select
 import time
 
 import msgspec
 import zenoh
 
-from motocell.shared.bus.channels import Doorbell, is_doorbell
+from motocell.shared.bus.channels import Doorbell, StopSignal, Waker, is_doorbell
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import Decoder, Tick
-from motocell.shared.service import StopFlag
 
 log = logging.getLogger("broadcaster")
 
@@ -32,50 +36,63 @@ _tick_decoder = Decoder(Tick)
 
 
 class TickSource:
-    def __init__(
-        self, session: zenoh.Session, keys: CellKeys, silence_s: float, stop: StopFlag
-    ) -> None:
+    def __init__(self, session: zenoh.Session, keys: CellKeys, stop: StopSignal) -> None:
         self._subscriber = session.declare_subscriber(
             keys.executor_tick, zenoh.handlers.RingChannel(CHANNEL_SIZE)
         )
         self._doorbell = Doorbell(session, keys.executor_tick)
-        self._silence_s = silence_s
+        self._waker = Waker(self._doorbell, stop, "tick-waker")
         self._stop = stop
-        self._last_tick_at = time.monotonic()
-        self._watch = threading.Thread(target=self._ring_on_silence, name="tick-watch")
-        self._watch.start()
+        self._rung_read, self._rung_write = os.pipe()
+        for fd in (self._rung_read, self._rung_write):
+            os.set_blocking(fd, False)
 
-    def next(self) -> Tick | None:
-        """The newest tick; None when woken without one (``silence_s`` of silence, or stop)."""
+    def start(self) -> None:
+        self._waker.start()
+
+    def next(self, deadline: float | None, ticks_expected: bool) -> Tick | None:
+        """The newest tick, or None when woken without one at ``deadline`` (time.monotonic(),
+        None: no deadline), by ``ring`` or at stop. ``ticks_expected``: block for a tick (the
+        executor's clock runs); else sleep until ``deadline`` and take what came."""
+        if ticks_expected:
+            self._waker.wake_at(deadline)
+            return self._newest(self._subscriber.recv())
+        self._sleep_until(deadline)
+        return self._newest(self._subscriber.try_recv())
+
+    def _sleep_until(self, deadline: float | None) -> None:
+        poller = select.poll()
+        poller.register(self._stop.fileno(), select.POLLIN)
+        poller.register(self._rung_read, select.POLLIN)
+        wait = None if deadline is None else max(0.0, deadline - time.monotonic())
+        if poller.poll(None if wait is None else math.ceil(wait * 1000)):
+            with contextlib.suppress(BlockingIOError):
+                os.read(self._rung_read, 64)
+
+    def _newest(self, sample: zenoh.Sample | None) -> Tick | None:
         newest: bytes | None = None
-        sample: zenoh.Sample | None = self._subscriber.recv()
         while sample is not None:
             if not is_doorbell(sample):
                 newest = sample.payload.to_bytes()
             sample = self._subscriber.try_recv()
         if newest is None:
             return None
-        self._last_tick_at = time.monotonic()
         try:
             return _tick_decoder.decode(newest)
         except msgspec.DecodeError as exc:
             log.warning("undecodable tick dropped: %s", exc)
             return None
 
-    def _ring_on_silence(self) -> None:
-        wait = self._silence_s
-        while not self._stop.wait(wait):
-            quiet = time.monotonic() - self._last_tick_at
-            if quiet >= self._silence_s:
-                self._doorbell.ring()
-                wait = self._silence_s
-            else:
-                wait = self._silence_s - quiet
+    def ring(self) -> None:
+        """Wake ``next`` now, whichever way it waits (from another thread)."""
+        with contextlib.suppress(BlockingIOError):  # a wake-up is pending already
+            os.write(self._rung_write, b"\0")
         self._doorbell.ring()
 
     def close(self) -> None:
-        """Stops the watch thread too: it waits on the service's stop flag."""
-        self._stop.set()
-        self._watch.join()
+        """Once the stop flag is set: the waker ends with it."""
+        self._waker.close()
         self._doorbell.close()
         self._subscriber.undeclare()
+        os.close(self._rung_read)
+        os.close(self._rung_write)

@@ -4,13 +4,15 @@ on loopback, the ``state`` samples and the reports kept for inspection."""
 from __future__ import annotations
 
 import socket
+import threading
 from collections.abc import Iterator
 
+import msgspec
 import pytest
 
 from motocell.services.broadcaster.core import Broadcaster
 from motocell.services.broadcaster.loop import StateLoop
-from motocell.services.broadcaster.state_port import StatePort
+from motocell.services.broadcaster.state_port import Acceptor, StatePort
 from motocell.shared.bus.schemas import Decoder, State, Tick
 from motocell.shared.protocol.codec import NEED_DATA, ByteOrder, Role, SimpleMessageCodec
 from motocell.shared.protocol.constants import MsgType
@@ -22,10 +24,17 @@ PULSES_PER_RADIAN = 58670
 
 
 class Ticks:
-    def __init__(self, *ticks: Tick | None) -> None:
-        self.ticks = list(ticks)
+    """Ticks from a list (None: woken without one), each ``step_s`` after the last."""
 
-    def next(self) -> Tick | None:
+    def __init__(self, step_s: float) -> None:
+        self.ticks: list[Tick | None] = []
+        self.now = 0.0
+        self.step_s = step_s
+        self.waits: list[tuple[float | None, bool]] = []
+
+    def next(self, deadline: float | None, ticks_expected: bool) -> Tick | None:
+        self.waits.append((deadline, ticks_expected))
+        self.now += self.step_s
         return self.ticks.pop(0)
 
 
@@ -40,11 +49,18 @@ class Reports:
     def report(self, now: float, clients: int, replaced: int, stuck_closed: int) -> None:
         self.clients.append(clients)
 
+    @property
+    def next_due(self) -> float:
+        return 1e9
+
 
 class Harness:
     def __init__(self, byte_order: ByteOrder) -> None:
-        self.port = StatePort(listen("127.0.0.1", 0))
-        self.ticks = Ticks()
+        self.woken = threading.Event()
+        acceptor = Acceptor(listen("127.0.0.1", 0), self.woken.set)
+        acceptor.start()
+        self.port = StatePort(acceptor)
+        self.ticks = Ticks(step_s=0.06)  # more than the silence (50 ms): a wake is a beat
         self.published: list[State] = []
         self.observed = True
         """Whether a subscriber on the bus matches ``state``."""
@@ -58,6 +74,7 @@ class Harness:
             publish_state=lambda data: self.published.append(decoder.decode(data)),
             observed=lambda: self.observed,
             reports=self.reports,
+            clock=lambda: self.ticks.now,
         )
         self.byte_order = byte_order
         self.clients: list[socket.socket] = []
@@ -68,8 +85,10 @@ class Harness:
             self.loop.cycle()
 
     def connect(self) -> SimpleMessageCodec:
-        sock = socket.create_connection(self.port.server.getsockname(), timeout=5.0)
+        self.woken.clear()
+        sock = socket.create_connection(self.port.acceptor.server.getsockname(), timeout=5.0)
         self.clients.append(sock)
+        assert self.woken.wait(5.0), "the acceptor took the connection"
         return SimpleMessageCodec(Role.CLIENT, self.byte_order)
 
     def read(self, index: int, codec: SimpleMessageCodec, count: int) -> list[Message]:
@@ -153,3 +172,17 @@ def test_closing_tells_the_reports_the_clients_are_gone(harness: Harness) -> Non
     harness.run(moved(1, 1))
     harness.loop.close()
     assert harness.reports.clients == [1, 0]
+
+
+def test_at_rest_the_loop_sleeps_until_the_next_beat_instead_of_waiting_for_ticks(
+    harness: Harness,
+) -> None:
+    harness.connect()
+    resting = msgspec.structs.replace(moved(1, 1), resting=True)
+    harness.run(moved(0, 1), resting, None)
+    waits = harness.ticks.waits
+    assert [expected for _, expected in waits] == [True, True, False]
+    state_period_s = 0.004
+    deadline, _ = waits[2]
+    assert deadline == pytest.approx(2 * harness.ticks.step_s + state_period_s)
+    assert [state.tick for state in harness.published] == [0, 1, 1]

@@ -5,13 +5,14 @@ that takes nothing for STUCK_S closed. Times are passed in; nothing waits on a c
 from __future__ import annotations
 
 import socket
+import threading
 from collections.abc import Iterator
 
 import pytest
 
 from motocell.services.broadcaster.backlog import STUCK_S
 from motocell.services.broadcaster.core import MAX_STATE_CLIENTS
-from motocell.services.broadcaster.state_port import StatePort
+from motocell.services.broadcaster.state_port import Acceptor, StatePort
 from motocell.shared.service import listen
 from motocell.testkit.processes import wait_until
 
@@ -19,16 +20,35 @@ CYCLE_BYTES = 64 * 1024
 """Big enough that a client which does not read fills the kernel's buffers in a few cycles."""
 
 
+class Woken:
+    """Counts the acceptor's wake-ups: one per connection it hands over."""
+
+    def __init__(self) -> None:
+        self.count = threading.Semaphore(0)
+
+    def __call__(self) -> None:
+        self.count.release()
+
+
+class CountedPort(StatePort):
+    """A state port whose acceptor's wake-ups are counted (``woken``)."""
+
+    def __init__(self) -> None:
+        self.woken = Woken()
+        super().__init__(Acceptor(listen("127.0.0.1", 0), self.woken))
+        self.acceptor.start()
+
+
 @pytest.fixture
-def port() -> Iterator[StatePort]:
-    state_port = StatePort(listen("127.0.0.1", 0))
+def port() -> Iterator[CountedPort]:
+    state_port = CountedPort()
     yield state_port
     state_port.close()
 
 
 class Client:
-    def __init__(self, port: StatePort) -> None:
-        address = port.server.getsockname()
+    def __init__(self, port: CountedPort) -> None:
+        address = port.acceptor.server.getsockname()
         self.sock = socket.create_connection(address, timeout=5.0)
 
     def read(self, size: int) -> bytes:
@@ -63,13 +83,14 @@ def clients() -> Iterator[list[Client]]:
         client.close()
 
 
-def connect(port: StatePort, clients: list[Client], count: int, queued: bool = False) -> None:
+def connect(port: CountedPort, clients: list[Client], count: int, queued: bool = False) -> None:
     for _ in range(count):
-        clients.append(Client(port))  # connect() returns once the server's kernel has it
+        clients.append(Client(port))
+        assert port.woken.count.acquire(timeout=5.0), "the acceptor handed the connection over"
     port.admit(queued)
 
 
-def test_every_client_gets_each_cycle(port: StatePort, clients: list[Client]) -> None:
+def test_every_client_gets_each_cycle(port: CountedPort, clients: list[Client]) -> None:
     connect(port, clients, MAX_STATE_CLIENTS)
     port.send((b"cycle one;",), 0.0)
     port.send((b"cycle two;",), 0.0)
@@ -78,7 +99,7 @@ def test_every_client_gets_each_cycle(port: StatePort, clients: list[Client]) ->
 
 
 def test_a_fifth_client_replaces_the_first_while_nothing_is_queued(
-    port: StatePort, clients: list[Client]
+    port: CountedPort, clients: list[Client]
 ) -> None:
     connect(port, clients, MAX_STATE_CLIENTS)
     connect(port, clients, 1, queued=False)
@@ -90,7 +111,7 @@ def test_a_fifth_client_replaces_the_first_while_nothing_is_queued(
 
 
 def test_a_fifth_client_is_refused_while_motion_is_queued(
-    port: StatePort, clients: list[Client]
+    port: CountedPort, clients: list[Client]
 ) -> None:
     connect(port, clients, MAX_STATE_CLIENTS)
     connect(port, clients, 1, queued=True)
@@ -100,7 +121,7 @@ def test_a_fifth_client_is_refused_while_motion_is_queued(
         assert client.read(10) == b"still here"
 
 
-def fill(port: StatePort, size: int, now: float, reader: Client | None = None) -> int:
+def fill(port: CountedPort, size: int, now: float, reader: Client | None = None) -> int:
     """Send numbered cycles of ``size`` bytes until the first client's backlog waits (its
     socket is full); the last number sent. ``reader`` reads every cycle meanwhile."""
     number = 0
@@ -113,7 +134,7 @@ def fill(port: StatePort, size: int, now: float, reader: Client | None = None) -
 
 
 def test_a_slow_client_gets_whole_cycles_and_then_the_newest(
-    port: StatePort, clients: list[Client]
+    port: CountedPort, clients: list[Client]
 ) -> None:
     connect(port, clients, 1)
     begun = fill(port, CYCLE_BYTES, 0.0)
@@ -134,7 +155,7 @@ def test_a_slow_client_gets_whole_cycles_and_then_the_newest(
 
 
 def test_a_client_that_takes_nothing_for_the_bound_is_closed(
-    port: StatePort, clients: list[Client]
+    port: CountedPort, clients: list[Client]
 ) -> None:
     connect(port, clients, 2)
     fill(port, 4096, 10.0, reader=clients[1])
@@ -148,7 +169,7 @@ def test_a_client_that_takes_nothing_for_the_bound_is_closed(
     assert clients[1].read(2) == b"on"
 
 
-def test_a_client_that_hung_up_is_dropped(port: StatePort, clients: list[Client]) -> None:
+def test_a_client_that_hung_up_is_dropped(port: CountedPort, clients: list[Client]) -> None:
     connect(port, clients, 2)
     clients[0].close()
 
@@ -160,7 +181,7 @@ def test_a_client_that_hung_up_is_dropped(port: StatePort, clients: list[Client]
     assert clients[1].read(1) == b"x"  # and the other client goes on
 
 
-def test_closing_the_port_closes_every_client(port: StatePort, clients: list[Client]) -> None:
+def test_closing_the_port_closes_every_client(port: CountedPort, clients: list[Client]) -> None:
     connect(port, clients, 3)
     port.close()
     assert all(client.closed_by_server() for client in clients)

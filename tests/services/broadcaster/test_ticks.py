@@ -1,9 +1,11 @@
 """The tick source on a secured router, as the broadcaster's identity: the executor's ticks come
-straight from the channel, the newest first; without ticks, and at stop, the doorbell wakes the
-reader, although the broadcaster may not publish ticks to anyone (it stays in the session)."""
+straight from the channel, the newest first; without ticks, at the deadline the reader set, when
+rung and at stop, the doorbell wakes the reader, although the broadcaster may not publish ticks
+to anyone (it stays in the session)."""
 
 from __future__ import annotations
 
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -26,7 +28,7 @@ from tests.services.broadcaster.test_core import tick
 
 CELL = "c1"
 KEYS = CellKeys(CELL)
-SILENCE_S = 0.05
+SOON_S = 0.05
 
 
 @contextmanager
@@ -59,13 +61,25 @@ def bus(tmp_path: Path) -> Iterator[tuple[zenoh.Session, zenoh.Session]]:
 
 @pytest.fixture
 def source(bus: tuple[zenoh.Session, zenoh.Session]) -> Iterator[TickSource]:
-    ticks = TickSource(bus[0], KEYS, SILENCE_S, StopFlag())
+    stop = StopFlag()
+    ticks = TickSource(bus[0], KEYS, stop)
+    ticks.start()
     yield ticks
+    stop.set()
     ticks.close()
 
 
-def test_silence_wakes_the_reader_without_a_tick(source: TickSource) -> None:
-    assert source.next() is None
+@pytest.mark.parametrize("ticks_expected", [True, False])
+def test_a_deadline_wakes_the_reader_without_a_tick(
+    source: TickSource, ticks_expected: bool
+) -> None:
+    assert source.next(time.monotonic() + SOON_S, ticks_expected) is None
+
+
+@pytest.mark.parametrize("ticks_expected", [True, False])
+def test_a_ring_wakes_the_reader(source: TickSource, ticks_expected: bool) -> None:
+    source.ring()
+    assert source.next(None, ticks_expected) is None
 
 
 def test_the_executors_ticks_reach_the_reader(
@@ -77,22 +91,31 @@ def test_the_executors_ticks_reach_the_reader(
     def another_tick() -> bool:
         sent[0] += 1
         ticks.put(encode(tick(sent[0])))
-        got = source.next()
+        got = source.next(time.monotonic() + SOON_S, ticks_expected=True)
         return got is not None and got.tick == sent[0]
 
     # The subscription travels through the router: publish until one arrives.
     wait_until(another_tick, 10.0, "a tick")
     for number in (100, 101, 102):
         ticks.put(encode(tick(number)))
-    wait_until(lambda: (got := source.next()) is not None and got.tick == 102, 5.0, "the newest")
+    wait_until(
+        lambda: (
+            (got := source.next(time.monotonic(), ticks_expected=False)) is not None
+            and got.tick == 102
+        ),
+        5.0,
+        "the newest, taken without blocking",
+    )
     ticks.undeclare()
 
 
 def test_stop_wakes_the_reader(bus: tuple[zenoh.Session, zenoh.Session]) -> None:
     stop = StopFlag()
-    source = TickSource(bus[0], KEYS, 60.0, stop)
+    source = TickSource(bus[0], KEYS, stop)
+    source.start()
     stop.set()
-    assert source.next() is None
+    assert source.next(None, ticks_expected=True) is None
+    assert source.next(None, ticks_expected=False) is None
     source.close()
 
 
@@ -110,10 +133,19 @@ def test_the_doorbell_never_leaves_the_session(tmp_path: Path) -> None:
             return encode(tick(number)) in payloads
 
         wait_until(lambda: observed(1), 10.0, "the observer's subscription")
-        source = TickSource(broadcaster, KEYS, SILENCE_S, StopFlag())
-        for _ in range(3):
-            assert source.next() is None
-        source.close()
+        stop = StopFlag()
+        source = TickSource(broadcaster, KEYS, stop)
+        source.start()
+        try:
+            # The doorbell rings at each deadline and when rung (a tick still on its way to
+            # the new subscription may come first: either way next returns).
+            for _ in range(3):
+                source.next(time.monotonic() + SOON_S, ticks_expected=True)
+            source.ring()
+            source.next(None, ticks_expected=True)
+        finally:
+            stop.set()
+            source.close()
         wait_until(lambda: observed(2), 5.0, "a tick after the doorbells")
         assert b"" not in payloads
         ticks.undeclare()
