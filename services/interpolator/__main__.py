@@ -15,7 +15,7 @@ from collections.abc import Sequence
 
 from motocell.services.interpolator.core import Feeder, queue_point
 from motocell.services.interpolator.inputs import Inputs
-from motocell.services.interpolator.reports import SLOT_REFRESH_S, Reports
+from motocell.services.interpolator.reports import Reports
 from motocell.shared.bus.schemas import Point, encode
 from motocell.shared.bus.session import publisher
 from motocell.shared.service import ServiceContext, argument_parser, running_service
@@ -32,13 +32,12 @@ def run(ctx: ServiceContext, group_index: int) -> None:
         start_buffer_periods=cell.start_buffer_periods,
     )
     reports = Reports(ctx, group_index, feeder)
-    inputs = Inputs(ctx, group_index, wake_s=SLOT_REFRESH_S)
+    inputs = Inputs(ctx, group_index)
     points: deque[Point] = deque()
+    inputs.start()
     try:
         while not ctx.stop.is_set():
-            # Something only the executor's ring can unblock: a segment waiting for room, or a
-            # point waiting for its epoch (or for the first queue state).
-            inputs.wait(for_ring=feeder.segment is not None or bool(points))
+            inputs.wait(feeder.wait_s(points), reports.next_metrics)
             status = inputs.status()
             if status is not None:
                 feeder.on_status(status)
@@ -52,8 +51,9 @@ def run(ctx: ServiceContext, group_index: int) -> None:
             feeder.progress(points)
             reports.after_progress()
     finally:
-        ctx.stop.set()  # on an error too: it ends the doorbell
+        ctx.stop.set()  # on an error too: it ends the waker
         inputs.close()
+        reports.close()
 
 
 def main(argv: Sequence[str] | None = None) -> None:

@@ -1,32 +1,27 @@
 """The interpolator's inputs as its one thread reads them: straight from Zenoh channels, with no
-Python callback and no queue in between (style §10).
+Python callback and no queue in between (docs/conventions.md).
 
 A point is what the slot turnaround waits for (gateway publishes it -> the interpolator takes
 it -> its slot says so), so the thread blocks on the point channel's ``recv`` and wakes the
 moment one arrives; the executor's queue state and the controller's status are only read then,
-newest first from latest-value channels. That removed one thread hand-off per point (a
-callback's thread, then a queue to this one) and every wake-up for a queue state (250 a second
-while the robot moves) or a status that nothing had to act on.
+newest first from latest-value channels. No wake-up for a queue state (250 a second while the
+robot moves) or a status that nothing had to act on.
 
-zenoh-python 1.10 has no ``select`` over channels and no ``recv`` with a timeout, so two cases
-do not block on points:
+zenoh-python 1.10 has no ``select`` over channels and no ``recv`` with a timeout, so:
 
-- waiting for the ring (a segment waiting for room, a point for its epoch, no queue state yet):
-  the thread polls every interpolation period instead, since only the ring can unblock it and
-  it changes at most once a tick;
-- the slot's refresh, metrics and stopping: a doorbell thread puts an empty sample on the
-  point key every ``wake_s`` and once at stop. It never leaves this session
-  (``Locality.SESSION_LOCAL``) and touches nothing else.
+- waiting for the ring (a segment short of room, a point waiting for its epoch), the thread
+  sleeps as long as ``core.Feeder.wait_s`` says, since only the ring can let it go on;
+- its metrics and stopping: a ``Waker`` puts an empty sample on the point key at the deadline
+  the thread sets, and once at stop. It never leaves this session (``Locality.SESSION_LOCAL``).
 """
 
 from __future__ import annotations
 
-import threading
 from collections.abc import Iterator
 
 import zenoh
 
-from motocell.shared.bus.channels import Doorbell, decoded, newest
+from motocell.shared.bus.channels import Doorbell, Waker, decoded, newest
 from motocell.shared.bus.schemas import ControllerStatus, Decoder, Point, QueueState
 from motocell.shared.service import ServiceContext
 
@@ -41,7 +36,7 @@ _status_decoder = Decoder(ControllerStatus)
 
 
 class Inputs:
-    def __init__(self, ctx: ServiceContext, group: int, wake_s: float) -> None:
+    def __init__(self, ctx: ServiceContext, group: int) -> None:
         session, keys = ctx.session, ctx.keys
         self._points = session.declare_subscriber(
             keys.group_point(group), zenoh.handlers.FifoChannel(POINT_CHANNEL_SIZE)
@@ -53,32 +48,28 @@ class Inputs:
             keys.controller_status, zenoh.handlers.RingChannel(1)
         )
         self._doorbell = Doorbell(session, keys.group_point(group))
-        self._period_s = ctx.cell.period_s
-        self._wake_s = wake_s
+        self._waker = Waker(self._doorbell, ctx.stop, "interpolator-waker")
         self._stop = ctx.stop
         self._woken_by: zenoh.Sample | None = None
-        self._ringer = threading.Thread(target=self._ring, name="interpolator-doorbell")
-        self._ringer.start()
 
-    def _ring(self) -> None:
-        while not self._stop.wait(self._wake_s):
-            self._doorbell.ring()
-        self._doorbell.ring()
+    def start(self) -> None:
+        self._waker.start()
 
     def close(self) -> None:
-        """Call once stopped (the doorbell thread ends with the stop flag)."""
-        self._ringer.join()
+        """Call once stopped (the waker ends with the stop flag)."""
+        self._waker.close()
         self._doorbell.close()
         for subscriber in (self._points, self._queues, self._statuses):
             subscriber.undeclare()
 
-    def wait(self, for_ring: bool) -> None:
-        """Block until a point arrives (or the doorbell rings); ``for_ring``: for one period at
-        most, as only the executor's next queue state can let the caller go on."""
-        if for_ring:
-            self._stop.wait(self._period_s)
-        else:
-            self._woken_by = self._points.recv()
+    def wait(self, sleep_s: float | None, deadline: float) -> None:
+        """Sleep ``sleep_s`` (waiting for the ring), or with None block until a point arrives
+        or ``deadline`` (time.monotonic()) passes; a stop ends either."""
+        if sleep_s is not None:
+            self._stop.wait(sleep_s)
+            return
+        self._waker.wake_at(deadline)
+        self._woken_by = self._points.recv()
 
     def status(self) -> ControllerStatus | None:
         """The controller's newest status since the last call, if any."""

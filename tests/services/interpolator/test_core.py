@@ -12,11 +12,13 @@ from collections.abc import Sequence
 import numpy as np
 import pytest
 
-from motocell.services.executor.core import BatchOutcome, ExecutorCore
+from motocell.services.executor.core import ExecutorCore
+from motocell.services.executor.rings import BatchOutcome
 from motocell.services.interpolator.core import MAX_BATCH, Feeder, queue_point
 from motocell.shared.bus.schemas import ControllerStatus, IncrementBatch, Point, QueueState, Slot
 from motocell.shared.config import Group, load_cell, parse_cell
 from motocell.shared.motion.kinematics import IntArray
+from tests.services.executor.test_core import set_ready
 from tests.statuses import ready_status
 
 PERIOD = 4_000_000
@@ -338,7 +340,7 @@ def stream(
 ) -> tuple[ExecutorCore, list[IncrementBatch]]:
     """Run feeder and executor tick by tick; each direction has its own delay in ticks."""
     core = ExecutorCore([start], first_epoch=1)
-    core.set_ready(True)
+    set_ready(core, True)
     all_sent: list[IncrementBatch] = []
     outbox: list[IncrementBatch] = []
     feeder = Feeder(ARM6, PERIOD, send=outbox.append)
