@@ -9,7 +9,8 @@ import sys
 from collections.abc import Callable, Sequence
 from typing import Any, cast
 
-from motocell.services.launcher import __main__ as launcher
+from motocell.services.launcher import cli as launcher_cli
+from motocell.services.launcher import up as launcher
 from motocell.shared.service import version
 from motocell.tools import (
     bench,
@@ -77,7 +78,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
 
     up = commands.add_parser("up", help="run a whole cell in the foreground")
-    launcher.add_arguments(up)
+    launcher_cli.add_arguments(up)
     up.set_defaults(run=launcher.run)
 
     fault.add_parser(commands)
@@ -95,7 +96,7 @@ def build_parser() -> argparse.ArgumentParser:
     router = commands.add_parser(
         "router", help="a Zenoh router (a stand-in for zenohd where its image is not available)"
     )
-    launcher.add_router_arguments(router)
+    launcher_cli.add_router_arguments(router)
     router.set_defaults(run=launcher.router)
 
     commands.add_parser(

@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import math
 import os
+import select
 import signal
 import subprocess
 import time
@@ -21,14 +23,14 @@ STOP_GRACE_S = 4.0
 """SIGTERM, then SIGKILL after this; the whole stop stays within 5 s."""
 CONTROLLER_FIRST_S = 1.0
 """How long the others wait for the controller to stop before they get SIGTERM too."""
-WATCH_S = 0.2
-"""How often the children are checked for life."""
 
 
 class Child:
     def __init__(self, spec: ChildSpec) -> None:
         self.spec = spec
         self.process: subprocess.Popen[bytes] | None = None
+        self.exited: int | None = None
+        """A descriptor that becomes readable when the process exits (a pidfd)."""
 
     @property
     def name(self) -> str:
@@ -41,44 +43,86 @@ class Child:
         # order (the controller first), and no child is interrupted mid start-up (a
         # KeyboardInterrupt traceback from its imports).
         env = {**os.environ, PARENT_PID_ENV: str(os.getpid())}
+        self.forget()
         self.process = subprocess.Popen(self.spec.argv, env=env, process_group=0)
+        self.exited = os.pidfd_open(self.process.pid)
 
     def alive(self) -> bool:
         return self.process is not None and self.process.poll() is None
 
+    def forget(self) -> None:
+        """Close the exit descriptor of a process that is gone (or about to be replaced)."""
+        if self.exited is not None:
+            os.close(self.exited)
+            self.exited = None
+
 
 def supervise(
-    children: list[Child], policy: RestartPolicy, stop: StopFlag, check: Callable[[], None]
+    children: list[Child],
+    policy: RestartPolicy,
+    stop: StopFlag,
+    look: Callable[[], float | None],
 ) -> int:
     """Start every child at once, then restart those that die, until ``stop`` (status 0) or
-    until one cannot start as configured (EXIT_CONFIG: it has said why on stderr). ``check``
-    runs at every look (WATCH_S) and must not block."""
+    until one cannot start as configured (EXIT_CONFIG: it has said why on stderr).
+
+    Sleeps until a child exits, a restart is due, ``stop``, or the time ``look`` asked to run
+    again: it runs once at the start and returns the next time.monotonic() it wants, or None
+    when it has nothing more to watch. A cell that runs wakes its launcher for nothing."""
     if stop.is_set():  # stopped while the router started: nothing to start
         return 0
     for child in children:
         child.start()
-    while not stop.wait(WATCH_S):
-        check()
-        now = time.monotonic()
-        for child in children:
-            if child.alive():
-                continue
-            returncode = child.process.returncode if child.process else None
-            action = policy.dead(child.name, now, returncode)
-            if action is Restart.GIVE_UP:
-                log.error("%s cannot start as configured; stopping the cell", child.name)
+    next_look = look()
+    try:
+        while True:
+            _sleep(children, stop, [next_look, policy.next_restart()])
+            if stop.is_set():
+                return 0
+            now = time.monotonic()
+            if next_look is not None and now >= next_look:
+                next_look = look()
+            if _tend(children, policy, now) is Restart.GIVE_UP:
                 return EXIT_CONFIG
-            if action is Restart.NOTICED:
-                log.error(
-                    "%s exited (code %s); restarting in %.0f s; the cell is NOT_READY "
-                    "until it is back",
-                    child.name,
-                    returncode,
-                    policy.delay_s,
-                )
-            elif action is Restart.NOW:
-                child.start()
-    return 0
+    finally:
+        for child in children:
+            child.forget()
+
+
+def _sleep(children: list[Child], stop: StopFlag, deadlines: list[float | None]) -> None:
+    """Until a live child exits, ``stop``, or the earliest of ``deadlines``."""
+    poller = select.poll()
+    poller.register(stop.fileno(), select.POLLIN)
+    for child in children:
+        if child.exited is not None:
+            poller.register(child.exited, select.POLLIN)
+    due = [deadline for deadline in deadlines if deadline is not None]
+    wait = None if not due else max(0.0, min(due) - time.monotonic())
+    poller.poll(None if wait is None else math.ceil(wait * 1000))
+
+
+def _tend(children: list[Child], policy: RestartPolicy, now: float) -> Restart | None:
+    """Note the children found dead and restart those whose time has come; GIVE_UP when one
+    cannot start as configured."""
+    for child in children:
+        if child.alive():
+            continue
+        child.forget()  # its exit is known: the pidfd would stay readable
+        returncode = child.process.returncode if child.process else None
+        action = policy.dead(child.name, now, returncode)
+        if action is Restart.GIVE_UP:
+            log.error("%s cannot start as configured; stopping the cell", child.name)
+            return action
+        if action is Restart.NOTICED:
+            log.error(
+                "%s exited (code %s); restarting in %.0f s; the cell is NOT_READY until it is back",
+                child.name,
+                returncode,
+                policy.delay_s,
+            )
+        elif action is Restart.NOW:
+            child.start()
+    return None
 
 
 def stop_children(children: list[Child]) -> None:

@@ -178,3 +178,7 @@ class RestartPolicy:
             return Restart.WAIT
         del self._restart_at[name]
         return Restart.NOW
+
+    def next_restart(self) -> float | None:
+        """When the earliest restart waiting is due (None: none waits)."""
+        return min(self._restart_at.values(), default=None)

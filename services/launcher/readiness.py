@@ -45,16 +45,19 @@ class ReadyNotice:
         self._whole = False
         self.told = False
 
-    def check(self) -> None:
-        """Say it once, the first time the cell is ready; never waits."""
+    def check(self) -> bool:
+        """Say it once, the first time the cell is ready; never waits. Whether it was said."""
         if self.told:
-            return
+            return True
         status = newest(self._samples, _status)
         if status is not None:
             self._whole = not status.missing_services
         if self._whole and listening(self._host, self._ports):
             self.told = True
             log.info("%s", self._line)
+            self._samples.undeclare()  # nothing more to look for
+        return self.told
 
     def close(self) -> None:
-        self._samples.undeclare()
+        if not self.told:
+            self._samples.undeclare()

@@ -1,10 +1,10 @@
 """One line in ``motocell up``'s output when the cell's clock runs without real-time priority,
 with the command that lets it: the executor's own warning scrolls by among every service's
-start-up lines, and without SCHED_FIFO the clock misses periods under load (zenoh-facts §5).
+start-up lines, and without SCHED_FIFO the clock misses periods under load (docs/realtime.md).
 
-The executor says in every ``ExecutorMetrics`` (the first one before its clock starts) whether
-it got SCHED_FIFO; the launcher reads the newest from a one-sample channel each time it looks
-after its children, so no Python runs on Zenoh's threads for it.
+The executor says in every ``ExecutorMetrics`` whether it got SCHED_FIFO; the launcher reads the
+first from a one-sample channel while it looks after its starting cell, so no Python runs on
+Zenoh's threads for it, then unsubscribes.
 """
 
 from __future__ import annotations
@@ -34,16 +34,21 @@ class RealtimeNotice:
             keys.metrics("executor"), zenoh.handlers.RingChannel(1)
         )
         self._executor_pid = executor_pid
-        self.told = False
+        self.heard = False
+        """The executor's first metrics arrived: whether it runs SCHED_FIFO is known."""
 
-    def check(self) -> None:
-        """Tell once, the first time the executor reports it runs without SCHED_FIFO; never
-        waits."""
-        if self.told:
-            return
+    def check(self) -> bool:
+        """Tell once, if the executor's first report says it runs without SCHED_FIFO; never
+        waits. Whether the report came (then the subscription ends: the executor publishes
+        metrics only while someone subscribes)."""
+        if self.heard:
+            return True
         metrics = newest(self._samples, _metrics)
-        if metrics is not None and not metrics.realtime:
-            self.told = True
+        if metrics is None:
+            return False
+        self.heard = True
+        self._samples.undeclare()
+        if not metrics.realtime:
             pid = self._executor_pid()
             log.warning(
                 "the executor runs WITHOUT real-time priority (SCHED_FIFO %d refused) and will "
@@ -51,6 +56,8 @@ class RealtimeNotice:
                 RT_PRIORITY,
                 ELSEWHERE if pid is None else fix_command(pid),
             )
+        return True
 
     def close(self) -> None:
-        self._samples.undeclare()
+        if not self.heard:
+            self._samples.undeclare()

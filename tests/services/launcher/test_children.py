@@ -4,8 +4,11 @@ terminal's Ctrl-C reaches the launcher alone."""
 
 from __future__ import annotations
 
+import itertools
 import os
 import sys
+import time
+from pathlib import Path
 
 import pytest
 
@@ -59,3 +62,40 @@ def test_nothing_is_started_once_a_stop_was_asked() -> None:
     stop.set()
     assert supervise(children, RestartPolicy(), stop, lambda: None) == 0
     assert children[0].process is None
+
+
+@pytest.mark.cell
+def test_a_child_that_dies_is_restarted_and_looks_come_only_when_asked(tmp_path: Path) -> None:
+    """The launcher wakes for the death itself (no polling), restarts the child after the
+    delay, and calls ``look`` again only at the time it asked for."""
+    marker = str(tmp_path / "started-once")
+    # First run: leave a marker and die; the restart finds it and sleeps.
+    script = (
+        "import os, sys, time\n"
+        f"m = {marker!r}\n"
+        "if os.path.exists(m):\n"
+        "    time.sleep(60)\n"
+        "open(m, 'w').close()\n"
+        "sys.exit(3)\n"
+    )
+    children = [child("gateway/0", sys.executable, "-c", script)]
+    stop = StopFlag()
+    looks: list[float] = []
+    pids: list[int] = []
+
+    def look() -> float | None:
+        looks.append(time.monotonic())
+        process = children[0].process
+        if process is not None and process.pid not in pids:
+            pids.append(process.pid)
+        if len(pids) == 2 and children[0].alive():
+            stop.set()
+            return None
+        return time.monotonic() + 0.05
+
+    try:
+        assert supervise(children, RestartPolicy(delay_s=0.1), stop, look) == 0
+    finally:
+        stop_children(children)
+    assert len(pids) == 2, "restarted once"
+    assert all(b - a >= 0.045 for a, b in itertools.pairwise(looks)), "only when asked"

@@ -1,0 +1,95 @@
+"""The options of ``motocell up`` and ``motocell router`` (``python -m
+motocell.services.launcher``): ``tools.cli`` builds its subcommands from these."""
+
+from __future__ import annotations
+
+import argparse
+
+from motocell.services.launcher.core import WELL_KNOWN_ENDPOINT
+from motocell.shared.service import add_cell_arguments
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options of ``motocell up`` and ``python -m motocell.services.launcher``."""
+    parser.description = (
+        "Run a whole cell in the foreground until Ctrl-C (or SIGTERM): its Zenoh router and "
+        "every service as a process of its own. One line, `cell NAME ready: ...` with its "
+        "ports and Zenoh endpoint, says when clients can connect."
+    )
+    add_cell_arguments(parser)
+    parser.add_argument(
+        "--host", help="address the TCP ports listen on (default: the cell file's, 127.0.0.1)"
+    )
+    parser.add_argument(
+        "--port-base",
+        type=int,
+        metavar="N",
+        help="motion port N, state N+1, I/O N+2 (default: the cell file's, 50240)",
+    )
+    parser.add_argument(
+        "--byte-order",
+        choices=("little", "big"),
+        help="override the controller's (FS100 big, others little)",
+    )
+    parser.add_argument(
+        "--skip",
+        action="append",
+        default=[],
+        metavar="SERVICE",
+        help="do not start this service here, to run it elsewhere with `motocell service "
+        "SERVICE`: gateway (or gateway/0), interpolator/1, ... as logs and `motocell watch` "
+        "name them (repeatable); the cell is NOT_READY until it joins",
+    )
+    parser.add_argument(
+        "--zenoh-listen",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help=f"where the cell's own router listens (repeatable; default {WELL_KNOWN_ENDPOINT} "
+        "when that port is free, else a free port: the ready line and `motocell ps` show it)",
+    )
+    parser.add_argument(
+        "--zenoh-connect",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="join this Zenoh router, which runs already (compose, another host), instead of "
+        "running the cell's own (repeatable)",
+    )
+    parser.add_argument(
+        "--credentials",
+        metavar="DIR",
+        help="with --zenoh-connect to a secured router: the cell's credentials directory "
+        "(`motocell credentials`); without --zenoh-connect the cell writes its own",
+    )
+    parser.add_argument(
+        "--open-bus",
+        action="store_true",
+        help="no credentials and no access control: anyone who reaches the router can move "
+        "the robot. Only for a trusted lab network (see docs/security.md)",
+    )
+
+
+def add_router_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options of ``motocell router``."""
+    parser.description = "A Zenoh router in the foreground until Ctrl-C (or SIGTERM)."
+    parser.add_argument(
+        "--listen",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help=f"where it listens (repeatable; default {WELL_KNOWN_ENDPOINT})",
+    )
+    parser.add_argument(
+        "--connect",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="another router to link to (repeatable; default: none)",
+    )
+    parser.add_argument(
+        "--config",
+        metavar="FILE",
+        help="run from a Zenoh router config file instead, as `zenohd -c FILE` does (e.g. "
+        "deploy/zenoh/router.json5); --listen/--connect are then ignored",
+    )

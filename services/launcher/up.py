@@ -1,0 +1,250 @@
+"""``motocell up``: a whole cell as child processes on this machine, in the foreground; and
+``motocell router``, a standalone Zenoh router.
+
+The launcher claims the cell's name in this user's registry of running cells (a second cell
+of the same name is refused), writes fresh credentials for every identity of the cell, and runs
+a Zenoh router on loopback with the access control derived from the key map; every service
+joins it as a client with its own credentials. The first cell on a machine takes the
+well-known port 7447, a later one a free port; observers find each through the registry.
+``--open-bus`` runs without credentials or access control (and links a later cell's router to
+7447, as before). A child that dies is logged and restarted; meanwhile the controller sees its
+liveliness token gone and the cell answers NOT_READY. A child that cannot start as configured
+(EXIT_CONFIG) stops the cell instead, with the same status; what can be checked before any
+child starts (the ports, the names ``--skip`` gives) is, so a user's mistake costs one line.
+Once the cell is whole and its ports listen, one INFO line says so (``readiness``).
+
+``core`` decides (children, router endpoints, restarts); ``children`` and ``router`` do the
+I/O; this module puts them together for the two commands.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import sys
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+
+import zenoh
+
+from motocell.services.launcher.children import Child, stop_children, supervise
+from motocell.services.launcher.core import (
+    EXECUTOR,
+    RestartPolicy,
+    UpOptions,
+    child_specs,
+    port_base_problem,
+    services_here,
+    tcp_ports,
+)
+from motocell.services.launcher.ports import PortError, check_router_endpoints, check_tcp_ports
+from motocell.services.launcher.readiness import ReadyNotice
+from motocell.services.launcher.realtime import RealtimeNotice
+from motocell.services.launcher.router import cell_router_endpoints, open_cell_router, serve_router
+from motocell.shared import registry
+from motocell.shared.bus.access import Identity, cell_identities
+from motocell.shared.bus.catalog import Role
+from motocell.shared.bus.credentials import CredentialsError, write_passwords
+from motocell.shared.bus.credentials import load as load_credentials
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.session import StoppedWaiting, open_session
+from motocell.shared.config import EXIT_CONFIG, Cell, ConfigError, load_cell
+from motocell.shared.registry import CellEntry, CellNameTakenError
+from motocell.shared.service import StopFlag, stop_on_signals
+from motocell.shared.service_names import UnknownServiceError, cell_services
+
+log = logging.getLogger("motocell")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the cell until SIGINT or SIGTERM; the exit status (EXIT_CONFIG: it cannot run as
+    configured, one line on stderr says why). Checked before anything starts: the names
+    ``--skip`` gives, and that every port the cell will listen on is in range and free."""
+    try:
+        cell = load_cell(args.config, args.name)
+        this_host = ThisHost(cell, args)
+        with stop_on_signals() as stop, _cell_bus(cell, args, this_host, stop) as bus:
+            return run_children(cell, args, this_host, bus, stop)
+    except StoppedWaiting:
+        return 0  # stopped before the router it joins came
+    except (
+        ConfigError,
+        CellNameTakenError,
+        ConnectionError,
+        CredentialsError,
+        UnknownServiceError,
+        PortError,
+    ) as exc:
+        print(f"motocell up: {_hint(exc, args)}", file=sys.stderr)
+        return EXIT_CONFIG
+
+
+class ThisHost:
+    """What this launcher runs of the cell, and where its TCP ports are; PortError or
+    UnknownServiceError for what cannot be."""
+
+    def __init__(self, cell: Cell, args: argparse.Namespace) -> None:
+        self.services = services_here(cell, args.skip or ())
+        self.host: str = args.host or cell.host
+        self.port_base: int = args.port_base or cell.port_base
+        problem = port_base_problem(self.port_base)
+        if problem is not None:
+            raise PortError(problem)
+        self.ports = tcp_ports(self.port_base, self.services)
+
+    def check_ports(self) -> None:
+        """PortError unless every TCP port this launcher's services need is free."""
+        check_tcp_ports(self.host, self.ports)
+
+    def describe(self) -> str:
+        base = self.port_base
+        return f"motion {self.host}:{base}, state {base + 1}, I/O {base + 2}"
+
+
+def _hint(exc: Exception, args: argparse.Namespace) -> str:
+    if isinstance(exc, CellNameTakenError):
+        how = "stop it" + (", or start this one with another --name" if not args.name else "")
+        return f"{exc}; {how} (the name comes from {'--name' if args.name else 'the cell file'})"
+    return str(exc)
+
+
+@dataclass(frozen=True)
+class CellBus:
+    endpoint: str
+    credentials: Path | None
+    session: zenoh.Session
+    """The launcher's own: its router, or an observer's session on the router it joined."""
+
+
+def _config_reference(config: str | None) -> str:
+    """The cell file as another process finds it from anywhere (``CellEntry.config``)."""
+    if config is None:
+        return ""
+    path = Path(config)
+    return str(path.resolve()) if path.is_file() else config
+
+
+@contextmanager
+def _cell_bus(
+    cell: Cell, args: argparse.Namespace, this_host: ThisHost, stop: StopFlag
+) -> Iterator[CellBus]:
+    """Claim the cell's name on this machine, check its ports, then its bus: its own router
+    (secured unless --open-bus) or, with --zenoh-connect, a router that already runs."""
+    secured = not args.open_bus
+    if args.zenoh_connect:
+        listen, connect = list(args.zenoh_connect), list[str]()
+        credentials = Path(args.credentials) if args.credentials else None
+    else:
+        listen, connect = cell_router_endpoints(args.zenoh_listen, secured=secured)
+        credentials = registry.credentials_dir(cell.name) if secured else None
+    entry = CellEntry(
+        name=cell.name,
+        pid=os.getpid(),
+        host=this_host.host,
+        port_base=this_host.port_base,
+        zenoh_endpoint=listen[0],
+        credentials=str(credentials or ""),
+        config=_config_reference(args.config),
+    )
+    # The name first: a second start of a running cell is told that, not that its ports
+    # are taken.
+    registry.register(entry)
+    try:
+        this_host.check_ports()
+        if args.zenoh_connect:
+            session = _join(cell, listen, credentials, stop)
+        else:
+            check_router_endpoints(listen)
+            if credentials is not None:
+                write_passwords(credentials, cell.name, cell_identities(len(cell.groups)))
+            session = open_cell_router(cell, listen, connect, credentials)
+        try:
+            yield CellBus(listen[0], credentials, session)
+        finally:
+            session.close()
+    finally:
+        registry.unregister(cell.name, os.getpid())
+
+
+def _join(
+    cell: Cell, endpoints: list[str], credentials: Path | None, stop: StopFlag
+) -> zenoh.Session:
+    """An observer's session on a router that runs already (or is starting)."""
+    observer = None
+    if credentials is not None:
+        observer = load_credentials(credentials, cell.name, Identity(Role.OBSERVER))
+    return open_session("client", endpoints, credentials=observer, stop=stop.wait)
+
+
+def run_children(
+    cell: Cell, args: argparse.Namespace, this_host: ThisHost, bus: CellBus, stop: StopFlag
+) -> int:
+    options = UpOptions(
+        config=args.config,
+        name=args.name,
+        credentials=str(bus.credentials) if bus.credentials else None,
+        host=args.host,
+        port_base=args.port_base,
+        byte_order=args.byte_order,
+    )
+    specs = child_specs(this_host.services, options, bus.endpoint, [sys.executable, "-m"])
+    children = [Child(spec) for spec in specs]
+    skipped = set(map(str, cell_services(cell))) - {spec.name for spec in specs}
+    if skipped:
+        log.info(
+            "cell %s: %s not started here; the cell is ready once they join",
+            cell.name,
+            ", ".join(sorted(skipped)),
+        )
+    keys = CellKeys(cell.name)
+    security = "secured" if bus.credentials else "open bus"
+    ready = ReadyNotice(
+        bus.session,
+        keys,
+        this_host.host,
+        this_host.ports,
+        f"cell {cell.name} ready: {this_host.describe()}; Zenoh {bus.endpoint} ({security})",
+    )
+    realtime = RealtimeNotice(bus.session, keys, lambda: _pid(children, EXECUTOR))
+    try:
+        status = supervise(children, RestartPolicy(), stop, lambda: _look(ready, realtime))
+    finally:
+        ready.close()
+        realtime.close()
+        stop_children(children)
+        log.info("cell %s stopped", cell.name)
+    return status
+
+
+LOOK_S = 0.05
+"""How often the launcher looks whether the cell is ready, until it has said so."""
+
+
+def _look(ready: ReadyNotice, realtime: RealtimeNotice) -> float | None:
+    """Look for the ready line and the executor's real-time report; when to look again (None:
+    both are settled, nothing more to look for)."""
+    if ready.check() and realtime.check():
+        return None
+    return time.monotonic() + LOOK_S
+
+
+def _pid(children: list[Child], name: str) -> int | None:
+    for child in children:
+        if child.name == name and child.process is not None:
+            return child.process.pid
+    return None
+
+
+def router(args: argparse.Namespace) -> int:
+    """A Zenoh router in this process until SIGINT or SIGTERM."""
+    try:
+        with stop_on_signals() as stop:
+            serve_router(args.listen, args.connect, stop, args.config)
+    except ConnectionError as exc:
+        print(f"motocell router: {exc}", file=sys.stderr)
+        return EXIT_CONFIG
+    return 0
