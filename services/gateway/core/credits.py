@@ -23,6 +23,8 @@ class GroupCredit:
     """The executor's last report of the group's ring; None while no executor is known."""
     instance: int = 0
     """The interpolator process the numbering is matched to; 0 until one is heard from."""
+    heard: bool = False
+    """A slot came from ``instance`` since it was last reported missing."""
     taken: int = 0
     published: int = 0
     trajectory_id: int = 0
@@ -34,13 +36,19 @@ class GroupCredit:
     """The pending-point FIFO's depth (the cell file's ``pending_points``; 1 as MotoROS)."""
 
     def on_slot(self, slot: Slot) -> None:
-        if slot.instance != self.instance:
-            # A (re)started interpolator, or a restarted gateway: points numbered for another
-            # process are gone, so continue from what this one has taken.
+        if slot.instance != self.instance or not self.heard:
+            # A (re)started interpolator, a restarted gateway, or one that was missing (its
+            # ring was cleared meanwhile, and points published then may be lost): what was
+            # numbered before is over. Numbering goes on above every id used so far, so no
+            # new point takes the id of an old one the interpolator may have seen.
             self.instance = slot.instance
-            self.published = slot.taken_id
+            self.heard = True
+            self.published = max(self.published, slot.taken_id)
+            self.taken = self.published
             self.outstanding.clear()
-        elif slot.taken_id < self.taken:
+            self.trajectory_id = slot.trajectory_id
+            return
+        if slot.taken_id < self.taken:
             # Older news: an interpolator's taken_id only grows, and its answer to the
             # gateway's question can arrive after a slot it published later.
             return
@@ -52,15 +60,15 @@ class GroupCredit:
             self.outstanding.popleft()
 
     def interpolator_gone(self) -> None:
-        """Its points died with it; whichever process comes next is a new instance that
-        numbering must wait for."""
-        self.instance = 0
+        """Its points died with it (or, if it comes back, were dropped with its ring): numbering
+        waits for the next slot heard."""
+        self.heard = False
 
     @property
     def known(self) -> bool:
         """Whether the group's interpolator has been heard from. Until then the point numbering
         cannot be matched to it (a restarted gateway starts at 0), so nothing is accepted."""
-        return self.instance != 0
+        return self.heard
 
     @property
     def ring_ready(self) -> bool:

@@ -174,15 +174,32 @@ def test_pending_fits_only_when_every_unacknowledged_point_is_accounted_for() ->
     assert not group.pending_fits()
 
 
-def test_a_new_interpolator_instance_restarts_the_numbering_from_what_it_has_taken() -> None:
+def test_a_new_interpolator_instance_forgets_what_was_outstanding_and_ids_go_on() -> None:
     group = credit()
     for _ in range(3):
         group.number(POINT, 4)
     group.on_slot(slot(taken=0, instance=INSTANCE + 1))
-    assert (group.instance, group.published, group.taken) == (INSTANCE + 1, 0, 0)
+    assert (group.instance, group.published, group.taken) == (INSTANCE + 1, 3, 3)
     assert group.free
     assert not group.outstanding
-    assert group.number(POINT, 0).point_id == 1
+    assert group.number(POINT, 0).point_id == 4
+
+
+def test_an_interpolator_back_from_missing_never_sees_an_old_id_again() -> None:
+    """A router outage: the interpolator had received points 2 and 3 but taken only 1; its ring
+    was cleared meanwhile, so it reports them taken (``Slot.taken_id`` = the last received).
+    A new trajectory's first point must not reuse id 2 or 3, or the slot would call that
+    trajectory lost before it started."""
+    group = credit()
+    for _ in range(3):
+        group.number(POINT, 4)
+    group.on_slot(slot(taken=1, trajectory_id=1))
+    group.interpolator_gone()
+    group.on_slot(slot(taken=3, trajectory_id=0))
+    start = group.number(POINT, 0).point_id
+    assert start == 4
+    group.on_slot(slot(taken=4, trajectory_id=4))
+    assert not group.trajectory_lost(start)
 
 
 def test_a_restarted_gateway_continues_after_the_interpolators_last_point() -> None:
