@@ -49,7 +49,7 @@ def once(directory: Path, index: int) -> dict[str, float]:
     spawned = cell.spawned_ns
     try:
         wait_until(lambda: connectable(cell.host, cell.port_base + 1), TIMEOUT_S, "state port")
-        with StateListener(cell.host, cell.port_base + 1, cell.byte_order) as state:
+        with StateListener(cell.host, cell.port_base + 1, cell.byte_order).start() as state:
             first = state.wait_for(lambda f: f.status is not None, TIMEOUT_S)
         first_status = (first.received_ns - spawned) / 1e6
         wait_until(lambda: connectable(cell.host, cell.port_base), TIMEOUT_S, "motion port")

@@ -40,10 +40,10 @@ from motocell.shared.bus.session import open_session
 from motocell.shared.config import Cell, load_cell
 from motocell.shared.ports import free_port, free_port_block
 from motocell.shared.protocol.codec import ByteOrder
-from motocell.shared.protocol.constants import Command, NotReadySubcode
+from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
 from motocell.shared.service import REQUIRED_SERVICES
-from motocell.testkit.client import MotionClient, StateListener
+from motocell.testkit.client import MotionClient, StateListener, smooth_move, stream
 from motocell.testkit.processes import alive, cmdline, connectable, descendants, wait_until
 
 LAUNCHER = (sys.executable, "-m", "motocell.services.launcher")
@@ -113,7 +113,7 @@ class RunningCell:
         return MotionClient(self.host, self.port_base + 2, self.byte_order)
 
     def state(self) -> StateListener:
-        return StateListener(self.host, self.port_base + 1, self.byte_order)
+        return StateListener(self.host, self.port_base + 1, self.byte_order).start()
 
     def children(self) -> set[int]:
         """The launcher's processes now (remembered, so ``stop`` can prove they exited)."""
@@ -263,7 +263,7 @@ def wait_for_whole_cell(
     """Every service is up: state flows and motion-ready no longer reports a missing service
     (INC_MOVE_ERROR); START_TRAJ_MODE can then succeed."""
     wait_until(lambda: connectable(host, port_base + 1), timeout, "the state port to listen")
-    with StateListener(host, port_base + 1, byte_order) as state:
+    with StateListener(host, port_base + 1, byte_order).start() as state:
         state.wait_for(lambda f: f.status is not None and f.status.drives_powered != -1, timeout)
     # The state port is the broadcaster's, the motion port the gateway's: either can be first.
     wait_until(lambda: connectable(host, port_base), timeout, "the motion port to listen")
@@ -335,3 +335,35 @@ class TickLog(SampleLog[Tick]):
 
     def __init__(self, session: zenoh.Session, keys: CellKeys) -> None:
         super().__init__(session, keys.executor_tick, Tick)
+
+
+SWING = 0.3
+"""Radians (or metres) every axis of group 0 swings by in ``moving``: well inside every model's
+range from its initial position."""
+
+
+@contextmanager
+def moving(cell: RunningCell, seconds: float) -> Iterator[None]:
+    """Group 0 swings out and back for about ``seconds``, streamed by a thread of its own as a
+    ROS driver would (START_TRAJ_MODE, then points, BUSY resent). The executor's clock ticks every
+    period only while something moves; at rest it publishes its resting tick once a second, so
+    what needs the tick stream (a rate, a backlog) needs motion. Joined on exit."""
+    axes = cell.cell.groups[0].axes
+    with cell.state() as state, cell.motion() as motion:
+        reply = motion.command(Command.START_TRAJ_MODE)
+        if reply.result != Result.SUCCESS:
+            raise AssertionError(f"START_TRAJ_MODE: result {reply.result}, {reply.subcode}")
+        start = tuple(state.wait_still().groups[0].positions[:axes])
+        away = tuple(position + SWING for position in start)
+        legs = [
+            smooth_move(start, away, duration=seconds / 2, points=11),
+            smooth_move(away, start, duration=seconds / 2, points=11),
+        ]
+        streamer = threading.Thread(
+            target=lambda: [stream(motion, leg) for leg in legs], name="testkit-mover"
+        )
+        streamer.start()
+        try:
+            yield
+        finally:
+            streamer.join()

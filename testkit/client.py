@@ -154,7 +154,11 @@ class StateListener:
         self.failure: PeerProtocolError | None = None
         """What the controller sent that could not be read (the reading stopped there)."""
         self.thread = threading.Thread(target=self._run, name="state-listener", daemon=True)
+
+    def start(self) -> StateListener:
+        """Start reading in the listener's thread (``close`` ends it); returns the listener."""
         self.thread.start()
+        return self
 
     def _run(self) -> None:
         try:

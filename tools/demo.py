@@ -199,7 +199,7 @@ def drive(
         f"the state port {host}:{port_base + 1}",
     )
     with ExitStack() as stack:
-        state = stack.enter_context(StateListener(host, port_base + 1, byte_order))
+        state = stack.enter_context(StateListener(host, port_base + 1, byte_order).start())
         first = state.wait_for(lambda f: f.status is not None, READY_TIMEOUT_S)
         if sorted(first.groups) != [group.index for group in cell.groups]:
             return _failed(

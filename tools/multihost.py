@@ -281,7 +281,7 @@ def fault_run(cell: Cell, host: str, port_base: int, recorder: Recorder, signals
     nothing moved after that, and START_TRAJ_MODE succeeded again once the fault was over."""
     byte_order = ByteOrder(cell.byte_order)
     with (
-        StateListener(host, port_base + 1, byte_order) as state,
+        StateListener(host, port_base + 1, byte_order).start() as state,
         MotionClient(host, port_base, byte_order) as motion,
     ):
         reply = motion.command(Command.START_TRAJ_MODE)

@@ -74,6 +74,9 @@ class Recorder:
         self._dropped_lock = threading.Lock()
         self.error: Exception | None = None
         self._thread = threading.Thread(target=self._drain, name="recorder", daemon=True)
+
+    def start(self) -> None:
+        """Start the writer thread; ``close`` ends it."""
         self._thread.start()
 
     def on_sample(self, sample: zenoh.Sample) -> None:
@@ -118,6 +121,7 @@ def run_recorder(
     Outside the main thread (a caller's thread) no signal stops it; ``duration`` does."""
     with stop_on_signals() as stop:
         recorder = Recorder(sink, stop)
+        recorder.start()
         try:
             subscribers = [s.declare_subscriber(e, recorder.on_sample) for s, e in subscriptions]
             print(ready, flush=True)

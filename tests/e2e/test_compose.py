@@ -119,7 +119,7 @@ def test_compose_services_execute_a_trajectory(repo: Path, compose_cell: int) ->
 
     wait_for_whole_cell("127.0.0.1", compose_cell, byte_order)
     with (
-        StateListener("127.0.0.1", compose_cell + 1, byte_order) as state,
+        StateListener("127.0.0.1", compose_cell + 1, byte_order).start() as state,
         MotionClient("127.0.0.1", compose_cell, byte_order) as motion,
     ):
         reply = motion.command(Command.START_TRAJ_MODE)

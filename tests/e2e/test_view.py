@@ -23,7 +23,7 @@ from motocell.shared.motion.forward_kinematics import Chain, tool_transform
 from motocell.shared.ports import free_port
 from motocell.shared.protocol.constants import Command, Result
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
-from motocell.testkit.cell import RunningCell
+from motocell.testkit.cell import RunningCell, moving
 from motocell.testkit.client import Feedback, smooth_move, stream
 from motocell.testkit.processes import wait_until
 from motocell.tools.view_layout import layout_text
@@ -295,7 +295,7 @@ def test_a_client_that_never_reads_is_held_a_bounded_backlog(view: View, cell: R
         view, cell, "executor", "transforms", "joints", "tcp", max_queue=1, receive_buffer=4096
     )
     try:
-        with subscribed(view, cell, "executor") as reader:
+        with moving(cell, seconds=8.0), subscribed(view, cell, "executor") as reader:
             sent: list[int] = []
             while len(sent) < STALLED_TICKS:
                 sent.append(reader.next_message(executor, DEADLINE_S).json()["tick"])

@@ -26,7 +26,7 @@ def listener() -> Iterator[socket.socket]:
 
 def test_a_big_endian_state_port_is_named_at_once(listener: socket.socket) -> None:
     port = listener.getsockname()[1]
-    with StateListener("127.0.0.1", port, ByteOrder.LITTLE) as state:
+    with StateListener("127.0.0.1", port, ByteOrder.LITTLE).start() as state:
         controller, _ = listener.accept()
         with controller:
             controller.sendall(encode(STATUS, ByteOrder.BIG, Role.CONTROLLER) * 3)

@@ -62,6 +62,7 @@ def test_samples_that_do_not_fit_are_counted_exactly_across_callback_threads(
     monkeypatch.setattr(record, "QUEUE_SIZE", 1)
     sink = BlockedSink()
     recorder = record.Recorder(sink, StopFlag())
+    recorder.start()
     try:
         recorder.on_sample(sample("first", b"1"))
         assert sink.writing.wait(10.0), "the writer took the first sample"
