@@ -13,7 +13,7 @@ from motocell.services.broadcaster.loop import StateLoop
 from motocell.services.broadcaster.reports import Reports
 from motocell.services.broadcaster.state_port import Acceptor, StatePort
 from motocell.services.broadcaster.ticks import TickSource
-from motocell.shared.bus.session import observed, publisher
+from motocell.shared.bus.session import answer, observed, publisher
 from motocell.shared.protocol.codec import ByteOrder
 from motocell.shared.service import argument_parser, listen, running_service
 
@@ -35,6 +35,10 @@ def main(argv: Sequence[str] | None = None) -> None:
         watch = ControllerWatch(ctx.session, ctx.keys)
         broadcaster = Broadcaster(ctx.cell, watch)
         state_pub = publisher(ctx.session, ctx.keys.state, realtime=True, latest=True)
+        positions = ctx.session.declare_queryable(
+            ctx.keys.broadcaster_cmd("positions"),
+            lambda query: answer(query, broadcaster.positions()),
+        )
         reports = Reports(ctx.session, ctx.keys)
         ticks = TickSource(ctx.session, ctx.keys, ctx.stop)
         acceptor = Acceptor(state_socket, ticks.ring)
@@ -60,6 +64,7 @@ def main(argv: Sequence[str] | None = None) -> None:
             loop.close()
             for adapter in (reports, watch):
                 adapter.close()
+            positions.undeclare()
             state_pub.undeclare()
 
 

@@ -19,7 +19,7 @@ STUCK_S = 2.0
 """A client that takes no byte of its backlog for this long is closed: it is gone or stopped,
 and its slot is one of only four (motoros1 §6)."""
 
-Send = Callable[[memoryview], int]
+Send = Callable[[bytes | memoryview], int]
 """``socket.send`` of a non-blocking socket: the bytes taken; BlockingIOError when full."""
 
 Cycle = Sequence[bytes]
@@ -28,7 +28,7 @@ Cycle = Sequence[bytes]
 
 class Backlog:
     def __init__(self) -> None:
-        self._rest: deque[memoryview] = deque()
+        self._rest: deque[bytes | memoryview] = deque()
         """What is left of the cycle begun: its unsent messages, the first maybe in part."""
         self._newest: Cycle | None = None
         self._stuck_since: float | None = None
@@ -49,21 +49,21 @@ class Backlog:
         """Write what the socket takes now; False once the client has taken nothing for
         ``STUCK_S``. Errors other than a full socket are the caller's (the client is gone)."""
         progressed = False
-        while self.pending:
-            if not self._rest:
-                assert self._newest is not None
-                self._rest.extend(memoryview(message) for message in self._newest)
+        rest = self._rest
+        while rest or self._newest is not None:
+            if not rest:
+                rest.extend(self._newest or ())
                 self._newest = None
-            message = self._rest[0]
+            message = rest[0]
             try:
                 sent = send(message)
             except BlockingIOError:
                 sent = 0
             progressed = progressed or sent > 0
             if sent < len(message):
-                self._rest[0] = message[sent:]
+                rest[0] = memoryview(message)[sent:]
                 break  # the socket is full: the rest waits for the next cycle
-            self._rest.popleft()
+            rest.popleft()
         if progressed or not self.pending:
             self._stuck_since = now if self.pending else None
             return True

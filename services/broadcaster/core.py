@@ -25,6 +25,7 @@ import numpy as np
 from motocell.shared.bus.liveness import AT_REST_HEARTBEAT_S
 from motocell.shared.bus.schemas import (
     CartesianPose,
+    CommandReply,
     ControllerStatus,
     GroupState,
     RobotStatusFields,
@@ -34,7 +35,7 @@ from motocell.shared.bus.schemas import (
 from motocell.shared.config import Cell
 from motocell.shared.motion.forward_kinematics import Chain, pose, tool_transform
 from motocell.shared.motion.kinematics import AxisMap
-from motocell.shared.protocol.constants import TOOL_NUMBERS
+from motocell.shared.protocol.constants import TOOL_NUMBERS, Result
 
 IN_MOTION_PULSES = 30
 """in_motion also while |feedback - command| exceeds 30 pulses on any axis (motoros1 §6,
@@ -126,12 +127,10 @@ class Feedback:
             result.append(
                 GroupState(
                     group_no=index,
-                    positions=axis_map.pulses_to_ros(group.feedback_pulses).tolist(),
-                    velocities=(axis_map.pulses_to_ros(moved) * self.per_second).tolist(),
-                    command_positions=axis_map.pulses_to_ros(group.command_pulses).tolist(),
-                    command_velocities=(
-                        axis_map.pulses_to_ros(group.increment) * self.per_second
-                    ).tolist(),
+                    positions=axis_map.ros_values(group.feedback_pulses),
+                    velocities=axis_map.ros_values(moved, self.per_second),
+                    command_positions=axis_map.ros_values(group.command_pulses),
+                    command_velocities=axis_map.ros_values(group.increment, self.per_second),
                 )
             )
         return result
@@ -286,6 +285,14 @@ class Broadcaster:
         if self.last is None or not self.last.resting:
             return self.silence_s
         return self.state_period_s if clients else AT_REST_HEARTBEAT_S
+
+    def positions(self) -> CommandReply:
+        """Where the newest tick left the robot (the commanded pulses of every group): where a
+        restarted executor resumes. FAILURE before any tick."""
+        last = self.last
+        if last is None:
+            return CommandReply(Result.FAILURE, detail="no tick heard yet")
+        return CommandReply(Result.SUCCESS, pulses=[group.command_pulses for group in last.groups])
 
     def motion_queued(self) -> bool:
         """Whether the newest tick had motion data queued (no tick yet: nothing is)."""

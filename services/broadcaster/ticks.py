@@ -41,7 +41,7 @@ class TickSource:
             keys.executor_tick, zenoh.handlers.RingChannel(CHANNEL_SIZE)
         )
         self._doorbell = Doorbell(session, keys.executor_tick)
-        self._waker = Waker(self._doorbell, stop, "tick-waker")
+        self._waker = Waker(self._doorbell.ring, stop, "tick-waker")
         self._stop = stop
         self._rung_read, self._rung_write = os.pipe()
         for fd in (self._rung_read, self._rung_write):

@@ -16,13 +16,11 @@ import zenoh
 from motocell.services.controller.core.dispatch import COMMANDS, FAULTS, Dispatcher
 from motocell.services.controller.core.io_table import IoTable
 from motocell.services.controller.core.model import Controller
-from motocell.shared.bus.channels import newest
-from motocell.shared.bus.schemas import CommandReply, CommandRequest, Decoder, Tick, encode
+from motocell.shared.bus.schemas import CommandReply, CommandRequest, Decoder, encode
 from motocell.shared.bus.session import Inbox, Liveness, answer, command_of, publisher
 from motocell.shared.service import ServiceContext, required_alive_keys
 
 _request_decoder = Decoder(CommandRequest)
-_tick_decoder = Decoder(Tick)
 _notice_decoder = Decoder(CommandReply)
 
 NOTICES = ("incmove_error", "connections")
@@ -62,9 +60,6 @@ class ControllerService:
             session.declare_subscriber(keys.controller_cmd(notice), self.inbox.feed(notice))
             for notice in NOTICES
         ]
-        # Only the newest tick matters (the positions to hand a restarted executor), and only
-        # when asked: it waits in a one-sample channel, no Python runs for the other ticks.
-        self.ticks = session.declare_subscriber(keys.executor_tick, zenoh.handlers.RingChannel(1))
 
     def run(self) -> None:
         dispatcher = self.dispatcher
@@ -111,15 +106,9 @@ class ControllerService:
                 dispatcher.incmove_error(_notice_decoder.decode(item.payload.to_bytes()))
             elif tag.startswith("cmd/"):
                 assert isinstance(item, zenoh.Query)
-                self._newest_positions()
                 dispatcher.command(tag.removeprefix("cmd/"), command_of(item), item, now)
             elif tag.startswith("fault/"):
                 assert isinstance(item, zenoh.Query)
                 dispatcher.fault(tag.removeprefix("fault/"), command_of(item), item, now)
         except (msgspec.DecodeError, msgspec.ValidationError, IndexError) as exc:
             dispatcher.bad_payload(tag, item if isinstance(item, zenoh.Query) else None, exc)
-
-    def _newest_positions(self) -> None:
-        tick = newest(self.ticks, _tick_decoder)
-        if tick is not None:
-            self.dispatcher.command_pulses = [group.command_pulses for group in tick.groups]

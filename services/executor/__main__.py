@@ -17,10 +17,10 @@ from motocell.shared.service import ServiceContext, argument_parser, running_ser
 
 
 def build_core(ctx: ServiceContext) -> ExecutorCore:
-    """The core, starting where the controller remembers the robot (an executor restart) or
+    """The core, starting where the broadcaster last saw the robot (an executor restart) or
     where the cell file puts it."""
     cell = ctx.cell
-    remembered = call(ctx.session, ctx.keys.controller_cmd("positions"), timeout=1.0)
+    remembered = call(ctx.session, ctx.keys.broadcaster_cmd("positions"), timeout=1.0)
     start = starting_pulses(cell, remembered)
     return ExecutorCore(
         start,

@@ -24,7 +24,7 @@ from motocell.shared.bus.schemas import (
     Tick,
 )
 from motocell.shared.config import DEFAULT_MAX_LATENESS_PERIODS, Cell, IdealServo
-from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.motion.kinematics import AxisMap, IntArray
 from motocell.shared.motion.servo import Servos
 from motocell.shared.protocol.constants import MAX_AXES, Result
 
@@ -50,6 +50,14 @@ partner's increments are not coming: the increment path is broken."""
 NOTICE_EVERY_NS = 1_000_000_000
 """How often an unconfirmed stall is told again."""
 
+DRAINING_EVERY_TICKS = 5
+"""While a ring only drains (its depth and the command change, nothing else), its queue state
+goes out every this many ticks (20 ms at 4 ms) instead of every tick: its readers act on room
+for a batch of entries (the interpolator) or count entries a fifth of a second deep (the
+gateway), and a few entries' staleness only errs towards waiting; epochs, arrivals, readiness
+and a ring that ran dry still go out at once. A quarter of the samples for the router and the
+cell's processes to carry while everything moves."""
+
 REST_AFTER_NS = 1_000_000_000
 """How long the clock keeps ticking with nothing to do before it rests: a client between two
 points of one trajectory (motoman_driver streams several a second) keeps it running."""
@@ -59,6 +67,13 @@ def stalled(lateness_ns: int, period_ns: int, max_lateness_periods: int) -> bool
     """Whether a tick this late is a stall: its increments, and all queued behind them, would
     move the robot later than the cell file allows (``max_lateness_periods``)."""
     return lateness_ns > max_lateness_periods * period_ns
+
+
+def _bounds(ranges: list[tuple[list[int], list[int]]]) -> tuple[IntArray, IntArray]:
+    """(lower, upper) pulses as arrays, one row per group."""
+    lower = np.array([low for low, _ in ranges], dtype=np.int64)
+    upper = np.array([high for _, high in ranges], dtype=np.int64)
+    return lower, upper
 
 
 def next_on_grid(origin_ns: int, period_ns: int, now_ns: int) -> int:
@@ -86,15 +101,15 @@ def pulse_ranges(cell: Cell) -> list[tuple[list[int], list[int]]]:
 
 
 def starting_pulses(cell: Cell, remembered: CommandReply | None) -> list[list[int]]:
-    """Where the robot is: the controller remembers the last commanded pulses across an
-    executor restart (``remembered``, its reply to ``positions``); without it, the cell file's
-    initial positions."""
+    """Where the robot is: across an executor restart, the commanded pulses of the newest tick
+    the broadcaster had (``remembered``, its reply to ``positions``); without them, the cell
+    file's initial positions."""
     if (
         remembered is not None
         and remembered.result == Result.SUCCESS
         and len(remembered.pulses) == len(cell.groups)
     ):
-        log.info("resuming from the controller's last commanded position")
+        log.info("resuming from the last commanded position")
         return remembered.pulses
     pulses = []
     for group in cell.groups:
@@ -121,15 +136,18 @@ class ExecutorCore:
         command, resting at ``command_pulses`` (None: ideal, feedback = command).
         ``max_lateness_periods``: how late a tick may be, and how long a ring may stay empty
         while its interpolator owes it increments (``starved``)."""
-        self.command = [list(p) for p in command_pulses]
+        self.command: IntArray = np.array(command_pulses, dtype=np.int64).reshape(-1, MAX_AXES)
+        """The commanded pulses, one row per group, Motoman order."""
         self.servos = servos or Servos([IdealServo()] * len(command_pulses), 1.0, command_pulses)
         self.servo_powered = True
         """The controller's last status had the servo on (and not in eco mode); assumed until
         the first status, which changes nothing at rest."""
         self.period_ns = period_ns
         self.max_lateness_periods = max_lateness_periods
-        self.max_increments = max_increments
-        self.ranges = ranges
+        self._max_increments = None if max_increments is None else np.array(max_increments)
+        bounds = None if ranges is None else _bounds(ranges)
+        self._lower: IntArray | None = None if bounds is None else bounds[0]
+        self._upper: IntArray | None = None if bounds is None else bounds[1]
         self.readiness = ReadinessMachine()
         self.rings = [GroupRing(first_epoch + g) for g in range(len(command_pulses))]
         self._next_epoch = first_epoch + len(command_pulses)
@@ -151,6 +169,8 @@ class ExecutorCore:
         """The clock stopped: nothing queued, owed or settling for ``REST_AFTER_NS``."""
         self._quiet_since_ns: int | None = None
         self._published_queues: list[tuple[object, ...] | None] = [None] * len(command_pulses)
+        self._published_at = [0] * len(command_pulses)
+        """The tick each group's queue state last went out."""
         self._next_queue_heartbeat_ns = 0
 
     # -- readiness ---------------------------------------------------------------------------
@@ -292,21 +312,20 @@ class ExecutorCore:
         broken = [g for g in held if self._held_ticks[g] > BARRIER_TIMEOUT_TICKS]
         self.starved = self._starved_groups()
         broken += sorted(self.starved)
-        increments = [
-            ring.pop_period() if self.ready and group not in held else ZERO
+        ready = self.ready
+        rows = [
+            ring.pop_period() if ready and group not in held else ZERO
             for group, ring in enumerate(self.rings)
         ]
-        broken += [g for g, inc in enumerate(increments) if not self._within_limits(g, inc)]
+        increments = np.array(rows, dtype=np.int64)
+        broken += [g for g in self._over_limits(increments) if g not in broken]
         self.beyond_range = self._beyond_range(increments)
         broken += [g for g in self.beyond_range if g not in broken]
         if broken:
-            increments = [ZERO] * len(self.rings)
-        for group, increment in enumerate(increments):
-            self.last_increment[group] = increment
-            if increment is not ZERO:
-                command = self.command[group]
-                for axis in range(MAX_AXES):
-                    command[axis] += increment[axis]
+            increments.fill(0)
+            rows = [ZERO] * len(self.rings)
+        self.last_increment = rows
+        self.command += increments
         self._drive()
         return broken
 
@@ -331,32 +350,34 @@ class ExecutorCore:
         if self.servo_powered:
             self.servos.step(self.command)
         else:
-            self.command = self.servos.brake().tolist()
+            self.command = self.servos.brake()
 
-    def _within_limits(self, group: int, increment: tuple[int, ...]) -> bool:
-        if self.max_increments is None or increment is ZERO:
-            return True
-        limits = self.max_increments[group]
-        return all(abs(inc) <= limit for inc, limit in zip(increment, limits, strict=True))
+    def _over_limits(self, increments: IntArray) -> list[int]:
+        """The groups whose increment exceeds an axis's maximum per period (the motion
+        system's speed limit)."""
+        if self._max_increments is None:
+            return []
+        over = (np.abs(increments) > self._max_increments).any(axis=1)
+        return np.flatnonzero(over).tolist()
 
-    def _beyond_range(self, increments: list[tuple[int, ...]]) -> dict[int, str]:
+    def _beyond_range(self, increments: IntArray) -> dict[int, str]:
         """The groups whose increment would take an axis past its range, as a controller's
         motion-range check refuses them: an axis may end exactly on a limit, and one already
         outside (a range narrowed since) may still move back towards it."""
+        if self._lower is None or self._upper is None:
+            return {}
+        target = self.command + increments
+        beyond = ((target > self._upper) & (increments > 0)) | (
+            (target < self._lower) & (increments < 0)
+        )
         found = {}
-        for group, increment in enumerate(increments):
-            if self.ranges is None or increment is ZERO:
-                continue
-            lower, upper = self.ranges[group]
-            for axis, (now, step, low, high) in enumerate(
-                zip(self.command[group], increment, lower, upper, strict=True)
-            ):
-                target = now + step
-                if (target > high and step > 0) or (target < low and step < 0):
-                    found[group] = (
-                        f"axis {axis} would reach {target} pulses, past its range [{low}, {high}]"
-                    )
-                    break
+        for group in np.flatnonzero(beyond.any(axis=1)).tolist():
+            axis = int(np.flatnonzero(beyond[group])[0])
+            low, high = int(self._lower[group, axis]), int(self._upper[group, axis])
+            found[group] = (
+                f"axis {axis} would reach {int(target[group, axis])} pulses, "
+                f"past its range [{low}, {high}]"
+            )
         return found
 
     def _waiting_for_partners(self) -> set[int]:
@@ -426,16 +447,16 @@ class ExecutorCore:
             received=ring.received,
             depth=len(ring.entries),
             capacity=RING_CAPACITY,
-            command_pulses=list(self.command[group]),
+            command_pulses=self.command[group].tolist(),
             tick=self.tick,
             ready=self.ready,
             heartbeat_ms=self.queue_heartbeat_ms(),
         )
 
     def queue_updates(self, now_ns: int, force: bool = False) -> list[tuple[int, QueueState]]:
-        """The queue states to publish now: each that changed (every tick while moving), and
-        all of them at the heartbeat or when ``force``d, so idle interpolators and gateways
-        need not wake 250 times a second."""
+        """The queue states to publish now: each that changed (a draining ring every
+        ``DRAINING_EVERY_TICKS``), and all of them at the heartbeat or when ``force``d, so idle
+        interpolators and gateways need not wake 250 times a second."""
         heartbeat = force or now_ns >= self._next_queue_heartbeat_ns
         if heartbeat:
             self._next_queue_heartbeat_ns = now_ns + self.queue_heartbeat_ms() * 1_000_000
@@ -450,17 +471,30 @@ class ExecutorCore:
                 state.ready,
                 state.heartbeat_ms,
             )
-            if heartbeat or content != self._published_queues[group]:
+            if heartbeat or self._queue_due(group, content):
                 self._published_queues[group] = content
+                self._published_at[group] = self.tick
                 updates.append((group, state))
         return updates
+
+    def _queue_due(self, group: int, content: tuple[object, ...]) -> bool:
+        last = self._published_queues[group]
+        if last is None:
+            return True
+        if content == last:
+            return False
+        draining = (
+            content[:2] == last[:2] and content[4:] == last[4:] and content[2] != 0  # depth
+        )
+        return not draining or self.tick - self._published_at[group] >= DRAINING_EVERY_TICKS
 
     def group_ticks(self) -> list[GroupTick]:
         feedback = self.servos.feedback_pulses().tolist()
         moved = self.servos.moved.tolist()
+        command = self.command.tolist()
         return [
             GroupTick(
-                command_pulses=list(self.command[g]),
+                command_pulses=command[g],
                 feedback_pulses=feedback[g],
                 increment=list(self.last_increment[g]),
                 depth=len(ring.entries),

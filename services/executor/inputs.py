@@ -70,7 +70,7 @@ class Inputs:
         )
         self.controller = ControllerToken(session, keys.alive("controller", "0"))
         self._doorbell = Doorbell(session, keys.group_point(0))
-        self._waker = Waker(self._doorbell, stop, "executor-waker")
+        self._waker = Waker(self._doorbell.ring, stop, "executor-waker")
         self._resting = False
         self.executor_ready = False
         """What the clock thread last made of readiness; a status saying otherwise wakes it."""

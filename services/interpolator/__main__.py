@@ -37,7 +37,7 @@ def run(ctx: ServiceContext, group_index: int) -> None:
     inputs.start()
     try:
         while not ctx.stop.is_set():
-            inputs.wait(feeder.wait_s(points), reports.next_metrics)
+            inputs.wait(feeder.waits_for_ring(points), reports.next_metrics)
             status = inputs.status()
             if status is not None:
                 feeder.on_status(status)

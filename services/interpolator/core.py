@@ -25,10 +25,6 @@ log = logging.getLogger("interpolator")
 
 MAX_BATCH = 50
 """Entries per message: 200 ms of motion at 4 ms, about 1.7 kB."""
-ROOM_CHECK_MAX_S = 0.01
-"""The longest a segment waiting for room sleeps before it looks at the ring again, however far
-off the room is: a cleared ring (STOP_MOTION waits 50 ms for the slots to free) must be seen
-well within that."""
 
 
 def queue_point(points: deque[Point], point: Point, limit: int) -> bool:
@@ -191,21 +187,16 @@ class Feeder:
     def room(self) -> int:
         return self.ring.room()
 
-    def wait_s(self, points: deque[Point]) -> float | None:
-        """How long the caller may sleep before only the executor's ring could let it go on,
-        or None: nothing waits for the ring, so until the next point. The ring takes one entry
-        a period, so a segment short of room sleeps that many periods (at most
-        ``ROOM_CHECK_MAX_S``) instead of waking at every tick to find it still short."""
-        period_s = self.period_ns / 1e9
+    def waits_for_ring(self, points: deque[Point]) -> bool:
+        """Whether only the executor's next queue state can let the feeder go on: a segment
+        short of room, a point checked against a ring this interpolator has not heard of yet,
+        or points before the first queue state. Otherwise the next point can."""
         queue = self.ring.queue
         if queue is None:
-            return period_s if points else None  # the first queue state is on its way
+            return bool(points)
         if self.work is not None:
-            short = min(MAX_BATCH, self.work.remaining) - self.ring.room()
-            return min(max(short, 1) * period_s, ROOM_CHECK_MAX_S)
-        if points and points[0].epoch > queue.epoch:
-            return period_s  # checked against a ring this interpolator has not heard of yet
-        return None
+            return True
+        return bool(points) and points[0].epoch > queue.epoch
 
     def progress(self, points: deque[Point]) -> None:
         """Send what the ring has room for and take new points while the slot is free."""

@@ -10,9 +10,11 @@ robot moves) or a status that nothing had to act on.
 zenoh-python 1.10 has no ``select`` over channels and no ``recv`` with a timeout, so:
 
 - waiting for the ring (a segment short of room, a point waiting for its epoch), the thread
-  sleeps as long as ``core.Feeder.wait_s`` says, since only the ring can let it go on;
-- its metrics and stopping: a ``Waker`` puts an empty sample on the point key at the deadline
-  the thread sets, and once at stop. It never leaves this session (``Locality.SESSION_LOCAL``).
+  blocks on the queue channel's ``recv`` instead: only the executor's next queue state can let
+  it go on, and a cleared ring (STOP_MOTION waits 50 ms for the slots to free) is seen at once;
+- its metrics and stopping: a ``Waker`` puts an empty sample on the key the thread waits on, at
+  the deadline the thread sets and once at stop. It never leaves this session
+  (``Locality.SESSION_LOCAL``).
 """
 
 from __future__ import annotations
@@ -47,10 +49,16 @@ class Inputs:
         self._statuses = session.declare_subscriber(
             keys.controller_status, zenoh.handlers.RingChannel(1)
         )
-        self._doorbell = Doorbell(session, keys.group_point(group))
-        self._waker = Waker(self._doorbell, ctx.stop, "interpolator-waker")
-        self._stop = ctx.stop
+        self._point_bell = Doorbell(session, keys.group_point(group))
+        self._queue_bell = Doorbell(session, keys.group_queue(group))
+        self._waiting_on = self._point_bell
+        self._waker = Waker(self._ring_waiting, ctx.stop, "interpolator-waker")
         self._woken_by: zenoh.Sample | None = None
+        self._queue_woken_by: zenoh.Sample | None = None
+
+    def _ring_waiting(self) -> None:
+        """Ring the doorbell of the channel the thread waits on now."""
+        self._waiting_on.ring()
 
     def start(self) -> None:
         self._waker.start()
@@ -58,18 +66,22 @@ class Inputs:
     def close(self) -> None:
         """Call once stopped (the waker ends with the stop flag)."""
         self._waker.close()
-        self._doorbell.close()
+        self._point_bell.close()
+        self._queue_bell.close()
         for subscriber in (self._points, self._queues, self._statuses):
             subscriber.undeclare()
 
-    def wait(self, sleep_s: float | None, deadline: float) -> None:
-        """Sleep ``sleep_s`` (waiting for the ring), or with None block until a point arrives
+    def wait(self, for_ring: bool, deadline: float) -> None:
+        """Block until the executor's next queue state (``for_ring``) or the next point arrives,
         or ``deadline`` (time.monotonic()) passes; a stop ends either."""
-        if sleep_s is not None:
-            self._stop.wait(sleep_s)
-            return
-        self._waker.wake_at(deadline)
-        self._woken_by = self._points.recv()
+        if for_ring:
+            self._waiting_on = self._queue_bell
+            self._waker.wake_at(deadline)
+            self._queue_woken_by = self._queues.recv()
+        else:
+            self._waiting_on = self._point_bell
+            self._waker.wake_at(deadline)
+            self._woken_by = self._points.recv()
 
     def status(self) -> ControllerStatus | None:
         """The controller's newest status since the last call, if any."""
@@ -77,7 +89,9 @@ class Inputs:
 
     def queue(self) -> QueueState | None:
         """The executor's newest queue state of the group since the last call, if any."""
-        return newest(self._queues, _queue_decoder)
+        woken_by, self._queue_woken_by = self._queue_woken_by, None
+        newer = decoded(self._queues.try_recv(), _queue_decoder)  # None: nothing, or a doorbell
+        return newer if newer is not None else decoded(woken_by, _queue_decoder)
 
     def points(self) -> Iterator[Point]:
         """The points that arrived, in order; doorbells (empty samples) are skipped."""

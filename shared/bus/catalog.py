@@ -160,6 +160,16 @@ ROUTES: tuple[Route, ...] = (
         CommandReply,
     ),
     Route("executor/metrics", Op.PUT, ExecutorMetrics, _roles(EXECUTOR), WATCHERS),
+    # Where the robot was at the newest tick the broadcaster had: a restarted executor resumes
+    # there (the broadcaster follows every tick anyway; nobody else needs them all).
+    Route(
+        "broadcaster/cmd/positions",
+        Op.QUERY,
+        CommandRequest,
+        _roles(EXECUTOR),
+        _roles(BROADCASTER),
+        CommandReply,
+    ),
     Route("gateway/metrics", Op.PUT, GatewayMetrics, _roles(GATEWAY), WATCHERS),
     Route("broadcaster/metrics", Op.PUT, BroadcasterMetrics, _roles(BROADCASTER), WATCHERS),
     Route("state", Op.PUT, State, _roles(BROADCASTER), WATCHERS),

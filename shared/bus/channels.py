@@ -15,6 +15,7 @@ import os
 import select
 import threading
 import time
+from collections.abc import Callable
 from typing import Protocol, TypeVar
 
 import msgspec
@@ -54,15 +55,16 @@ class StopSignal(Protocol):
 
 
 class Waker:
-    """The timer of a thread that blocks in a channel's ``recv()``: rings ``doorbell`` at the
-    deadline its owner sets (``wake_at``) and once at stop. Its own thread sleeps in ``poll``
-    until then, so a service waiting for nothing but its inputs costs no wake-up at all.
+    """The timer of a thread that blocks in a channel's ``recv()``: calls ``ring`` (a doorbell's,
+    or whichever the thread waits behind) at the deadline its owner sets (``wake_at``) and once
+    at stop. Its own thread sleeps in ``poll`` until then, so a service waiting for nothing but
+    its inputs costs no wake-up at all.
 
     A deadline is rung once; the owner sets the next one each time it is about to block.
     """
 
-    def __init__(self, doorbell: Doorbell, stop: StopSignal, name: str) -> None:
-        self._doorbell = doorbell
+    def __init__(self, ring: Callable[[], None], stop: StopSignal, name: str) -> None:
+        self._ring = ring
         self._stop = stop
         self._deadline: float | None = None
         self._lock = threading.Lock()
@@ -97,12 +99,12 @@ class Waker:
                 with self._lock:
                     if self._deadline == deadline:
                         self._deadline = None
-                self._doorbell.ring()
+                self._ring()
                 continue
             poller.poll(None if wait is None else math.ceil(wait * 1000))
             with contextlib.suppress(BlockingIOError):
                 os.read(self._poke_read, 64)
-        self._doorbell.ring()
+        self._ring()
 
     def close(self) -> None:
         """After the stop flag is set: the thread ends, having rung once more."""

@@ -30,6 +30,9 @@ class CellKeys:
     def executor_cmd(self, verb: str) -> str:
         return f"{self.prefix}/executor/cmd/{verb}"
 
+    def broadcaster_cmd(self, verb: str) -> str:
+        return f"{self.prefix}/broadcaster/cmd/{verb}"
+
     def group_point(self, group: int) -> str:
         return f"{self.prefix}/group/{group}/point"
 

@@ -35,6 +35,10 @@ class AxisMap:
             [model.pulses_per_unit[i] for i in order], dtype=np.float64
         )
         self.max_speed_ros: FloatArray = np.array(model.max_speed, dtype=np.float64)
+        self._ros_from_moto = [
+            (int(moto), float(self.pulses_per_unit_moto[moto])) for moto in self.moto_index_of_ros
+        ]
+        """(Motoman index, pulses per unit) of each ROS joint, for ``ros_values``."""
 
     def ros_to_pulses(self, ros: FloatArray) -> IntArray:
         """Absolute pulses (Motoman order) for ROS-order positions; works on (n,) or (k, n).
@@ -52,6 +56,12 @@ class AxisMap:
         moto = np.asarray(pulses[: self.axes], dtype=np.float64) / self.pulses_per_unit_moto
         result: FloatArray = moto[self.moto_index_of_ros]
         return result
+
+    def ros_values(self, pulses: Sequence[float], scale: float = 1.0) -> list[float]:
+        """``pulses_to_ros(pulses) * scale`` as a list, in plain Python: the same arithmetic,
+        so the same values, for the state path's few joints at the state rate, where numpy's
+        per-call cost would be most of the work."""
+        return [pulses[moto] / per_unit * scale for moto, per_unit in self._ros_from_moto]
 
     def max_increments(self, period_s: float) -> list[int]:
         """Pulses per period each Motoman axis can take: the speed limit MotoROS derives from

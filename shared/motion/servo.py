@@ -91,7 +91,7 @@ class Servos:
         self.moved: FloatArray = np.zeros_like(self.command)
         self._at_rest = True
 
-    def step(self, command: Sequence[Sequence[int]]) -> None:
+    def step(self, command: Sequence[Sequence[int]] | IntArray) -> None:
         """One period: the feedback moves toward ``command`` (the commanded pulses after this
         period's increments)."""
         target = np.array(command, dtype=np.float64)

@@ -32,7 +32,6 @@ COMMANDS = (
     "start_traj_mode",
     "stop_traj_mode",
     "select_tool",
-    "positions",
     "read_bit",
     "write_bit",
     "read_group",
@@ -82,8 +81,6 @@ class Dispatcher(Generic[Q]):
         self.model = model
         self.io = io
         self.required_alive = list(required_alive)
-        self.command_pulses: list[list[int]] = []
-        """The newest tick's commanded pulses: what a restarted executor resumes from."""
         self.pending: list[PendingReply[Q]] = []
         self.outbox: list[tuple[Q, CommandReply]] = []
         self.sequence = first_seq
@@ -139,9 +136,7 @@ class Dispatcher(Generic[Q]):
     # -- commands --------------------------------------------------------------------------
     def command(self, verb: str, request: CommandRequest, query: Q, now: float) -> None:
         model = self.model
-        if verb == "positions":
-            self.reply(query, CommandReply(Result.SUCCESS, pulses=self.command_pulses))
-        elif verb == "reset_alarm":
+        if verb == "reset_alarm":
             self.reply(query, CommandReply(model.reset_alarm()))
         elif verb == "start_servos":
             model.eco = False

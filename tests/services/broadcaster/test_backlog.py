@@ -14,7 +14,7 @@ class Socket:
         self.received = bytearray()
         self.writes: list[bytes] = []
 
-    def send(self, data: memoryview) -> int:
+    def send(self, data: bytes | memoryview) -> int:
         if self.room == 0:
             raise BlockingIOError
         taken = bytes(data[: self.room])

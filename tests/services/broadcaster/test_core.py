@@ -25,6 +25,7 @@ from motocell.services.broadcaster.core import (
 from motocell.shared.bus.liveness import AT_REST_HEARTBEAT_S
 from motocell.shared.bus.schemas import Alarm, ControllerStatus, GroupTick, State, Tick
 from motocell.shared.config import Cell, parse_cell
+from motocell.shared.protocol.constants import Result
 from tests.statuses import ready_status
 
 MS = 1_000_000
@@ -578,3 +579,12 @@ def test_the_snapshot_for_the_state_port_has_no_poses() -> None:
     state = Broadcaster(cell(), FakeController()).on_tick(tick(), 0.0)
     assert state is not None
     assert state.groups[0].flange is None
+
+
+def test_a_restarted_executor_resumes_where_the_newest_tick_left_the_robot() -> None:
+    broadcaster = Broadcaster(cell("arm6", "positioner2"), FakeController())
+    assert broadcaster.positions().result == Result.FAILURE  # no tick yet
+    command = [[1, 2, 3, 4, 5, 6, 0, 0], [7, 8, 0, 0, 0, 0, 0, 0]]
+    broadcaster.on_tick(tick(5, 0, *(group_tick(pulses) for pulses in command)), 0.0)
+    reply = broadcaster.positions()
+    assert (reply.result, reply.pulses) == (Result.SUCCESS, command)

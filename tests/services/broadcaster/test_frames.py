@@ -7,9 +7,10 @@ import pytest
 
 from motocell.services.broadcaster.frames import FEEDBACK_FIELDS, state_frames
 from motocell.shared.bus.schemas import GroupState, RobotStatusFields, State
-from motocell.shared.protocol.codec import NEED_DATA, ByteOrder, Role, SimpleMessageCodec
+from motocell.shared.protocol.codec import NEED_DATA, ByteOrder, Role, SimpleMessageCodec, encode
 from motocell.shared.protocol.constants import CommType, MsgType, ReplyType
 from motocell.shared.protocol.messages import JointFeedback, JointFeedbackEx, Message, RobotStatus
+from motocell.shared.protocol.replies import state_message
 
 STATUS = RobotStatusFields(
     drives_powered=1,
@@ -109,3 +110,21 @@ def test_every_frame_is_one_whole_message() -> None:
     """Each is written on its own, so each must decode alone (one message per ``recv``)."""
     frames = state_frames(state(group(0), group(1)), ByteOrder.LITTLE)
     assert [len(read_back(frame)) for frame in frames] == [1, 1, 1, 1]
+
+
+@pytest.mark.parametrize("byte_order", list(ByteOrder))
+@pytest.mark.parametrize("groups", [1, 2, 3, 4])
+def test_the_frames_are_the_codecs_own_encoding(byte_order: ByteOrder, groups: int) -> None:
+    """The broadcaster packs its frames with precompiled structs; byte for byte they are what
+    the protocol's codec encodes for the same messages."""
+    given = state(*(group(index, axes=(6, 7, 2, 1)[index]) for index in range(groups)))
+    blocks = [feedback(g) for g in given.groups]
+    messages = [state_message(MsgType.JOINT_FEEDBACK, block) for block in blocks]
+    if groups >= 2:
+        messages.append(
+            state_message(MsgType.MOTO_JOINT_FEEDBACK_EX, JointFeedbackEx(groups, tuple(blocks)))
+        )
+    messages.append(state_message(MsgType.ROBOT_STATUS, ROBOT_STATUS))
+    assert state_frames(given, byte_order) == tuple(
+        encode(message, byte_order, Role.CONTROLLER) for message in messages
+    )

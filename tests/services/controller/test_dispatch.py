@@ -159,17 +159,6 @@ def test_an_earlier_waiting_reply_is_answered_when_a_later_command_is_handled() 
 # -- positions, tools, I/O ----------------------------------------------------------------
 
 
-def test_positions_are_the_newest_commanded_pulses() -> None:
-    d = dispatcher()
-    d.command_pulses = [[1, 2, 3, 4, 5, 6, 0, 0]]
-    reply = answer(d, "positions")
-    assert (reply.result, reply.pulses) == (Result.SUCCESS, [[1, 2, 3, 4, 5, 6, 0, 0]])
-
-
-def test_positions_before_any_tick_are_empty() -> None:
-    assert answer(dispatcher(), "positions").pulses == []
-
-
 def test_select_tool_sets_the_groups_tool() -> None:
     d = dispatcher(groups=2)
     assert result(answer(d, "select_tool", CommandRequest(group=1, value=7))) == (0, 0)

@@ -14,12 +14,13 @@ STEP = 300
 """Axis-0 pulses per period of the test trajectories."""
 
 
-def moving_core(entries: int = 50) -> ExecutorCore:
-    """A ready one-group core with the default position loop and ``entries`` ramp entries."""
+def moving_core(entries: int = 50, limit: int = 100_000) -> ExecutorCore:
+    """A ready one-group core with the default position loop, ``entries`` ramp entries and
+    every axis's range ``limit`` pulses either side of 0."""
     core = ExecutorCore(
         START,
         FIRST_EPOCH,
-        ranges=[([-100_000] * 8, [100_000] * 8)],
+        ranges=[([-limit] * 8, [limit] * 8)],
         servos=Servos([PositionLoop()], PERIOD_S, START),
     )
     set_ready(core, True)
@@ -93,8 +94,7 @@ def test_servo_off_freezes_the_feedback_and_the_command_follows_it() -> None:
 def test_the_feedback_stays_within_the_joint_range() -> None:
     """A ramp that ends exactly on a limit: the feedback approaches it from inside."""
     upper = 40 * STEP
-    core = moving_core(entries=40)
-    core.ranges = [([-upper] * 8, [upper] * 8)]
+    core = moving_core(entries=40, limit=upper)
     for _ in range(400):
         assert not core.step()
         command, feedback, _ = axis0(core)

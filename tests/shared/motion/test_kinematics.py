@@ -129,3 +129,15 @@ def test_max_increments_of_a_seven_axis_arm_are_in_motoman_order() -> None:
 def test_max_increments_scale_with_the_period() -> None:
     assert ARM6.max_increments(0.001)[0] == 385  # 383.7 up to 384, plus 1
     assert TRACK.max_increments(0.004) == [6001, 0, 0, 0, 0, 0, 0, 0]  # 1.5 m/s in µm
+
+
+@pytest.mark.parametrize("model", ["arm6", "arm7", "positioner2", "track1"])
+def test_ros_values_are_pulses_to_ros_exactly(model: str) -> None:
+    """The state path's plain-Python conversion gives the very floats numpy does."""
+    axis_map = AxisMap(parse_cell({"groups": [{"name": "G", "model": model}]}).groups[0])
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        pulses = rng.integers(-500_000, 500_000, 8).tolist()
+        moved = rng.uniform(-300, 300, 8).tolist()
+        assert axis_map.ros_values(pulses) == axis_map.pulses_to_ros(pulses).tolist()
+        assert axis_map.ros_values(moved, 250.0) == (axis_map.pulses_to_ros(moved) * 250.0).tolist()
