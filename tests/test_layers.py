@@ -1,4 +1,4 @@
-"""The layer rule (ARCHITECTURE.md, first section), enforced on every import in the tree.
+"""The layer rule (ARCHITECTURE.md, The layer rule), enforced on every import in the tree.
 
 tools and bench -> testkit and services -> shared. A service imports no other service; shared
 imports nothing of ours above it; no core (``shared/protocol``, ``shared/motion``, each

@@ -138,7 +138,7 @@ class Feedback:
 
 class Poses:
     """The flange and TCP poses of every arm group, at the feedback and the commanded position
-    (ARCHITECTURE.md, Poses). Positioners and tracks carry no tool, so get none."""
+    (docs/poses.md). Positioners and tracks carry no tool, so get none."""
 
     def __init__(self, cell: Cell) -> None:
         self.chains = {

@@ -114,7 +114,7 @@ class IncrementBatch(msgspec.Struct, array_like=True, frozen=True):
 
 
 class QueueState(msgspec.Struct, array_like=True, frozen=True):
-    """``group/<g>/queue``: the executor's ring for one group, published every tick.
+    """``group/<g>/queue``: the executor's ring for one group, published when it changes.
 
     ``epoch`` changes whenever the ring is cleared; ``received`` is the next entry sequence the
     executor expects in this epoch, so the interpolator knows how many entries are in flight.

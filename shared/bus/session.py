@@ -1,7 +1,7 @@
 """Opening Zenoh sessions the same way in every process, and the small patterns all use.
 
 Multicast scouting is always off: two cells (or two test runs) on one machine must never find
-each other by accident (zenoh-facts §8.1). Processes meet through explicit endpoints instead: a
+each other by accident (docs/topology.md). Processes meet through explicit endpoints instead: a
 local cell's launcher runs a router on loopback that every service connects to; in containers
 the services are clients of a zenohd router.
 """
@@ -31,7 +31,7 @@ log = logging.getLogger(__name__)
 LEASE_MS = 5000
 """Transport lease: how long a process may go unheard before its router closes its session and
 deletes its liveliness tokens, which is when the cell counts it gone. A crash closes the socket
-and is noticed in milliseconds whatever the lease (zenoh-facts §1.4); the lease only bounds how
+and is noticed in milliseconds whatever the lease (docs/liveness.md, section 1); the lease only bounds how
 long a hung (stopped, starved) process passes for alive. Five times the stalls a loaded host
 was seen to cause (issue 12: every service "gone" for about 1 s at load 10-30 with a 1 s lease);
 motion does not wait for it, the executor bounds its own lateness (docs/liveness.md)."""
@@ -43,7 +43,7 @@ REFUSED_GRACE_S = 2.0
 ENCODING = zenoh.Encoding("application/msgpack")
 """What every sample and reply of a cell carries: msgpack (schemas.py). Set on every put and
 reply so Zenoh tools show the format rather than plain bytes; the payload type follows from
-the key (catalog.py). Zenoh 1.x predefines no msgpack encoding (zenoh-facts §1.6), so this is
+the key (catalog.py). Zenoh 1.x predefines no msgpack encoding (docs/payloads.md), so this is
 its free-form MIME type (a few bytes more per sample)."""
 BLOCK_WAIT_US = 500_000
 """A link whose queue stays full this long is closed: one stalled observer (a suspended
@@ -248,7 +248,7 @@ def publisher(
     session: zenoh.Session, key: str, *, realtime: bool = False, latest: bool = False
 ) -> zenoh.Publisher:
     """Streams whose every sample matters (points, increments, status, slots, commands) block
-    rather than drop: DROP loses data under load even on loopback (zenoh-facts §3).
+    rather than drop: DROP loses data under load even on loopback (docs/payloads.md).
     ``latest`` streams (ticks, queue states, state, metrics) are superseded by the next sample
     within milliseconds, so they drop instead: a slow observer then loses samples, never
     stalls the cell."""

@@ -1,6 +1,7 @@
-"""The rest of the cell as the gateway's decisions see it (STYLE 13): the state the adapter keeps
-current, and the few things the gateway asks of other services. ``ZenohCell`` is the real one;
-the unit tests drive the handlers with a fake."""
+"""The rest of the cell as the gateway's decisions see it (docs/conventions.md, World as a
+parameter): the state the adapter keeps current, and the few things the gateway asks of other
+services. ``ZenohCell`` is the real one; the unit tests drive the handlers with a fake.
+"""
 
 from __future__ import annotations
 

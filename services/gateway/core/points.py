@@ -2,7 +2,7 @@
 
 The gateway answers a point from state it already holds (motion-ready, commanded position,
 the pending slot) because a Zenoh round trip alone costs more than a real controller's whole
-0.34 ms reply (DESIGN "Timing and flow"). These functions decide the reply.
+0.34 ms reply (docs/reply-path.md). These functions decide the reply.
 """
 
 from __future__ import annotations
