@@ -26,9 +26,11 @@ import statistics
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -232,6 +234,152 @@ class CpuSampler:
         return rows
 
 
+# -- cost: CPU time and wake-ups of every thread --------------------------------------------
+@dataclass(frozen=True)
+class Usage:
+    """What a thread (or a sum of threads) has used so far."""
+
+    cpu_ns: int
+    """Time on a CPU: ``/proc/<pid>/task/<tid>/schedstat``'s first field (nanoseconds, the
+    scheduler's own account), or utime + stime at the clock tick's resolution where the kernel
+    has no schedstat."""
+    switches: int
+    """Context switches, voluntary (it slept: every wake-up) and not (it was preempted)."""
+
+    def __add__(self, other: Usage) -> Usage:
+        return Usage(self.cpu_ns + other.cpu_ns, self.switches + other.switches)
+
+    def __sub__(self, other: Usage) -> Usage:
+        return Usage(self.cpu_ns - other.cpu_ns, self.switches - other.switches)
+
+
+NO_USAGE = Usage(0, 0)
+
+
+def parse_schedstat(text: str) -> int:
+    """Nanoseconds on a CPU from a ``schedstat`` line (on-CPU ns, run-queue wait ns, slices)."""
+    return int(text.split(maxsplit=1)[0])
+
+
+def parse_switches(status: str) -> int:
+    """Voluntary + nonvoluntary context switches from a ``/proc/.../status`` text."""
+    total = 0
+    for line in status.splitlines():
+        if line.startswith(("voluntary_ctxt_switches:", "nonvoluntary_ctxt_switches:")):
+            total += int(line.split()[1])
+    return total
+
+
+def _thread_usage(task: Path) -> Usage:
+    try:
+        cpu_ns = parse_schedstat((task / "schedstat").read_text())
+    except FileNotFoundError:
+        fields = (task / "stat").read_text().rsplit(")", 1)[-1].split()
+        cpu_ns = (int(fields[11]) + int(fields[12])) * 1_000_000_000 // CLK_TCK
+    return Usage(cpu_ns, parse_switches((task / "status").read_text()))
+
+
+def thread_usage(pid: int) -> dict[int, Usage]:
+    """Every live thread of ``pid`` now (empty once the process is gone)."""
+    found = {}
+    try:
+        tasks = list(Path(f"/proc/{pid}/task").iterdir())
+    except OSError:
+        return {}
+    for task in tasks:
+        with contextlib.suppress(OSError, ValueError, IndexError):
+            found[int(task.name)] = _thread_usage(task)
+    return found
+
+
+def usage_between(before: Mapping[int, Usage], after: Mapping[int, Usage]) -> Usage:
+    """What a process's threads used between two looks: each thread alive at the second look,
+    less what it had at the first (0 for a thread started since). A thread that ended in
+    between is not counted: a cell's services keep their threads for their whole life."""
+    total = NO_USAGE
+    for tid, usage in after.items():
+        total += usage - before.get(tid, NO_USAGE)
+    return total
+
+
+def pss_mib(pid: int) -> float | None:
+    """Proportional set size: the process's own pages plus its share of pages it shares (the
+    interpreter, numpy, Zenoh), so the sum over many processes is the memory they take."""
+    try:
+        for line in Path(f"/proc/{pid}/smaps_rollup").read_text().splitlines():
+            if line.startswith("Pss:"):
+                return int(line.split()[1]) / 1024
+    except OSError:
+        return None
+    return None
+
+
+@dataclass(frozen=True)
+class ProcessCost:
+    """One process over one window."""
+
+    kind: str
+    pid: int
+    cpu_percent: float
+    """Of one core."""
+    wakeups_per_s: float
+    """Context switches per second, all its threads."""
+    rss_mib: float
+    pss_mib: float
+
+
+def process_cost(
+    kind: str, pid: int, used: Usage, seconds: float, *, rss: float, pss: float
+) -> ProcessCost:
+    return ProcessCost(
+        kind, pid, 100.0 * used.cpu_ns / 1e9 / seconds, used.switches / seconds, rss, pss
+    )
+
+
+class CostSampler:
+    """CPU time (nanoseconds, every thread), wake-ups and memory per process over a window.
+    Reading /proc is this process's work, not theirs."""
+
+    def __init__(self, pids: Mapping[int, str]) -> None:
+        self.pids = dict(pids)
+        self.start = {pid: thread_usage(pid) for pid in self.pids}
+        self.start_ns = time.monotonic_ns()
+
+    def finish(self) -> list[ProcessCost]:
+        """Every process alive at both looks."""
+        after = {pid: thread_usage(pid) for pid in self.pids}
+        seconds = (time.monotonic_ns() - self.start_ns) / 1e9
+        rows = []
+        for pid, kind in self.pids.items():
+            rss, pss = rss_mib(pid), pss_mib(pid)
+            if not self.start[pid] or not after[pid] or rss is None or seconds <= 0:
+                continue
+            used = usage_between(self.start[pid], after[pid])
+            rows.append(process_cost(kind, pid, used, seconds, rss=rss, pss=pss or 0.0))
+        return rows
+
+
+def cost_by_kind(rows: Sequence[ProcessCost]) -> dict[str, ProcessCost]:
+    """The processes of each kind added up (the interpolators of a cell, or every cell's
+    executor), in the order the kinds first appear; ``pid`` is the number of processes."""
+    kinds: dict[str, list[ProcessCost]] = {}
+    for row in rows:
+        kinds.setdefault(row.kind, []).append(row)
+    return {kind: total(kind, found) for kind, found in kinds.items()}
+
+
+def total(kind: str, rows: Sequence[ProcessCost]) -> ProcessCost:
+    """``rows`` added up as one (``pid``: how many)."""
+    return ProcessCost(
+        kind,
+        len(rows),
+        sum(r.cpu_percent for r in rows),
+        sum(r.wakeups_per_s for r in rows),
+        sum(r.rss_mib for r in rows),
+        sum(r.pss_mib for r in rows),
+    )
+
+
 # -- cells -----------------------------------------------------------------------------------
 Extensions = tuple[tuple[str, int], ...]
 """Cell-file settings beyond MotoROS's behaviour, as (key, value) pairs."""
@@ -368,6 +516,8 @@ class Observer:
         self.states: list[tuple[int, bytes]] = []
         self._entities: list[Any] = []
         self._tick_channel: Any = None
+        self._drain_lock = threading.Lock()
+        """Several threads may look at the ticks (figure 7: each cell's driver and the windows)."""
         self._tick_decoder = Decoder(Tick)
         self.metrics = self.record(self.keys.metrics("executor"))
 
@@ -383,8 +533,9 @@ class Observer:
         if channel is None:
             return
         store = self.ticks.append
-        while (sample := channel.try_recv()) is not None:
-            store(sample.payload.to_bytes())
+        with self._drain_lock:  # one drain at a time: ticks stay in their order
+            while (sample := channel.try_recv()) is not None:
+                store(sample.payload.to_bytes())
 
     def record_states(self) -> None:
         self.states = self.record(self.keys.state)
