@@ -1,274 +1,607 @@
-"""Figure 7: how many 4-group cells fit on this machine with no missed period.
+"""Figure 7: cells per machine: idle single-arm cells within half the CPU, and four four-group
+cells streaming side by side.
 
     python -m motocell.bench.run --only 7 [--quick]
 
-Each cell is a whole ``motocell up`` with its own router, 4 groups (arm6, arm6, arm7,
-positioner2), the default 10 ms state period, one state client, and a motion client streaming a
-2016 trajectory (every axis swinging 0.2 rad either side of its start, points 200 ms apart, like
-motoman_driver, so every gateway also answers BUSY points) for as long as the figure runs; the
-clients run in processes of their own (``bench.clients``).
+Every cell is a whole ``motocell up`` with its own router (``testkit.cell.running_cell``); CPU
+and wake-ups are every thread's, from /proc, as in figure 10 (``harness.CostSampler``), in % of
+one core for all the cells' processes together.
 
-The goal: with SCHED_FIFO, 0 missed periods in 3 x 60 s for as many cells as fit in 70 % of the
-machine's CPU (two on a 2-core machine). The search (``next_count``, ``fits``):
+**Idle cells.** Single-arm cells (the default cell: one arm6 on a YRC1000) are started one by
+one, nothing connected and nobody subscribed. At each step (1, 2, 4, 8, 12, 16, 20, 24 cells;
+quick: 1 to 4) a window (5 s; quick 2 s) measures them all, after the last start has settled.
+Cells are added until the cap or until a step needs more than half the machine's CPU; the
+largest count within it is then measured for 3 windows of 10 s (quick 2 s), and reported with
+its memory (RSS, and PSS: each process's share of the pages it shares, which adds up) and how
+long the last cell took to start beside the others. Goal: >= 20 cells within 50 % of the
+machine (2 cells on 2 cores would be a whole core).
 
-1. probe: start with 1 cell; after each cell is added and moving, one short window (10 s; quick
-   1 s) measures missed periods (the increase of ``Tick.missed``, all cells) and the CPU of
-   every cell process (from /proc, % of one core, all cells together). Another cell is added
-   while that window had 0 missed periods and CPU under 70 % of the machine, up to a cap
-   (4 cells; quick 2);
-2. verify: the largest probed count that fits is measured for 3 windows of 60 s (quick 2 s)
-   with only that many cells running; if a window misses a period or goes over the CPU limit,
-   one count less is verified, at most ``VERIFICATIONS`` times in all.
+**Moving cells.** Four-group cells (``bench_cell``) are started one by one (quick: 2), each with
+a state client at the default 10 ms and a motion client in processes of their own. Each cell
+is driven as ``motocell demo`` drives one, back to back: rest-to-rest moves of 2 s with 20
+points (the demo's defaults), all 4 groups in each MOTO_JOINT_TRAJ_PT_FULL_EX (2016), streamed
+like motoman_driver (a BUSY point resent after 5 ms), every axis 0.2 rad away from where the
+cell started and back in turn; each move starts where the robot stands. After each cell is
+added and driven, a probe window (10 s; quick 1 s) measures CPU and missed periods; with all of
+them driven, 3 windows of 20 s (quick 2 s): the 60 s of the goal.
 
-Reported: the largest verified count, per probed count its missed periods and CPU, per verified
-count its windows' missed periods, lateness p99 and CPU, and CPU % / RSS per process kind with
-one cell and at the largest count.
+A trajectory is aborted when a point is refused (any reply but SUCCESS and BUSY: NOT_READY,
+INVALID, ...) or when, come to rest, the robot is not exactly at its last point: the
+commanded and the feedback pulses of every axis equal to the last point's positions as the
+wire carried them (float32) in pulses. Goal: 0 aborted, over every trajectory of the figure.
+
+Missed periods are the increase of ``Tick.missed`` over a window, all cells. They are reported
+against the machine's floor: this VM's timer delivery misses periods even for a bare C
+real-time thread (docs/realtime.md), so 0 in every window is not expected here. For the goal
+figure 7 had before (>= 2 four-group cells moving with 0 missed periods within 70 % of the
+CPU) the figure still reports the largest count whose every window had 0 missed periods and
+CPU within 70 % of the machine.
 """
 
 from __future__ import annotations
 
 import contextlib
+import itertools
 import os
-import statistics
+import threading
 import time
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from motocell.bench.clients import StateClientProcess, StreamClientProcess
+import numpy as np
+
+from motocell.bench.clients import StateClientProcess, StreamClientProcess, stream_bound_s
 from motocell.bench.harness import (
-    CpuSampler,
+    START_TIMEOUT_S,
+    CostSampler,
     Observer,
+    ProcessCost,
     bench_cell,
+    cost_by_kind,
     figure_result,
     gc_paused,
-    oscillations,
     percentiles,
     positions_of,
     process_kinds,
-    wait_moving,
+    total,
     workdir,
+    write_cell_file,
 )
-from motocell.testkit.client import ex_messages
+from motocell.shared.bus.schemas import Tick
+from motocell.shared.config import Cell
+from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.protocol.constants import Command, Result
+from motocell.testkit.cell import RunningCell, running_cell
+from motocell.testkit.client import ex_messages, smooth_move
 
 FIGURE = 7
-CPU_SHARE = 0.7
-"""Of the machine's CPU, for the cells' processes together."""
-MAX_CELLS = 4
-QUICK_MAX_CELLS = 2
+KINDS = ("launcher+router", "controller", "executor", "broadcaster", "gateway", "interpolator")
+
+# -- idle cells --------------------------------------------------------------------------------
+IDLE_SHARE = 0.5
+"""Of the machine's CPU, for all the idle cells' processes together."""
+IDLE_COUNT_GOAL = 20
+IDLE_STEPS = (1, 2, 4, 8, 12, 16, 20, 24)
+QUICK_IDLE_STEPS = (1, 2, 3, 4)
+STEP_S = 5.0
+QUICK_STEP_S = 2.0
+IDLE_WINDOWS = 3
+IDLE_WINDOW_S = 10.0
+QUICK_IDLE_WINDOW_S = 2.0
+IDLE_SETTLE_S = 3.0
+"""After the step's last start: its start-up burst passes and its clock comes to rest."""
+QUICK_IDLE_SETTLE_S = 2.0
+
+# -- moving cells ------------------------------------------------------------------------------
+MOVING_CELLS = 4
+QUICK_MOVING_CELLS = 2
+MOVING_SHARE = 0.7
+"""Figure 7's former limit, of the machine's CPU."""
+MOVING_COUNT_GOAL = 2
+MOVE_RAD = 0.2
+MOVE_S = 2.0
+MOVE_POINTS = 20
+"""``motocell demo``'s defaults."""
 PROBE_S = 10.0
 QUICK_PROBE_S = 1.0
 WINDOWS = 3
-WINDOW_S = 60.0
+WINDOW_S = 20.0
 QUICK_WINDOW_S = 2.0
-VERIFICATIONS = 2
-COUNT_GOAL = 2
-"""Cells the goal expects on a 2-core machine."""
-AMPLITUDE = 0.2
-SWING_PERIOD_S = 20.0
-POINT_INTERVAL_S = 0.2
 SETTLE_S = 1.0
-"""After a cell is added: its start-up burst passes."""
-KINDS = (
-    "launcher+router",
-    "controller",
-    "executor",
-    "broadcaster",
-    "interpolator",
-    "gateway",
-)
+"""After a cell is added and driven: its start-up burst passes."""
+STILL_TIMEOUT_S = 20.0
+RECOVER_TIMEOUT_S = 30.0
 
 
-def cpu_limit(cpus: int) -> float:
-    """CPU_SHARE of the machine, in % of one core."""
-    return CPU_SHARE * cpus * 100.0
+def share_limit(share: float, cpus: int) -> float:
+    """``share`` of the machine, in % of one core."""
+    return share * cpus * 100.0
 
 
-def fits(missed: float, cpu: float, limit: float) -> bool:
-    return missed == 0 and cpu <= limit
+# -- idle cells --------------------------------------------------------------------------------
+def idle_steps(quick: bool) -> tuple[int, ...]:
+    return QUICK_IDLE_STEPS if quick else IDLE_STEPS
 
 
-def next_count(cells: int, missed: float, cpu: float, limit: float, cap: int) -> int | None:
-    """After probing ``cells`` cells: how many to probe next, or None when the search stops
-    (a missed period, the CPU over the limit, or the cap)."""
-    if not fits(missed, cpu, limit) or cells >= cap:
-        return None
-    return cells + 1
-
-
-class Loaded:
-    """One cell with a state client and a motion client streaming until it is closed."""
-
-    def __init__(self, directory: Path, name: str, seconds: float) -> None:
-        self.stack = contextlib.ExitStack()
-        try:
-            self._start(directory, name, seconds)
-        except BaseException:
-            self.stack.close()
-            raise
-
-    def _start(self, directory: Path, name: str, seconds: float) -> None:
-        stack = self.stack
-        self.cell = stack.enter_context(bench_cell(directory, name))
-        self.observer = stack.enter_context(Observer(self.cell))
-        self.observer.record_ticks()
-        state = StateClientProcess(self.cell, directory / f"{name}-state.npz", seconds)
-        stack.callback(state.kill)
-        streamer = stack.enter_context(StreamClientProcess(self.cell, directory))
-        streamer.start_traj_mode()
-        starts = positions_of(self.cell.cell, self.observer.wait_still())
-        plans = oscillations(starts, AMPLITUDE, SWING_PERIOD_S, seconds, POINT_INTERVAL_S)
-        mark = self.observer.mark()
-        streamer.begin(ex_messages(plans), seconds)
-        stack.callback(streamer.end)
-        wait_moving(self.observer, mark)
-
-    def close(self) -> None:
-        self.stack.close()
+def largest_within(cpu_by_count: Mapping[int, float], limit: float) -> int:
+    """The largest count measured within ``limit`` with every smaller count measured within it
+    too (0 if even the first is over)."""
+    largest = 0
+    for count in sorted(cpu_by_count):
+        if cpu_by_count[count] > limit:
+            break
+        largest = count
+    return largest
 
 
 @dataclass(frozen=True)
 class Window:
-    """One measuring window over every loaded cell."""
+    """One measuring window over every running cell."""
 
-    missed: float
-    lateness_p99_us: float
-    total_cpu: float
-    by_kind: dict[str, tuple[float, float]]
-    """Mean CPU (% of a core) and RSS per process kind that ran."""
+    rows: list[ProcessCost]
+    start_ns: int
+    end_ns: int
+
+    @property
+    def cpu(self) -> float:
+        return total("all", self.rows).cpu_percent
 
 
-def measure_window(cells: Sequence[Loaded], window_s: float) -> Window:
-    marks = [c.observer.mark() for c in cells]
-    sampler = CpuSampler({p: k for c in cells for p, k in process_kinds(c.cell).items()})
-    time.sleep(window_s)
+def measure(cells: Sequence[RunningCell], seconds: float) -> Window:
+    sampler = CostSampler({p: k for c in cells for p, k in process_kinds(c).items()})
+    time.sleep(seconds)
     rows = sampler.finish()
-    missed = 0
-    lateness: list[float] = []
-    for c, mark in zip(cells, marks, strict=True):
-        ticks = c.observer.ticks_since(mark - 1)
-        if not any(any(g.increment) for t in ticks for g in t.groups):
-            raise RuntimeError(f"cell {c.cell.cell.name} stopped moving")
-        missed += ticks[-1].missed - ticks[0].missed
-        lateness += [t.lateness_ns / 1000 for t in ticks[1:]]
-    by_kind = {}
-    for kind in KINDS:
-        cpu = [r[2] for r in rows if r[0] == kind]
-        rss = [r[3] for r in rows if r[0] == kind]
-        if cpu:
-            by_kind[kind] = (statistics.mean(cpu), statistics.mean(rss))
-    return Window(float(missed), percentiles(lateness, (99,))[0], sum(r[2] for r in rows), by_kind)
+    return Window(rows, sampler.start_ns, time.monotonic_ns())
 
 
 @dataclass
-class Search:
-    """What the figure measured."""
-
+class IdleFill:
     limit: float
-    probes: dict[int, Window]
-    verified: dict[int, list[Window]]
-    largest: int
+    steps: dict[int, Window] = field(default_factory=dict)
+    largest: int = 0
+    windows: list[Window] = field(default_factory=list)
+    start_s: dict[int, float] = field(default_factory=dict)
+    """Per count: how long that cell took to start (spawn -> whole), the others idle."""
 
 
-def search(quick: bool) -> Search:
-    cap = QUICK_MAX_CELLS if quick else MAX_CELLS
-    probe_s = QUICK_PROBE_S if quick else PROBE_S
-    window_s = QUICK_WINDOW_S if quick else WINDOW_S
-    limit = cpu_limit(os.cpu_count() or 1)
-    seconds = cap * (probe_s + 30.0) + VERIFICATIONS * WINDOWS * window_s + 60.0
-    found = Search(limit, {}, {}, 0)
-    cells: list[Loaded] = []
-    with contextlib.ExitStack() as stack:
-        directory = stack.enter_context(workdir())
-        stack.callback(_close_all, cells)
-        stack.enter_context(gc_paused())
-        count: int | None = 1
-        while count is not None:
-            cells.append(Loaded(directory, f"scale{count}", seconds))
-            time.sleep(SETTLE_S)
-            probe = found.probes[count] = measure_window(cells, probe_s)
-            count = next_count(len(cells), probe.missed, probe.total_cpu, limit, cap)
-        candidate = max(
-            (n for n, w in found.probes.items() if fits(w.missed, w.total_cpu, limit)), default=0
-        )
-        for _ in range(VERIFICATIONS):
-            if candidate == 0:
+def fill_idle(directory: Path, quick: bool) -> IdleFill:
+    found = IdleFill(share_limit(IDLE_SHARE, os.cpu_count() or 1))
+    settle = QUICK_IDLE_SETTLE_S if quick else IDLE_SETTLE_S
+    cells: list[tuple[contextlib.ExitStack, RunningCell]] = []
+    try:
+        for target in idle_steps(quick):
+            while len(cells) < target:
+                cells.append(_idle_cell(directory, len(cells) + 1, found))
+            time.sleep(settle)
+            step = found.steps[target] = measure([c for _, c in cells], _step_s(quick))
+            if step.cpu > found.limit:
                 break
-            while len(cells) > candidate:
-                cells.pop().close()
-            windows = found.verified[candidate] = [
-                measure_window(cells, window_s) for _ in range(WINDOWS)
-            ]
-            if all(fits(w.missed, w.total_cpu, limit) for w in windows):
-                found.largest = candidate
-                break
-            candidate -= 1
+        found.largest = largest_within({n: w.cpu for n, w in found.steps.items()}, found.limit)
+        while len(cells) > found.largest:
+            cells.pop()[0].close()
+        if cells:
+            time.sleep(settle)
+            seconds = QUICK_IDLE_WINDOW_S if quick else IDLE_WINDOW_S
+            found.windows = [measure([c for _, c in cells], seconds) for _ in range(IDLE_WINDOWS)]
+    finally:
+        while cells:
+            cells.pop()[0].close()
     return found
 
 
-def _close_all(cells: list[Loaded]) -> None:
-    while cells:
-        cells.pop().close()
+def _step_s(quick: bool) -> float:
+    return QUICK_STEP_S if quick else STEP_S
 
 
-def run(quick: bool) -> list[dict[str, Any]]:
-    found = search(quick)
+def _idle_cell(
+    directory: Path, number: int, found: IdleFill
+) -> tuple[contextlib.ExitStack, RunningCell]:
+    config = write_cell_file(directory, f"idle{number}", models=("arm6",))
+    stack = contextlib.ExitStack()
+    begun = time.monotonic()
+    cell = stack.enter_context(
+        running_cell(
+            config, log=directory / f"idle{number}.log", timeout=START_TIMEOUT_S, attempts=2
+        )
+    )
+    found.start_s[number] = time.monotonic() - begun
+    return stack, cell
+
+
+# -- moving cells ------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Trajectory:
+    cell: str
+    ended_ns: int
+    points: int
+    error: str
+    """The motion client's (``point 7 refused: NOT_READY ...``); empty when every point was
+    taken."""
+    refused: int
+    """The refusing reply's result (0: none)."""
+    off_pulses: int
+    """At rest, the largest |commanded or feedback pulses - last point| of any axis; -1 when
+    not judged (a point was refused)."""
+
+    @property
+    def aborted(self) -> bool:
+        return bool(self.error) or self.off_pulses != 0
+
+
+def target_pulses(cell: Cell, goal: Mapping[int, Sequence[float]]) -> dict[int, np.ndarray]:
+    """Each group's last point in pulses, as the wire carries its positions (float32)."""
+    result = {}
+    for group in cell.groups:
+        wire = np.asarray(goal[group.index], dtype=np.float32).astype(np.float64)
+        result[group.index] = AxisMap(group).ros_to_pulses(wire)
+    return result
+
+
+def off_goal_pulses(tick: Tick, targets: Mapping[int, np.ndarray]) -> int:
+    """The largest difference, in pulses, between the tick's commanded or feedback position and
+    the target, over every axis of every group."""
+    worst = 0
+    for index, target in targets.items():
+        group = tick.groups[index]
+        axes = len(target)
+        for pulses in (group.command_pulses[:axes], group.feedback_pulses[:axes]):
+            worst = max(worst, int(np.max(np.abs(np.asarray(pulses) - target))))
+    return worst
+
+
+def is_still(tick: Tick) -> bool:
+    return all(
+        g.depth == 0 and not any(g.increment) and not any(g.feedback_moved) for g in tick.groups
+    )
+
+
+def result_name(result: int) -> str:
+    try:
+        return Result(result).name
+    except ValueError:
+        return f"result {result}"
+
+
+def aborted_by_kind(trajectories: Sequence[Trajectory]) -> dict[str, int]:
+    """Aborted trajectories by why: the refusing reply's result, or ``not exactly at the end``."""
+    kinds: dict[str, int] = {}
+    for t in trajectories:
+        if not t.aborted:
+            continue
+        name = result_name(t.refused) if t.error else "not exactly at the end"
+        kinds[name] = kinds.get(name, 0) + 1
+    return kinds
+
+
+class DemoCell:
+    """A four-group cell with a state client, driven like ``motocell demo`` in a thread of its
+    own until ``stop``."""
+
+    def __init__(self, directory: Path, name: str, seconds: float) -> None:
+        self.name = name
+        self.done: list[Trajectory] = []
+        self.failure: BaseException | None = None
+        self.stack = contextlib.ExitStack()
+        self._stopping = threading.Event()
+        try:
+            self._start(directory, seconds)
+        except BaseException:
+            self.stack.close()
+            raise
+        self.thread = threading.Thread(target=self._drive, name=f"drive-{name}", daemon=True)
+        self.thread.start()
+
+    def _start(self, directory: Path, seconds: float) -> None:
+        stack = self.stack
+        self.cell = stack.enter_context(bench_cell(directory, self.name))
+        self.observer = stack.enter_context(Observer(self.cell))
+        self.observer.record_ticks()
+        state = StateClientProcess(self.cell, directory / f"{self.name}-state.npz", seconds)
+        stack.callback(state.kill)
+        self.streamer = stack.enter_context(StreamClientProcess(self.cell, directory))
+        self.streamer.start_traj_mode()
+        self.here = self.observer.wait_still()
+        home = positions_of(self.cell.cell, self.here)
+        away = {g: tuple(p + MOVE_RAD for p in ps) for g, ps in home.items()}
+        self.goals = [away, home]
+
+    def _drive(self) -> None:
+        try:
+            for index in itertools.count():
+                if self._stopping.is_set():
+                    return
+                self.done.append(self._move(self.goals[index % 2]))
+        except BaseException as exc:
+            self.failure = exc
+
+    def _move(self, goal: Mapping[int, tuple[float, ...]]) -> Trajectory:
+        cell = self.cell.cell
+        start = positions_of(cell, self.here)
+        plans = {g: smooth_move(start[g], goal[g], MOVE_S, MOVE_POINTS) for g in start}
+        record = self.streamer.stream(ex_messages(plans), stream_bound_s(MOVE_S))
+        if record.error:
+            refused = int(record.result[-1]) if len(record.result) else 0
+            self._recover()
+            return Trajectory(
+                self.name, time.monotonic_ns(), record.points, record.error, refused, -1
+            )
+        self.here = self._still()
+        off = off_goal_pulses(self.here, target_pulses(cell, goal))
+        return Trajectory(self.name, time.monotonic_ns(), record.points, "", 0, off)
+
+    def _still(self) -> Tick:
+        """The robot at rest: the next still tick, or the last tick if the clock already rests
+        (a resting tick says the cell stays exactly so)."""
+        try:
+            return self.observer.wait_still(STILL_TIMEOUT_S)
+        except TimeoutError:
+            tick = self.observer.latest_tick()
+            if tick.resting and is_still(tick):
+                return tick
+            raise
+
+    def _recover(self) -> None:
+        """START_TRAJ_MODE until it succeeds (after an alarm), then from wherever it stands."""
+        deadline = time.monotonic() + RECOVER_TIMEOUT_S
+        while True:
+            result, subcode = self.streamer.command(Command.START_TRAJ_MODE)
+            if result == Result.SUCCESS:
+                break
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"{self.name}: START_TRAJ_MODE refused ({result}, {subcode})")
+            time.sleep(0.5)
+        self.here = self._still()
+
+    def stop(self) -> None:
+        """Let the move under way end, and stop driving."""
+        self._stopping.set()
+        self.thread.join(STILL_TIMEOUT_S + stream_bound_s(MOVE_S))
+        if self.thread.is_alive():
+            raise RuntimeError(f"{self.name}: its move did not end")
+
+    def check(self) -> None:
+        if self.failure is not None:
+            raise RuntimeError(f"{self.name}: driving failed: {self.failure}") from self.failure
+
+    def close(self) -> None:
+        with contextlib.suppress(RuntimeError):
+            self.stop()
+        self.stack.close()
+
+
+@dataclass(frozen=True)
+class MovingWindow:
+    window: Window
+    missed: int
+    lateness_p99_us: float
+    cells: int
+
+
+def measure_moving(cells: Sequence[DemoCell], seconds: float) -> MovingWindow:
+    marks = [c.observer.mark() for c in cells]
+    window = measure([c.cell for c in cells], seconds)
+    missed = 0
+    lateness: list[float] = []
+    for c, mark in zip(cells, marks, strict=True):
+        c.check()
+        ticks = c.observer.ticks_since(max(0, mark - 1))
+        if len(ticks) >= 2:
+            missed += ticks[-1].missed - ticks[0].missed
+            lateness += [t.lateness_ns / 1000 for t in ticks[1:]]
+    return MovingWindow(window, missed, percentiles(lateness, (99,))[0], len(cells))
+
+
+@dataclass
+class Moving:
+    limit: float
+    probes: dict[int, MovingWindow] = field(default_factory=dict)
+    windows: list[MovingWindow] = field(default_factory=list)
+    trajectories: list[Trajectory] = field(default_factory=list)
+
+
+def drive_moving(directory: Path, quick: bool) -> Moving:
+    count = QUICK_MOVING_CELLS if quick else MOVING_CELLS
+    probe_s = QUICK_PROBE_S if quick else PROBE_S
     window_s = QUICK_WINDOW_S if quick else WINDOW_S
+    seconds = count * (probe_s + 60.0) + WINDOWS * window_s + 120.0
+    found = Moving(share_limit(MOVING_SHARE, os.cpu_count() or 1))
+    cells: list[DemoCell] = []
+    try:
+        with gc_paused():
+            while len(cells) < count:
+                cells.append(DemoCell(directory, f"scale{len(cells) + 1}", seconds))
+                time.sleep(SETTLE_S)
+                if len(cells) < count:
+                    found.probes[len(cells)] = measure_moving(cells, probe_s)
+            found.windows = [measure_moving(cells, window_s) for _ in range(WINDOWS)]
+            for cell in cells:
+                cell.stop()
+                cell.check()
+    finally:
+        for cell in cells:
+            found.trajectories += cell.done
+        while cells:
+            cells.pop().close()
+    return found
+
+
+def largest_moving(found: Moving) -> int:
+    """The largest count whose windows (probe, or the 3 windows at the full count) all had 0
+    missed periods and CPU within the limit, every smaller count too."""
+    by_count: dict[int, list[MovingWindow]] = {n: [w] for n, w in found.probes.items()}
+    if found.windows:
+        by_count[found.windows[0].cells] = found.windows
+    largest = 0
+    for n in sorted(by_count):
+        if not all(w.missed == 0 and w.window.cpu <= found.limit for w in by_count[n]):
+            break
+        largest = n
+    return largest
+
+
+def ended_within(trajectories: Sequence[Trajectory], window: Window) -> list[Trajectory]:
+    return [t for t in trajectories if window.start_ns <= t.ended_ns <= window.end_ns]
+
+
+# -- results -----------------------------------------------------------------------------------
+def run(quick: bool) -> list[dict[str, Any]]:
+    with workdir() as directory:
+        idle = fill_idle(directory, quick)
+        moving = drive_moving(directory, quick)
+    return idle_results(idle, quick) + moving_results(moving, quick)
+
+
+def _per_kind(tag: str, windows: Sequence[Window]) -> list[dict[str, Any]]:
+    results = []
+    kinds = [cost_by_kind(w.rows) for w in windows]
+    for kind in KINDS:
+        values = [k[kind].cpu_percent for k in kinds if kind in k]
+        if values:
+            name = f"{tag}   {kind} x{kinds[0][kind].pid}, together"
+            results.append(figure_result(FIGURE, name, "% of 1 core", values))
+    return results
+
+
+def idle_results(idle: IdleFill, quick: bool) -> list[dict[str, Any]]:
+    seconds = QUICK_IDLE_WINDOW_S if quick else IDLE_WINDOW_S
+    cap = idle_steps(quick)[-1]
+    n = idle.largest
+    tag = f"[{n} idle single-arm cells]"
+    totals = [total("all", w.rows) for w in idle.windows]
     results = [
         figure_result(
             FIGURE,
-            f"largest N with 0 missed periods and CPU <= {found.limit:g} % of a core",
+            f"idle single-arm cells within {idle.limit:g} % of a core (cap {cap})",
             "cells",
-            [found.largest],
-            goal=(">=", COUNT_GOAL),
-            note=f"{WINDOWS} x {window_s:g} s windows at that N; 4-group cells",
-        )
+            [n],
+            goal=(">=", IDLE_COUNT_GOAL),
+            note=f"{IDLE_WINDOWS} x {seconds:g} s windows at that count",
+        ),
+        figure_result(
+            FIGURE, f"{tag} CPU, all processes", "% of 1 core", [t.cpu_percent for t in totals]
+        ),
+        figure_result(
+            FIGURE,
+            f"{tag} CPU per cell",
+            "% of 1 core",
+            [t.cpu_percent / max(1, n) for t in totals],
+        ),
+        figure_result(
+            FIGURE, f"{tag} wake-ups, all processes", "1/s", [t.wakeups_per_s for t in totals]
+        ),
+        figure_result(FIGURE, f"{tag} RSS, all processes", "MiB", [t.rss_mib for t in totals]),
+        figure_result(FIGURE, f"{tag} PSS, all processes", "MiB", [t.pss_mib for t in totals]),
     ]
-    for n, probe in found.probes.items():
-        results += [
-            figure_result(
-                FIGURE, f"N={n} probe: missed periods, all cells", "periods", [probe.missed]
-            ),
-            figure_result(
-                FIGURE, f"N={n} probe: CPU of all cell processes", "% of 1 core", [probe.total_cpu]
-            ),
-        ]
-    for n, windows in found.verified.items():
-        results += [
+    results += _per_kind(tag, idle.windows)
+    if n in idle.start_s:
+        results.append(
             figure_result(
                 FIGURE,
-                f"N={n}: missed periods, all cells",
-                "periods",
-                [w.missed for w in windows],
-                goal=("==", 0),
-                rule="all",
-            ),
+                f"{tag} start of the last cell (spawn -> whole), the others idle",
+                "s",
+                [idle.start_s[n]],
+            )
+        )
+    for count, step in idle.steps.items():
+        results.append(
             figure_result(
-                FIGURE, f"N={n}: executor lateness p99", "us", [w.lateness_p99_us for w in windows]
-            ),
-            figure_result(
-                FIGURE,
-                f"N={n}: CPU of all cell processes",
-                "% of 1 core",
-                [w.total_cpu for w in windows],
-                goal=("<=", found.limit),
-                rule="all",
-            ),
-        ]
-    return results + _per_kind(found)
-
-
-def _per_kind(found: Search) -> list[dict[str, Any]]:
-    """CPU and RSS per process kind with one cell (its probe) and at the largest count."""
-    views = {1: [found.probes[1]]} if 1 in found.probes else {}
-    if found.largest in found.verified:
-        views[found.largest] = found.verified[found.largest]
-    results = []
-    for n, windows in views.items():
-        for column, unit, label in ((0, "% of 1 core", "CPU"), (1, "MiB", "RSS")):
-            for kind in KINDS:
-                values = [w.by_kind[kind][column] for w in windows if kind in w.by_kind]
-                if values:
-                    results.append(figure_result(FIGURE, f"N={n}: {kind} {label}", unit, values))
+                FIGURE, f"  step: {count} idle cells, CPU, all processes", "% of 1 core", [step.cpu]
+            )
+        )
     return results
+
+
+def moving_results(moving: Moving, quick: bool) -> list[dict[str, Any]]:
+    window_s = QUICK_WINDOW_S if quick else WINDOW_S
+    n = moving.windows[0].cells if moving.windows else 0
+    tag = f"[{n} four-group cells moving]"
+    every = moving.trajectories
+    results = [
+        figure_result(
+            FIGURE,
+            "trajectories aborted, every cell, the whole figure",
+            "trajectories",
+            [sum(t.aborted for t in every)],
+            goal=("==", 0),
+            note=f"of {len(every)}; {aborted_text(every)}",
+        ),
+        figure_result(
+            FIGURE,
+            f"{tag} trajectories ended per window",
+            "trajectories",
+            [len(ended_within(every, w.window)) for w in moving.windows],
+            note=f"{WINDOWS} windows of {window_s:g} s; 2 s demo moves, 4 groups in 2016",
+        ),
+        figure_result(
+            FIGURE,
+            f"{tag} trajectories aborted per window",
+            "trajectories",
+            [sum(t.aborted for t in ended_within(every, w.window)) for w in moving.windows],
+            goal=("==", 0),
+            rule="all",
+        ),
+        figure_result(
+            FIGURE,
+            f"{tag} missed periods, all cells",
+            "periods",
+            [w.missed for w in moving.windows],
+            note="this VM's floor applies (docs/realtime.md)",
+        ),
+        figure_result(
+            FIGURE,
+            f"{tag} executor lateness p99",
+            "us",
+            [w.lateness_p99_us for w in moving.windows],
+        ),
+        figure_result(
+            FIGURE,
+            f"{tag} CPU, all processes",
+            "% of 1 core",
+            [w.window.cpu for w in moving.windows],
+        ),
+        figure_result(
+            FIGURE,
+            f"{tag} wake-ups, all processes",
+            "1/s",
+            [total("all", w.window.rows).wakeups_per_s for w in moving.windows],
+        ),
+        figure_result(
+            FIGURE,
+            f"{tag} PSS, all processes",
+            "MiB",
+            [total("all", w.window.rows).pss_mib for w in moving.windows],
+        ),
+    ]
+    results += _per_kind(tag, [w.window for w in moving.windows])
+    for count, probe in moving.probes.items():
+        results += [
+            figure_result(
+                FIGURE,
+                f"  probe: {count} moving, CPU, all processes",
+                "% of 1 core",
+                [probe.window.cpu],
+            ),
+            figure_result(
+                FIGURE, f"  probe: {count} moving, missed periods", "periods", [probe.missed]
+            ),
+        ]
+    results.append(
+        figure_result(
+            FIGURE,
+            f"four-group cells moving with 0 missed periods, CPU <= {moving.limit:g} % of a core",
+            "cells",
+            [largest_moving(moving)],
+            goal=(">=", MOVING_COUNT_GOAL),
+            note="figure 7's former goal; probes of 1..N-1 cells, the N cells' windows",
+        )
+    )
+    return results
+
+
+def aborted_text(trajectories: Sequence[Trajectory]) -> str:
+    kinds = aborted_by_kind(trajectories)
+    if not kinds:
+        return "none aborted"
+    return ", ".join(f"{name} {count}" for name, count in sorted(kinds.items()))

@@ -7,7 +7,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from motocell.bench.bench_scale import cpu_limit, fits, next_count
 from motocell.bench.bench_streaming import empty_periods, slot_turnaround_ms
 from motocell.bench.harness import ExecutorModes, oscillations, write_cell_file
 from motocell.bench.run import conditions, load_limit, load_warning, warnings
@@ -54,30 +53,6 @@ def test_turnaround_runs_from_the_success_to_the_first_slot_report_covering_the_
 
 def test_points_without_a_covering_report_yet_are_left_out() -> None:
     assert slot_turnaround_ms(np.array([1, 2]), [(0, 5), (1, 6)], [(10, 5)]) == [9e-6]
-
-
-# -- the scale search --------------------------------------------------------------------------
-
-
-def test_the_cpu_limit_is_seventy_percent_of_the_machine() -> None:
-    assert cpu_limit(2) == pytest.approx(140.0)
-
-
-def test_cells_are_added_while_none_misses_a_period_and_the_cpu_fits() -> None:
-    assert next_count(1, missed=0, cpu=45.0, limit=140.0, cap=4) == 2
-    assert next_count(2, missed=0, cpu=90.0, limit=140.0, cap=4) == 3
-
-
-def test_the_search_stops_at_a_missed_period_the_cpu_limit_or_the_cap() -> None:
-    assert next_count(2, missed=1, cpu=90.0, limit=140.0, cap=4) is None
-    assert next_count(3, missed=0, cpu=150.0, limit=140.0, cap=4) is None
-    assert next_count(4, missed=0, cpu=100.0, limit=140.0, cap=4) is None
-
-
-def test_a_count_fits_with_no_missed_period_within_the_cpu_limit() -> None:
-    assert fits(0, 140.0, 140.0)
-    assert not fits(1, 10.0, 140.0)
-    assert not fits(0, 140.5, 140.0)
 
 
 # -- run conditions ----------------------------------------------------------------------------
