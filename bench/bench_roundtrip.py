@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import contextlib
 import time
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -112,10 +113,27 @@ def _one_run(
 
 def run(quick: bool) -> list[dict[str, Any]]:
     counts = (QUICK_COMMANDS, QUICK_POINTS) if quick else (COMMANDS, POINTS)
+    series, gateway_metrics = measure(counts, [""] * RUNS)
+    return _results(series[""]) + _internal_results(gateway_internal(gateway_metrics))
+
+
+def series_names() -> list[str]:
     names = [*COMMAND_MESSAGES, *(n + MOVING for n in COMMAND_MESSAGES)]
     for kind in ("14", "2016 x4 groups"):
         names += [f"point {kind}, SUCCESS", f"point {kind}, BUSY"]
-    series: Series = {name: [] for name in names}
+    return names
+
+
+def measure(
+    counts: tuple[int, int],
+    conditions: Sequence[str],
+    before_run: Callable[[int], None] | None = None,
+) -> tuple[dict[str, Series], list[tuple[int, bytes]]]:
+    """One run per entry of ``conditions`` (its label), on one cell, ``before_run(index)``
+    called before each (figure 11 starts or stops a neighbour cell there); the round trips per
+    label, and the gateway's metrics samples. Runs go up and back in pairs, so every label
+    sees both directions when it has two runs or more."""
+    series: dict[str, Series] = {c: {name: [] for name in series_names()} for c in conditions}
     with contextlib.ExitStack() as stack:
         directory = stack.enter_context(workdir())
         cell = stack.enter_context(bench_cell(directory, "bench4"))
@@ -127,12 +145,23 @@ def run(quick: bool) -> list[dict[str, Any]]:
         streamer = stack.enter_context(StreamClientProcess(cell, directory))
         stack.enter_context(gc_paused())
         streamer.start_traj_mode()
-        for index in range(RUNS):
-            direction = 1.0 if index % 2 == 0 else -1.0
-            _one_run(cell, observer, streamer, counts=counts, direction=direction, series=series)
+        for index, condition in enumerate(conditions):
+            if before_run is not None:
+                before_run(index)
+            direction = 1.0 if direction_index(index, len(set(conditions))) % 2 == 0 else -1.0
+            run_series = series[condition]
+            _one_run(
+                cell, observer, streamer, counts=counts, direction=direction, series=run_series
+            )
         observer.wait_still()
         time.sleep(1.2)  # the last second's gateway/metrics
-    return _results(series) + _internal_results(gateway_internal(gateway_metrics))
+    return series, gateway_metrics
+
+
+def direction_index(index: int, labels: int) -> int:
+    """Runs of ``labels`` interleaved conditions go the same way in each round: A+ B+ A- B- ...;
+    one condition alternates run by run (+ - + ...)."""
+    return index // max(1, labels)
 
 
 def _results(series: Series) -> list[dict[str, Any]]:

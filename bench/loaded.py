@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import itertools
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -82,7 +83,7 @@ def loaded_runs(runs: int, seconds: float) -> list[LoadedRun]:
     measures, the second reuses them, and the executor modes seen then (``EXECUTOR_MODES``)."""
     key = (runs, seconds)
     if key not in _loaded_cache:
-        measured = _measure_loaded(runs, seconds)
+        measured = measure_loaded(runs, seconds)
         _loaded_cache[key] = (measured, set(EXECUTOR_MODES.seen))
     measured, modes = _loaded_cache[key]
     for realtime in modes:
@@ -99,14 +100,22 @@ class _Window:
     record: StreamRecord
 
 
-def _measure_loaded(runs: int, seconds: float) -> list[LoadedRun]:
+def measure_loaded(
+    runs: int,
+    seconds: float,
+    before_window: Callable[[int], None] | None = None,
+    extra_s: float = 0.0,
+) -> list[LoadedRun]:
+    """``runs`` windows of ``seconds`` on one loaded cell; ``before_window(run)`` is called
+    before each (figure 11 starts or stops a neighbour cell there), ``extra_s`` is what it may
+    take in all (the state clients' records are sized for it)."""
     with contextlib.ExitStack() as stack:
         directory = stack.enter_context(workdir())
         cell = stack.enter_context(bench_cell(directory, "bench34", state_period_ms=4.0))
         observer = stack.enter_context(Observer(cell))
         observer.record_ticks()
         observer.record_states()
-        recording_s = runs * (seconds + RUN_OVERHEAD_S) + RUN_OVERHEAD_S
+        recording_s = runs * (seconds + RUN_OVERHEAD_S) + RUN_OVERHEAD_S + extra_s
         clients: list[StateClientProcess] = []
         for index in range(STATE_CLIENTS):
             client = StateClientProcess(cell, directory / f"state{index}.npz", recording_s)
@@ -115,7 +124,11 @@ def _measure_loaded(runs: int, seconds: float) -> list[LoadedRun]:
         streamer = stack.enter_context(StreamClientProcess(cell, directory))
         stack.enter_context(gc_paused())
         streamer.start_traj_mode()
-        windows = [_window(cell, observer, streamer, run, seconds) for run in range(runs)]
+        windows = []
+        for run in range(runs):
+            if before_window is not None:
+                before_window(run)
+            windows.append(_window(cell, observer, streamer, run, seconds))
         observer.wait_still()
         recorded = [client.stop() for client in clients]
         dropped = sum(int(data["dropped"]) for data in recorded)
