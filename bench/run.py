@@ -11,9 +11,13 @@ Figures (goals are for a 2-core machine running the whole cell):
 5. streaming point by point: motoman_driver, paced clients,
    slot turnaround, the pending-point FIFO                    (bench.bench_streaming)
 6. state rate and feedback age with 4 clients                 (bench.bench_state; runs of 3)
-7. cells per machine with 0 missed periods, CPU and RSS       (bench.bench_scale)
+7. cells per machine: idle single-arm cells within half the
+   CPU; four four-group cells driven side by side             (bench.bench_scale)
 8. accuracy against the float64 closed form                   (bench.bench_accuracy)
 9. start-up and stop                                          (bench.bench_startup)
+10. cost: CPU and wake-ups per process, idle and moving       (bench.bench_cost)
+11. headroom: figures 4 and 6 alone and beside a streaming
+    neighbour cell, alternating                               (bench.bench_headroom)
 
 Every figure is the median and [min-max] of at least 3 runs. Benchmarks report; they never fail
 on a time. The clients that measure are processes of their own (``bench.clients``: the state
@@ -46,7 +50,9 @@ from typing import Any
 from motocell.bench import (
     bench_accuracy,
     bench_codec,
+    bench_cost,
     bench_executor,
+    bench_headroom,
     bench_interpolation,
     bench_roundtrip,
     bench_scale,
@@ -99,6 +105,8 @@ FIGURES: dict[int, tuple[str, Callable[[bool], Results]]] = {
     7: ("scale", bench_scale.run),
     8: ("accuracy", bench_accuracy.run),
     9: ("start-up", bench_startup.run),
+    10: ("cost", bench_cost.run),
+    11: ("headroom beside a neighbour", bench_headroom.run),
 }
 
 

@@ -1,0 +1,96 @@
+"""Figure 10's pure parts, and the harness's CPU and wake-ups from /proc."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from motocell.bench.bench_cost import Window, deviation_percent, rate_hz, took_points
+from motocell.bench.clients import StreamRecord
+from motocell.bench.harness import (
+    ProcessCost,
+    Usage,
+    cost_by_kind,
+    parse_schedstat,
+    parse_switches,
+    process_cost,
+    total,
+    usage_between,
+)
+
+# -- /proc -------------------------------------------------------------------------------------
+
+STATUS = """Name:\tpython
+State:\tS (sleeping)
+Threads:\t9
+voluntary_ctxt_switches:\t1200
+nonvoluntary_ctxt_switches:\t34
+"""
+
+
+def test_schedstat_gives_the_time_on_a_cpu_in_nanoseconds() -> None:
+    assert parse_schedstat("860848 254368 12\n") == 860_848
+
+
+def test_every_context_switch_counts_voluntary_or_not() -> None:
+    assert parse_switches(STATUS) == 1234
+
+
+def test_a_process_uses_what_its_threads_used_since_the_first_look() -> None:
+    before = {1: Usage(1_000, 10), 2: Usage(5_000, 3), 3: Usage(9_000, 1)}
+    # Thread 3 ended (not counted), thread 4 started since (all of it counted).
+    after = {1: Usage(4_000, 12), 2: Usage(5_000, 3), 4: Usage(700, 5)}
+    assert usage_between(before, after) == Usage(3_700, 7)
+
+
+def test_usage_becomes_percent_of_a_core_and_wake_ups_per_second() -> None:
+    cost = process_cost("executor", 7, Usage(200_000_000, 500), 20.0, rss=50.0, pss=20.0)
+    assert cost.cpu_percent == pytest.approx(1.0)
+    assert cost.wakeups_per_s == pytest.approx(25.0)
+
+
+def cost(kind: str, cpu: float, wakeups: float = 10.0) -> ProcessCost:
+    return ProcessCost(kind, 1, cpu, wakeups, 40.0, 15.0)
+
+
+def test_processes_of_a_kind_add_up_and_are_counted() -> None:
+    rows = [cost("executor", 1.0), cost("interpolator", 0.5), cost("interpolator", 0.25)]
+    kinds = cost_by_kind(rows)
+    assert list(kinds) == ["executor", "interpolator"]
+    assert kinds["interpolator"].pid == 2
+    assert kinds["interpolator"].cpu_percent == pytest.approx(0.75)
+    everything = total("all", rows)
+    assert everything.cpu_percent == pytest.approx(1.75)
+    assert everything.wakeups_per_s == pytest.approx(30.0)
+    assert everything.pss_mib == pytest.approx(45.0)
+
+
+# -- figure 10 ---------------------------------------------------------------------------------
+
+
+def test_the_state_rate_counts_frames_read_within_the_window() -> None:
+    received = np.arange(0, 3_000_000_000, 10_000_000, dtype=np.int64)  # 100 Hz for 3 s
+    assert rate_hz(received, 1_000_000_000, 2_000_000_000) == pytest.approx(100.0)
+    assert rate_hz(received, 5_000_000_000, 6_000_000_000) == 0.0
+    assert deviation_percent(99.0, 10_000_000) == pytest.approx(1.0)
+
+
+def record(accepted_ns: list[int]) -> StreamRecord:
+    empty = np.zeros(0, dtype=np.int64)
+    return StreamRecord(
+        *(empty, empty, empty),
+        accepted_ns=np.array(accepted_ns, dtype=np.int64),
+        probe_rtt_ns=empty,
+        probe_index=empty,
+        points=len(accepted_ns),
+        busy=0,
+        first_sent_ns=0,
+        last_accepted_ns=max(accepted_ns, default=0),
+        dropped=0,
+        error="",
+    )
+
+
+def test_a_moving_cell_took_points_in_every_window_it_moved() -> None:
+    windows = [Window([], 0, 100), Window([], 100, 200), Window([], 200, 300)]
+    assert took_points(record([50, 150, 0]), windows) == [True, True, False]
