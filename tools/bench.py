@@ -5,19 +5,15 @@ from __future__ import annotations
 import argparse
 
 
-def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    commands.add_parser(
-        "bench",
-        help="run the benchmark suite: print a table, write JSON results",
-        description="Run the benchmark suite (figures 1-9): median and [min-max] of at least "
-        "3 runs each, printed as a table and written to <timestamp>.json and latest.json in "
-        "--out. The full suite takes about 15 minutes, --quick 1-2.",
-        fill=_suite_arguments,
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options of ``motocell bench`` (``tools.cli`` names the command)."""
+    parser.description = (
+        "Run the benchmark suite (figures 1-9): median and [min-max] of at least 3 runs each, "
+        "printed as a table and written to <timestamp>.json and latest.json in --out. The full "
+        "suite takes about 15 minutes, --quick 1-2."
     )
-
-
-def _suite_arguments(parser: argparse.ArgumentParser) -> None:
-    # The suite imports numpy and every benchmark: only for `motocell bench` (tools.cli).
+    # The suite imports numpy and every benchmark: only for `motocell bench` (tools.cli fills
+    # a command's parser only when that command runs).
     from motocell.bench import run as suite  # noqa: PLC0415
 
     suite.add_arguments(parser)

@@ -1,54 +1,82 @@
-"""motocell: run and watch simulated Yaskawa Motoman cells that ROS-Industrial's
-motoman_driver drives as it would a controller running MotoROS."""
+"""motocell: run and watch simulated Yaskawa Motoman cells that ROS-Industrial's motoman_driver
+drives as it would a controller running MotoROS."""
 
 from __future__ import annotations
 
 import argparse
+import importlib
 import logging
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import Any, cast
 
-from motocell.services.launcher import cli as launcher_cli
-from motocell.services.launcher import up as launcher
-from motocell.shared.service import version
-from motocell.tools import (
-    bench,
-    credentials,
-    echo,
-    fault,
-    hz,
-    observe,
-    plot,
-    record,
-    service,
-    view,
+COMMANDS = (
+    ("up", "run a whole cell in the foreground"),
+    ("fault", "inject or clear a fault in a running cell"),
+    ("ps", "list every live service of the cells running here, their ports and bus"),
+    ("watch", "a live view of the cells running here"),
+    ("echo", "print a key's samples as JSON lines (like rostopic echo)"),
+    ("hz", "print how often a key's samples arrive (like rostopic hz)"),
+    ("record", "record every sample of running cells into an MCAP file"),
+    ("view", "serve the running cells live to Foxglove (3D scene, joints, status)"),
+    ("plot", "plot a recording (motocell record) as a PNG"),
+    ("bench", "run the benchmark suite: print a table, write JSON results"),
+    ("credentials", "write a cell's passwords (and TLS certificates) into a private directory"),
+    (
+        "service",
+        "run one service of a cell in the foreground (one that `motocell up --skip` leaves out)",
+    ),
+    ("router", "a Zenoh router (a stand-in for zenohd where its image is not available)"),
+    ("demo", "start a cell and drive it like motoman_driver does, then stop it"),
 )
+"""Every command and its line in ``motocell --help``: the one place that knows them all, so
+that listing them imports none. Each is the module ``motocell.tools.<name>``, whose
+``add_arguments(parser)`` gives the command its description, options and ``run``; ``up`` and
+``router`` are the launcher's (``services.launcher``)."""
 
 
 class CommandParser(argparse.ArgumentParser):
-    """A subcommand's parser whose options a ``fill`` function may add only when that command
-    runs, so that a command whose module is slow to import (the benchmark suite imports numpy)
-    costs nothing to the others: every command builds the whole parser, and `motocell up`
-    does so before it starts a single service."""
+    """A command's parser, filled (its module imported, its options added) only when that
+    command runs: a command costs the others nothing. The light ones (``ps``, ``watch``,
+    ``fault``, ``echo``, ``hz``) are mostly imports, and `motocell up` parses its options
+    before it starts a single service; filling every parser would import every command's
+    module (Zenoh sessions, the launcher, the benchmark suite's numpy) into each of them."""
 
-    def __init__(
-        self,
-        *args: Any,
-        fill: Callable[[argparse.ArgumentParser], None] | None = None,
-        **kwargs: Any,
-    ) -> None:
+    def __init__(self, *args: Any, command: str, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
-        self._fill = fill
+        # No abbreviated options anywhere: `--port-bas` must not silently mean `--port-base`.
+        self.allow_abbrev = False
+        self.command = command
+        self.filled = False
 
     def parse_known_args(  # type: ignore[override]
         self, args: Sequence[str] | None = None, namespace: argparse.Namespace | None = None
     ) -> tuple[argparse.Namespace, list[str]]:
         # argparse hands a chosen subcommand its arguments through this method.
-        if self._fill is not None:
-            fill, self._fill = self._fill, None
-            fill(self)
+        if not self.filled:
+            self.filled = True
+            fill(self.command, self)
+            self.add_argument("--version", action=ShowVersion)
         return super().parse_known_args(args, namespace)
+
+
+def fill(command: str, parser: argparse.ArgumentParser) -> None:
+    """``command``'s description, options and ``run``, imported now."""
+    if command in {"up", "router"}:
+        # The launcher (its child processes, the router's configuration): `up` and `router`.
+        from motocell.services.launcher import cli as launcher_cli  # noqa: PLC0415
+        from motocell.services.launcher import up as launcher  # noqa: PLC0415
+
+        if command == "up":
+            launcher_cli.add_arguments(parser)
+            parser.set_defaults(run=launcher.run)
+        else:
+            launcher_cli.add_router_arguments(parser)
+            parser.set_defaults(run=launcher.router)
+        return
+    # Imported here, not at the top: only the command that runs (CommandParser).
+    module = importlib.import_module(f"motocell.tools.{command}")
+    module.add_arguments(parser)
 
 
 class ShowVersion(argparse.Action):
@@ -64,6 +92,9 @@ class ShowVersion(argparse.Action):
         values: object,
         option_string: str | None = None,
     ) -> None:
+        # shared.service brings the cell file's loader and Zenoh: only when asked.
+        from motocell.shared.service import version  # noqa: PLC0415
+
         print(f"motocell {version()}")
         parser.exit()
 
@@ -71,51 +102,13 @@ class ShowVersion(argparse.Action):
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="motocell", description=__doc__, allow_abbrev=False)
     parser.add_argument("--version", action=ShowVersion)
-    # Every command module takes the usual subparsers; they may pass ``fill`` through.
     commands = cast(
         "argparse._SubParsersAction[argparse.ArgumentParser]",
         parser.add_subparsers(dest="command", required=True, parser_class=CommandParser),
     )
-
-    up = commands.add_parser("up", help="run a whole cell in the foreground")
-    launcher_cli.add_arguments(up)
-    up.set_defaults(run=launcher.run)
-
-    fault.add_parser(commands)
-    observe.add_parsers(commands)
-    echo.add_parser(commands)
-    hz.add_parser(commands)
-    record.add_parser(commands)
-    view.add_parser(commands)
-    plot.add_parser(commands)
-    bench.add_parser(commands)
-    credentials.add_parser(commands)
-
-    service.add_parser(commands)
-
-    router = commands.add_parser(
-        "router", help="a Zenoh router (a stand-in for zenohd where its image is not available)"
-    )
-    launcher_cli.add_router_arguments(router)
-    router.set_defaults(run=launcher.router)
-
-    commands.add_parser(
-        "demo",
-        help="start a cell and drive it like motoman_driver does, then stop it",
-        fill=_demo_arguments,
-    )
-    for subcommand in commands.choices.values():
-        # No abbreviated options anywhere: `--port-bas` must not silently mean `--port-base`.
-        subcommand.allow_abbrev = False
-        subcommand.add_argument("--version", action=ShowVersion)
+    for name, help_ in COMMANDS:
+        commands.add_parser(name, help=help_, command=name)
     return parser
-
-
-def _demo_arguments(parser: argparse.ArgumentParser) -> None:
-    # numpy and the test kit: only for `motocell demo`.
-    from motocell.tools import demo  # noqa: PLC0415
-
-    demo.add_arguments(parser)
 
 
 def main(argv: Sequence[str] | None = None) -> None:

@@ -22,13 +22,10 @@ DEFAULT_HOSTS = ("localhost", "127.0.0.1")
 """The names a router's certificate is valid for unless ``--host`` says otherwise."""
 
 
-def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    parser = commands.add_parser(
-        "credentials",
-        help="write a cell's passwords (and TLS certificates) into a private directory",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options of ``motocell credentials`` (``tools.cli`` names the command)."""
+    parser.description = __doc__
+    parser.formatter_class = argparse.RawDescriptionHelpFormatter
     parser.add_argument("directory", metavar="DIR", help="created, readable only by you")
     parser.add_argument(
         "--config", metavar="FILE", help="the cell file: its name, and one identity per group"

@@ -21,12 +21,9 @@ from motocell.tools.cells import CellsError
 from motocell.tools.listen import POLL_S, Listener, Received
 
 
-def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    echo = commands.add_parser(
-        "echo",
-        help="print a key's samples as JSON lines (like rostopic echo)",
-        description=__doc__,
-    )
+def add_arguments(echo: argparse.ArgumentParser) -> None:
+    """The options of ``motocell echo`` (``tools.cli`` names the command)."""
+    echo.description = __doc__
     listen.add_arguments(echo)
     echo.add_argument("--count", type=int, metavar="N", help="stop after N samples")
     echo.set_defaults(run=run)

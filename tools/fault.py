@@ -39,14 +39,11 @@ CODES = range(1, 10_000)
 SUBCODES = range(10_000)
 
 
-def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    fault = commands.add_parser(
-        "fault",
-        help="inject or clear a fault in a running cell",
-        description=(
-            "Examples: motocell fault estop on | hold off | alarm 4100 2 | alarm clear | "
-            "error 2010 | error clear | servo off | play teach | remote off | pfl on | ot889 off"
-        ),
+def add_arguments(fault: argparse.ArgumentParser) -> None:
+    """The options of ``motocell fault`` (``tools.cli`` names the command)."""
+    fault.description = (
+        "Examples: motocell fault estop on | hold off | alarm 4100 2 | alarm clear | "
+        "error 2010 | error clear | servo off | play teach | remote off | pfl on | ot889 off"
     )
     fault.add_argument("kind", type=str.lower, choices=(*SWITCHES, "alarm", "error"))
     fault.add_argument("setting", help="on/off, play/teach, a code, or clear (any case)")

@@ -22,10 +22,9 @@ REPORT_S = 1.0
 WINDOW = 1000
 
 
-def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    hz = commands.add_parser(
-        "hz", help="print how often a key's samples arrive (like rostopic hz)", description=__doc__
-    )
+def add_arguments(hz: argparse.ArgumentParser) -> None:
+    """The options of ``motocell hz`` (``tools.cli`` names the command)."""
+    hz.description = __doc__
     listen.add_arguments(hz)
     hz.add_argument(
         "--window",

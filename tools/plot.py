@@ -14,20 +14,13 @@ import sys
 from pathlib import Path
 
 
-def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    plot = commands.add_parser(
-        "plot",
-        help="plot a recording (motocell record) as a PNG",
-        description=__doc__,
-    )
-    add_arguments(plot)
-    plot.set_defaults(run=run)
-
-
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options of ``motocell plot`` (``tools.cli`` names the command)."""
+    parser.description = __doc__
     parser.add_argument("file", metavar="FILE", help="an MCAP recording")
     parser.add_argument("-o", "--out", metavar="OUT.png", help="default: FILE with .png")
     parser.add_argument("--cell", metavar="NAME", help="needed when FILE holds several cells")
+    parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:

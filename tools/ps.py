@@ -39,10 +39,8 @@ class Row:
     info: ServiceInfo | None
 
 
-def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    ps = commands.add_parser(
-        "ps", help="list every live service of the cells running here, their ports and bus"
-    )
+def add_arguments(ps: argparse.ArgumentParser) -> None:
+    """The options of ``motocell ps`` (``tools.cli`` names the command)."""
     cells.add_arguments(ps, several=True)
     ps.set_defaults(run=run_ps)
 

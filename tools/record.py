@@ -137,20 +137,13 @@ def run_recorder(
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options of ``motocell record`` (``tools.cli`` names the command)."""
+    parser.description = __doc__
+    parser.formatter_class = argparse.RawDescriptionHelpFormatter
     parser.add_argument("out", metavar="OUT", help="the MCAP file to write (replaced if present)")
     cell_files.add_arguments(parser)
     cells.add_arguments(parser, several=True)
-
-
-def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    record = commands.add_parser(
-        "record",
-        help="record every sample of running cells into an MCAP file",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    add_arguments(record)
-    record.set_defaults(run=run)
+    parser.set_defaults(run=run)
 
 
 def key_exprs(target: Target) -> list[str]:

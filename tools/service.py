@@ -18,14 +18,12 @@ EXAMPLE = (
 )
 
 
-def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    parser = commands.add_parser(
-        "service",
-        help="run one service of a cell in the foreground (one that `motocell up --skip` "
-        "leaves out)",
-        description="Run one service of a cell in the foreground, as `motocell up` runs it "
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options of ``motocell service`` (``tools.cli`` names the command)."""
+    parser.description = (
+        "Run one service of a cell in the foreground, as `motocell up` runs it "
         "(python -m motocell.services.<service> with this interpreter): typically one that "
-        f"`motocell up --skip NAME` leaves to another host. For example: {EXAMPLE}",
+        f"`motocell up --skip NAME` leaves to another host. For example: {EXAMPLE}"
     )
     parser.add_argument(
         "name",

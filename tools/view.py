@@ -46,18 +46,10 @@ SUBSCRIBED = ("state", "controller/status", "executor/tick", "executor/metrics")
 """The keys the view shows (``tools.view_channels``)."""
 
 
-def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    view = commands.add_parser(
-        "view",
-        help="serve the running cells live to Foxglove (3D scene, joints, status)",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    add_arguments(view)
-    view.set_defaults(run=run)
-
-
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options of ``motocell view`` (``tools.cli`` names the command)."""
+    parser.description = __doc__
+    parser.formatter_class = argparse.RawDescriptionHelpFormatter
     parser.add_argument(
         "--host", default="127.0.0.1", help="the address to serve on (default: %(default)s)"
     )
@@ -72,6 +64,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     cell_files.add_arguments(parser)
     cells.add_arguments(parser, several=True)
+    parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -443,8 +443,8 @@ class Buses:
 # -- the command ------------------------------------------------------------------------------
 
 
-def add_parser(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    watch = commands.add_parser("watch", help="a live view of the cells running here")
+def add_arguments(watch: argparse.ArgumentParser) -> None:
+    """The options of ``motocell watch`` (``tools.cli`` names the command)."""
     cells.add_arguments(watch, several=True)
     watch.add_argument("--interval", type=float, default=0.5, help="seconds between refreshes")
     watch.add_argument(

@@ -14,8 +14,8 @@ from motocell.tools.fault import echo, request_for
 
 def parse(*argv: str) -> argparse.Namespace:
     parser = argparse.ArgumentParser()
-    fault.add_parser(parser.add_subparsers())
-    return parser.parse_args(["fault", *argv])
+    fault.add_arguments(parser)
+    return parser.parse_args(argv)
 
 
 @pytest.mark.parametrize(

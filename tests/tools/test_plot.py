@@ -23,8 +23,8 @@ from motocell.tools.recording import McapSink
 
 def plot_of(path: Path) -> int:
     parser = argparse.ArgumentParser()
-    plot.add_parser(parser.add_subparsers())
-    args = parser.parse_args(["plot", str(path)])
+    plot.add_arguments(parser)
+    args = parser.parse_args([str(path)])
     status: int = args.run(args)
     return status
 
