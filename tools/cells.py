@@ -18,7 +18,6 @@ from pathlib import Path
 
 import zenoh
 
-from motocell.services.launcher.core import WELL_KNOWN_ENDPOINT
 from motocell.shared import registry
 from motocell.shared.bus.access import Identity
 from motocell.shared.bus.credentials import CredentialsError, load
@@ -30,6 +29,11 @@ ANY_CELL = "*"
 """The cell level of a key expression that matches every cell (open bus, cells not named)."""
 _FORBIDDEN_IN_NAME = set("/*$#?")
 """Key-expression syntax: a name with these would select more than one cell's keys."""
+WELL_KNOWN_ENDPOINT = "tcp/127.0.0.1:7447"
+"""Where the first cell started here has its router, for the help: the value of
+``services.launcher.core.WELL_KNOWN_ENDPOINT`` (tests/tools/test_cli.py checks the help names
+that one), not an import of it, which would load the launcher and the cell-file reader with it,
+a fifth of the CPU `motocell ps` and `motocell fault` spend."""
 NOTHING_RUNNING = (
     "no cell is running here (start one with `motocell up`; reach a cell started elsewhere "
     "with --zenoh-connect)"
