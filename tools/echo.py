@@ -18,7 +18,7 @@ from motocell.shared.bus import catalog
 from motocell.shared.service import stop_on_signals
 from motocell.tools import cells, listen
 from motocell.tools.cells import CellsError
-from motocell.tools.listen import POLL_S, Listener, Received
+from motocell.tools.listen import Listener, Received
 
 
 def add_arguments(echo: argparse.ArgumentParser) -> None:
@@ -48,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
         with samples:
             shown = 0
             while not stop.is_set() and (args.count is None or shown < args.count):
-                sample = samples.next(POLL_S)
+                sample = samples.next(stop)
                 if sample is None:
                     continue
                 try:

@@ -16,7 +16,7 @@ from collections import deque
 from motocell.shared.service import StopFlag, stop_on_signals
 from motocell.tools import cells, listen
 from motocell.tools.cells import CellsError
-from motocell.tools.listen import POLL_S, Listener
+from motocell.tools.listen import Listener
 
 REPORT_S = 1.0
 WINDOW = 1000
@@ -89,7 +89,7 @@ def report(samples: Listener, stop: StopFlag, window: int, count: int | None) ->
     reports = 0
     due = time.monotonic() + REPORT_S
     while not stop.is_set() and (count is None or reports < count):
-        sample = samples.next(timeout=min(POLL_S, max(0.0, due - time.monotonic())))
+        sample = samples.next(stop, timeout=max(0.0, due - time.monotonic()))
         if sample is not None:
             rates.setdefault(sample.key, Rate(window)).add(sample.received_ns)
         if time.monotonic() < due:

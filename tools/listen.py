@@ -1,15 +1,17 @@
 """What ``motocell echo`` and ``motocell hz`` share: the key a user names, joining the cells as
 their observer (as ``watch`` does, ``tools.cells``), and the samples that arrive, stamped with
-their arrival time on Zenoh's thread and handed to the command's own thread.
+their arrival time on Zenoh's thread and handed to the command's own thread, which sleeps until
+one comes or it is stopped (``tools.bell``).
 """
 
 from __future__ import annotations
 
 import argparse
 import difflib
-import queue
 import sys
+import threading
 import time
+from collections import deque
 from dataclasses import dataclass
 from types import TracebackType
 
@@ -20,6 +22,7 @@ from motocell.shared.bus.access import Identity
 from motocell.shared.bus.catalog import ROUTES, Op, Role
 from motocell.shared.bus.keys import ROOT
 from motocell.tools import cells
+from motocell.tools.bell import Bell, StopSignal
 from motocell.tools.cells import TargetError
 
 OBSERVER = Identity(Role.OBSERVER)
@@ -30,8 +33,6 @@ PUBLISHED = tuple(
     )
 )
 """The keys an observer receives (the catalogue's): what KEY may name."""
-POLL_S = 0.1
-"""How often a command waiting for samples looks at its stop flag."""
 QUEUE_SIZE = 10_000
 """Samples waiting for the command's thread; more are dropped (and counted) rather than stall
 Zenoh's thread, which would hold back the cell's other streams to this session."""
@@ -43,6 +44,41 @@ class Received:
     payload: bytes
     received_ns: int
     """CLOCK_MONOTONIC when Zenoh handed the sample over."""
+
+
+class Arrivals:
+    """Samples handed over by Zenoh's threads, in arrival order, to the one thread that takes
+    them, which sleeps while there are none (``tools.bell``). At most ``size`` wait; more are
+    dropped and counted."""
+
+    def __init__(self, size: int = QUEUE_SIZE) -> None:
+        self._samples: deque[Received] = deque()
+        self._size = size
+        self._arrived = Bell()
+        self._drops = threading.Lock()
+        self.dropped = 0
+
+    def put(self, received: Received) -> None:
+        """From any thread; never blocks."""
+        if len(self._samples) >= self._size:
+            with self._drops:  # Zenoh calls back on several threads
+                self.dropped += 1
+            return
+        self._samples.append(received)
+        self._arrived.ring()
+
+    def next(self, stop: StopSignal, timeout: float | None = None) -> Received | None:
+        """The oldest sample not taken yet; None once ``stop`` is set, or when none came within
+        ``timeout`` seconds (None: no limit)."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while not self._samples and not stop.is_set():
+            left = None if deadline is None else deadline - time.monotonic()
+            if left is not None and left <= 0:
+                return None
+            self._arrived.wait(stop, left)
+        if stop.is_set() or not self._samples:
+            return None
+        return self._samples.popleft()
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -76,8 +112,7 @@ class Listener:
         running, or a bus that cannot be joined."""
         key = published_key(args.key)
         self._joined = cells.join_all(cells.some_targets(args), OBSERVER)
-        self._queue: queue.Queue[Received] = queue.Queue(QUEUE_SIZE)
-        self.dropped = 0
+        self.arrivals = Arrivals()
         self.key_exprs = [
             f"{ROOT}/{name}/{key}" for target, _ in self._joined for name in target.names
         ]
@@ -89,25 +124,22 @@ class Listener:
         ]
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
-        received = Received(str(sample.key_expr), sample.payload.to_bytes(), time.monotonic_ns())
-        try:
-            self._queue.put_nowait(received)
-        except queue.Full:
-            self.dropped += 1
+        self.arrivals.put(
+            Received(str(sample.key_expr), sample.payload.to_bytes(), time.monotonic_ns())
+        )
 
-    def next(self, timeout: float) -> Received | None:
-        """The next sample, or None when none arrived within ``timeout`` seconds."""
-        try:
-            return self._queue.get(timeout=timeout)
-        except queue.Empty:
-            return None
+    def next(self, stop: StopSignal, timeout: float | None = None) -> Received | None:
+        """The next sample; None once ``stop`` is set, or when none arrived within ``timeout``
+        seconds (None: no limit)."""
+        return self.arrivals.next(stop, timeout)
 
     def close(self) -> None:
         for subscriber in self._subscribers:
             subscriber.undeclare()
         cells.close_all(self._joined)
-        if self.dropped:
-            print(f"{self.dropped} sample(s) dropped: this command fell behind", file=sys.stderr)
+        dropped = self.arrivals.dropped
+        if dropped:
+            print(f"{dropped} sample(s) dropped: this command fell behind", file=sys.stderr)
 
     def __enter__(self) -> Listener:
         return self

@@ -1,17 +1,22 @@
 """``motocell echo`` and ``motocell hz`` without a cell: which keys they take, how a sample is
-shown, and the rate statistics."""
+shown, the rate statistics, and how the samples reach the command's thread, which sleeps until
+one comes or it is stopped (a broken wake-up hangs: pytest-timeout ends the test)."""
 
 from __future__ import annotations
 
 import json
+import os
+import threading
 
 import pytest
 
 from motocell.shared.bus.schemas import Slot, encode
+from motocell.shared.service import StopFlag
+from motocell.tools.bell import Bell
 from motocell.tools.cells import TargetError
 from motocell.tools.echo import as_json
 from motocell.tools.hz import Rate
-from motocell.tools.listen import PUBLISHED, Received, published_key
+from motocell.tools.listen import PUBLISHED, Arrivals, Received, published_key
 
 MS = 1_000_000
 
@@ -72,3 +77,88 @@ def test_the_rate_over_the_window() -> None:
         "average rate 75.000 Hz  min 0.0100 s  max 0.0200 s  std dev 0.00471 s  window 3"
     )
     assert rate.report() == "no new samples"
+
+
+# -- the samples' way to the command's thread ----------------------------------------------
+
+
+def received(n: int) -> Received:
+    return Received("motocell/c1/state", bytes([n]), n)
+
+
+def test_samples_are_taken_in_arrival_order() -> None:
+    arrivals = Arrivals()
+    for n in range(3):
+        arrivals.put(received(n))
+    stop = StopFlag()
+    assert [arrivals.next(stop) for _ in range(3)] == [received(n) for n in range(3)]
+    assert arrivals.next(stop, timeout=0) is None
+
+
+def test_a_sample_put_by_another_thread_wakes_the_taker() -> None:
+    arrivals = Arrivals()
+    stop = StopFlag()
+    taken: list[Received | None] = []
+    taker = threading.Thread(target=lambda: taken.append(arrivals.next(stop)))
+    taker.start()
+    arrivals.put(received(1))
+    taker.join()
+    assert taken == [received(1)]
+
+
+def test_a_stop_wakes_the_taker_with_nothing() -> None:
+    arrivals = Arrivals()
+    stop = StopFlag()
+    taken: list[Received | None] = []
+    taker = threading.Thread(target=lambda: taken.append(arrivals.next(stop)))
+    taker.start()
+    stop.set()
+    taker.join()
+    assert taken == [None]
+
+
+def test_samples_beyond_the_bound_are_dropped_and_counted() -> None:
+    arrivals = Arrivals(size=2)
+    for n in range(5):
+        arrivals.put(received(n))
+    assert arrivals.dropped == 3
+    stop = StopFlag()
+    assert [arrivals.next(stop, 0), arrivals.next(stop, 0), arrivals.next(stop, 0)] == [
+        received(0),
+        received(1),
+        None,
+    ]
+
+
+def test_a_ring_before_the_wait_is_kept_and_a_wait_takes_every_ring_before_it() -> None:
+    bell = Bell()
+    stop = StopFlag()
+    for _ in range(3):
+        bell.ring()
+    assert bell.wait(stop, None) is True  # at once: it was rung
+    assert bell.wait(stop, 0) is False
+    threading.Thread(target=bell.ring).start()
+    assert bell.wait(stop, None) is True
+
+
+def test_a_stop_wakes_a_bell_not_rung() -> None:
+    bell = Bell()
+    stop = StopFlag()
+    threading.Thread(target=stop.set).start()
+    assert bell.wait(stop, None) is False
+
+
+@pytest.mark.parametrize("times", [1, 100_000])
+def test_ringing_never_blocks_however_often(times: int) -> None:
+    bell = Bell()
+    for _ in range(times):
+        bell.ring()
+    assert bell.wait(StopFlag(), None) is True
+    assert bell.wait(StopFlag(), 0) is False
+
+
+def test_a_forgotten_bell_releases_its_descriptors() -> None:
+    before = len(os.listdir("/proc/self/fd"))
+    for _ in range(50):
+        Bell().ring()
+    assert len(os.listdir("/proc/self/fd")) <= before + 2
