@@ -1,12 +1,14 @@
 """``motocell watch``: a live view of the cells, for a person at a terminal.
 
-What moves is shown from the keys that carry it live: the controller status (10 Hz and on
-change), the broadcaster's ``state`` (positions, velocities), each group's ``queue`` from the
-executor (every tick while moving), the client counts from the ``connections`` notices (on
-every change). The 1 Hz metrics only give what they measure over their last second (lateness,
-frame ages) and the totals since start. A value older than ``STALE_S`` shows its age, each
-cell how long ago anything was heard from it, and the services whose liveliness tokens went
-away are marked.
+What moves is shown from the keys that carry it live: the controller status (on change, and
+at its heartbeat: 10 Hz while motion is possible, 1 Hz while nothing can move), the
+broadcaster's ``state`` (positions, velocities: every tick while moving, once a second at rest),
+each group's ``queue`` from the executor (every tick while moving, at its heartbeat at rest),
+the client counts from the ``connections`` notices (on every change). The 1 Hz metrics (sent
+while someone subscribes, as ``watch`` does) only give what they measure over their last second
+(lateness, frame ages) and the totals since start. A value that missed several of the
+heartbeats its stream announces shows its age (``stale_after_s``), each cell how long ago
+anything was heard from it, and the services whose liveliness tokens went away are marked.
 
 A first frame (and the only one, with ``--count 1``) waits, within ``FIRST_FRAME_WAIT_S``,
 until it has heard what every service it found alive publishes. With no router to reach
@@ -30,6 +32,7 @@ from motocell.shared.bus import catalog
 from motocell.shared.bus.access import Identity
 from motocell.shared.bus.catalog import Role
 from motocell.shared.bus.keys import ALIVE_ROOT, ROOT, service_of_alive
+from motocell.shared.bus.liveness import STALE_HEARTBEATS, heartbeat_ms, silence_bound_s
 from motocell.shared.bus.schemas import (
     BroadcasterMetrics,
     CommandRequest,
@@ -43,19 +46,21 @@ from motocell.shared.bus.session import Liveness
 from motocell.shared.protocol.constants import Result, describe_reply
 from motocell.shared.service import StopFlag, stop_on_signals
 from motocell.tools import cells
+from motocell.tools.bell import Bell
 from motocell.tools.cells import CellsError, JoinError, NoRouterError, Target
 from motocell.tools.realtime import NOT_REALTIME
 
 OBSERVER = Identity(Role.OBSERVER)
 STALE_S = 1.0
-"""A live value older than this is shown with its age: every live key comes at least every
-100 ms from a service that runs (``HEARTBEAT_S``; the state at the state period)."""
+"""A live value younger than this is never shown with its age, whatever its heartbeat."""
+AT_REST_HEARTBEAT_MS = heartbeat_ms(motion_possible=False)
+"""The heartbeat of a stream while nothing can move: the state's while the executor's clock
+rests (it follows the ticks), and the longest any stream announces."""
 FIRST_FRAME_WAIT_S = 3.0
 """How long the first frame waits for what the services found alive publish (the metrics
-come once a second)."""
+come once a second, the controller status and the state at least once a second)."""
 RETRY_S = 0.5
 """How often a router not reachable yet is tried again."""
-POLL_S = 0.05
 PORTS = ("motion", "state", "io")
 """The order of the counts in a ``controller/cmd/connections`` notice."""
 SUBSCRIBED = (
@@ -129,6 +134,15 @@ class CellView:
                 lacking.append("group/*/queue")
         return lacking
 
+    def state_heartbeat_ms(self) -> int:
+        """How often the state comes at least: it follows the executor's ticks, so as often as
+        its queue states (``QueueState.heartbeat_ms``: short while the clock runs, long while it
+        rests); at rest's pace while no queue state says."""
+        return max(
+            (seen.value.heartbeat_ms for seen in self.queues.values()),
+            default=AT_REST_HEARTBEAT_MS,
+        )
+
     def groups(self) -> list[int]:
         """The cell's groups as far as known: in its state, queues and interpolators."""
         found = set(self.queues)
@@ -151,6 +165,9 @@ class Watcher:
         self._liveness: dict[Target, list[Liveness]] = {}
         self._ever: set[str] = set()
         """Every token key seen present."""
+        self._news = Bell()
+        self._waiting = False
+        """Someone waits in ``wait_until_complete``: each sample and token change rings."""
 
     def view(self, cell: str) -> CellView:
         """``cell``'s view, made empty if new (call with ``lock`` held)."""
@@ -191,6 +208,8 @@ class Watcher:
         with self.lock:
             watched = [liveness for each in self._liveness.values() for liveness in each]
             self.tokens(frozenset().union(*(liveness.present() for liveness in watched)))
+        if self._waiting:
+            self._news.ring()
 
     def received(self, key: str, payload: bytes, now: float) -> None:
         """A sample on ``key`` arrived at ``now`` (CLOCK_MONOTONIC seconds)."""
@@ -202,6 +221,8 @@ class Watcher:
             view = self.view(catalog.cell_of(key))
             view.heard = now
             _store(view, key, decoded, now)
+        if self._waiting:
+            self._news.ring()
 
     def tokens(self, present: frozenset[str]) -> None:
         """The liveliness tokens (``@motocell/<cell>/alive/<service>/<instance>``) present now
@@ -218,6 +239,21 @@ class Watcher:
         with self.lock:
             lacking = {name: view.awaited() for name, view in self.cells.items()}
         return {name: what for name, what in lacking.items() if what}
+
+    def wait_until_complete(self, stop: StopFlag, timeout: float) -> None:
+        """Until every cell found has sent what its live services publish, ``stop``, or
+        ``timeout`` seconds; asleep between the samples that could complete it."""
+        deadline = time.monotonic() + timeout
+        # Set before the first look: whatever arrives after it rings.
+        self._waiting = True
+        try:
+            while self.awaited() and not stop.is_set():
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    return
+                self._news.wait(stop, left)
+        finally:
+            self._waiting = False
 
 
 def _store(view: CellView, key: str, payload: object, now: float) -> None:
@@ -276,13 +312,23 @@ def _age(at: float, now: float) -> str:
     return f"{max(0.0, now - at):.1f} s ago"
 
 
-def _is_stale(seen: Seen[object], now: float) -> bool:
-    return now - seen.at > STALE_S
+def stale_after_s(heartbeat: int) -> float:
+    """How old a value of a stream that announced ``heartbeat`` ms may be before it is shown
+    with its age: ``STALE_HEARTBEATS`` heartbeats, after which the gateway too takes a stream as
+    stopped (docs/liveness.md), and never less than ``STALE_S``. At rest a value is a second
+    old just before the next one comes."""
+    return max(STALE_S, silence_bound_s(heartbeat, STALE_HEARTBEATS))
 
 
-def _stale(seen: Seen[object] | None, now: float) -> str:
+def _is_stale(seen: Seen[object], heartbeat: int, now: float) -> bool:
+    return now - seen.at > stale_after_s(heartbeat)
+
+
+def _stale(seen: Seen[object] | None, heartbeat: int, now: float) -> str:
     """``   (4.2 s old)`` for a live value that stopped coming, else nothing."""
-    return f"   ({now - seen.at:.1f} s old)" if seen is not None and _is_stale(seen, now) else ""
+    if seen is None or not _is_stale(seen, heartbeat, now):
+        return ""
+    return f"   ({now - seen.at:.1f} s old)"
 
 
 def _controller(seen: Seen[ControllerStatus] | None, now: float) -> list[str]:
@@ -300,7 +346,7 @@ def _controller(seen: Seen[ControllerStatus] | None, now: float) -> list[str]:
         f"  motion-ready {ready}   servo {'ON' if status.servo_on else 'off'}   "
         f"{'PLAY' if status.play else 'TEACH'}   remote {'yes' if status.remote else 'NO'}   "
         f"e-stop {'YES' if status.estop else 'no'}   hold {'YES' if status.hold else 'no'}"
-        + _stale(seen, now),
+        + _stale(seen, status.heartbeat_ms, now),
         f"  alarms {alarms}   error {status.error or '-'}   job {job}",
     ]
 
@@ -311,7 +357,9 @@ def _executor(view: CellView, now: float) -> list[str]:
     metrics = view.executor
     if newest is not None or metrics is not None:
         tick = "?" if newest is None else str(newest.value.tick)
-        line = f"  executor: tick {tick}" + _stale(newest, now)
+        line = f"  executor: tick {tick}"
+        if newest is not None:
+            line += _stale(newest, newest.value.heartbeat_ms, now)
         if metrics is not None:
             late = metrics.value.lateness
             line += (
@@ -351,19 +399,23 @@ def _ports(view: CellView, now: float) -> list[str]:
 def _services(view: CellView, now: float) -> str:
     line = f"  services alive: {' '.join(sorted(view.alive)) or 'none'}"
     missing = set(view.gone)
-    if view.status is not None and not _is_stale(view.status, now):
-        missing |= set(view.status.value.missing_services)
+    status = view.status
+    if status is not None and not _is_stale(status, status.value.heartbeat_ms, now):
+        missing |= set(status.value.missing_services)
     return line + (f"   MISSING: {' '.join(sorted(missing))}" if missing else "")
 
 
 def _group(view: CellView, group: int, now: float) -> list[str]:
     queue = view.queues.get(group)
     depth = "?" if queue is None else f"{queue.value.depth}/{queue.value.capacity}"
-    lines = [f"  group {group}  queue {depth}" + _stale(queue, now)]
+    lines = [f"  group {group}  queue {depth}"]
+    if queue is not None:
+        lines[0] += _stale(queue, queue.value.heartbeat_ms, now)
     state = view.state
     shown = [g for g in state.value.groups if g.group_no == group] if state is not None else []
     if state is not None and shown:
-        lines.append(f"    position rad  {_joints(shown[0].positions)}" + _stale(state, now))
+        stale = _stale(state, view.state_heartbeat_ms(), now)
+        lines.append(f"    position rad  {_joints(shown[0].positions)}{stale}")
         lines.append(f"    velocity rad/s{_joints(shown[0].velocities)}")
     return lines
 
@@ -484,18 +536,10 @@ def show(
             stop.wait(RETRY_S)
             continue
         if frames == 0:
-            wait_until_complete(watcher, stop)
+            watcher.wait_until_complete(stop, FIRST_FRAME_WAIT_S)
         sys.stdout.write(clear + render(watcher, buses.waiting, time.monotonic()) + "\n")
         sys.stdout.flush()
         frames += 1
         if count is not None and frames >= count:
             return
         stop.wait(interval)
-
-
-def wait_until_complete(watcher: Watcher, stop: StopFlag) -> None:
-    """Until every cell found has sent what its live services publish, ``stop``, or
-    ``FIRST_FRAME_WAIT_S``."""
-    deadline = time.monotonic() + FIRST_FRAME_WAIT_S
-    while watcher.awaited() and time.monotonic() < deadline and not stop.is_set():
-        stop.wait(POLL_S)

@@ -1,7 +1,8 @@
 """`motocell watch` as text, from samples fed as Zenoh would hand them over: live values from
-the live keys, their age once they stop, the cell's last-heard age, services gone, what a first
-frame waits for; and waiting for a cell or a router instead of exiting (as processes, ended
-with Ctrl-C)."""
+the live keys, their age once they stop (by the heartbeat their stream announces: a resting cell
+says once a second that nothing changed), the cell's last-heard age, services gone, what a first
+frame waits for and that it wakes for each sample instead of polling; and waiting for a cell or
+a router instead of exiting (as processes, ended with Ctrl-C)."""
 
 from __future__ import annotations
 
@@ -9,12 +10,14 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 import msgspec
 import pytest
 
 from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.liveness import STALE_HEARTBEATS
 from motocell.shared.bus.schemas import (
     CommandRequest,
     ExecutorMetrics,
@@ -28,6 +31,7 @@ from motocell.shared.bus.schemas import (
 from motocell.shared.ports import free_port
 from motocell.shared.protocol.constants import NotReadySubcode
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
+from motocell.shared.service import StopFlag
 from motocell.tools.watch import STALE_S, Watcher, render
 from tests.statuses import ready_status
 
@@ -36,8 +40,12 @@ EVERY_SERVICE = ("controller", "executor", "broadcaster", "gateway")
 T0 = 1000.0
 
 
-def queue_state(depth: int, tick: int = 7) -> bytes:
-    return encode(QueueState(1, 0, depth, 200, [0] * 8, tick, ready=True))
+REST_MS = 1000
+"""The heartbeat of a stream while nothing can move (``shared.bus.liveness``)."""
+
+
+def queue_state(depth: int, tick: int = 7, heartbeat_ms: int = 100) -> bytes:
+    return encode(QueueState(1, 0, depth, 200, [0] * 8, tick, True, heartbeat_ms))
 
 
 def state(*positions: float) -> bytes:
@@ -83,6 +91,30 @@ def test_positions_come_from_the_state_and_show_their_age_once_it_stops() -> Non
     assert live.split("rad")[1].split() == ["+0.5000", "-0.2500"]
     stopped = line_with(frame(watcher, T0 + 4.25), "position rad")
     assert stopped.endswith("(4.2 s old)")
+
+
+def test_at_rest_values_show_their_age_only_once_heartbeats_were_missed() -> None:
+    # Resting: the status, the queue state and the state each come once a second, so a value
+    # is up to a second old (and a little more) just before the next one.
+    watcher = Watcher()
+    resting = ready_status(motion_ready=False, servo_on=False, heartbeat_ms=REST_MS)
+    watcher.received(KEYS.controller_status, encode(resting), T0)
+    watcher.received(KEYS.group_queue(0), queue_state(0, heartbeat_ms=REST_MS), T0)
+    watcher.received(KEYS.state, state(0.5), T0)
+    shown = ("motion-ready", "group 0", "position rad")
+    late = frame(watcher, T0 + 1.6)
+    assert [line_with(late, text).endswith(" old)") for text in shown] == [False] * 3
+    gone = T0 + STALE_HEARTBEATS * REST_MS / 1000 + 0.2
+    stopped = frame(watcher, gone)
+    assert [line_with(stopped, text).endswith("(5.2 s old)") for text in shown] == [True] * 3
+
+
+def test_a_moving_cells_values_show_their_age_after_a_second() -> None:
+    watcher = Watcher()
+    watcher.received(KEYS.controller_status, encode(ready_status()), T0)  # 100 ms heartbeat
+    watcher.received(KEYS.group_queue(0), queue_state(3), T0)
+    assert line_with(frame(watcher, T0 + 1.2), "group 0").endswith("(1.2 s old)")
+    assert line_with(frame(watcher, T0 + 1.2), "motion-ready").endswith("(1.2 s old)")
 
 
 def test_each_cell_says_when_it_was_last_heard_from() -> None:
@@ -142,6 +174,27 @@ def test_the_first_frame_waits_for_what_each_live_service_publishes() -> None:
     assert watcher.awaited() == {"arm": ["group/1/queue"]}
     watcher.received(KEYS.group_queue(1), queue_state(0), T0)
     assert watcher.awaited() == {}
+
+
+def test_the_first_frame_wakes_for_the_sample_that_completes_it() -> None:
+    watcher = Watcher()
+    alive(watcher, "controller/0")
+    arrive = threading.Thread(
+        target=watcher.received, args=(KEYS.controller_status, encode(ready_status()), T0)
+    )
+    arrive.start()
+    watcher.wait_until_complete(StopFlag(), timeout=600)  # a missed wake-up: pytest-timeout
+    arrive.join()
+    assert watcher.awaited() == {}
+
+
+def test_the_first_frame_stops_waiting_at_a_stop() -> None:
+    watcher = Watcher()
+    alive(watcher, "controller/0")
+    stop = StopFlag()
+    threading.Thread(target=stop.set).start()
+    watcher.wait_until_complete(stop, timeout=600)
+    assert watcher.awaited() == {"arm": ["controller/status"]}
 
 
 def test_an_undecodable_sample_is_ignored() -> None:
