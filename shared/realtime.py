@@ -1,11 +1,14 @@
-"""Real-time scheduling of the executor's clock: where it may run, and the one command that lets
-it run SCHED_FIFO. The executor applies these (``services/executor/clock.py``); the launcher,
-``motocell ps`` and ``motocell watch`` show the command when it runs without (docs/realtime.md).
+"""Real-time scheduling: the executor's clock (SCHED_FIFO, where it may run), every other thread
+of a cell's processes (SCHED_RR below the clock), and the one command that allows both. The
+executor applies the clock's (``services/executor/clock.py``), every service and the launcher's
+router their own (``enter_service_priority``); the launcher, ``motocell ps`` and ``motocell
+watch`` show the command when they run without (docs/realtime.md).
 """
 
 from __future__ import annotations
 
 import ctypes
+import logging
 import os
 import sys
 from collections.abc import Set
@@ -13,6 +16,14 @@ from collections.abc import Set
 RT_PRIORITY = 50
 """The clock thread's SCHED_FIFO priority: above every ordinary thread and below the kernel's own
 real-time threads (interrupt threads run at 50 too, and the migration threads at 99)."""
+
+SERVICE_PRIORITY = 10
+"""The SCHED_RR priority of every thread of a cell's processes but the clock: the services, their
+Zenoh threads, the launcher's router. Above every ordinary process, so that a machine busy with
+other work (a build, other cells, CPU hogs) cannot starve what the stall rules wait for (the
+controller's status, the interpolators' increments, the gateway's view of both, the router that
+carries them) into stopping motion; below the clock, which preempts them all. Measured:
+docs/realtime.md, "The other threads: SCHED_RR 10"."""
 
 MIN_CPUS_FOR_AFFINITY = 4
 """Below this the clock is never restricted: with two or three CPUs, the ones left to it would be
@@ -48,8 +59,35 @@ def tighten_timer_slack() -> None:
         ctypes.CDLL(None, use_errno=True).prctl(PR_SET_TIMERSLACK, TIMER_SLACK_NS)
 
 
+def enter_service_priority(log: logging.Logger, *, quiet: bool = False) -> bool:
+    """SCHED_RR SERVICE_PRIORITY for the calling thread and every thread it starts from now on
+    (they inherit it: call it before the Zenoh session opens, whose threads carry every
+    message), and for processes it starts (the launcher's services). Whether it was granted.
+
+    Refused (no CAP_SYS_NICE, an rtprio limit below SERVICE_PRIORITY) the process runs on at
+    ordinary priority, and says so in one warning with the command that allows it; ``quiet``
+    leaves that to whoever started it (``motocell up`` says it once for the whole cell)."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        os.sched_setscheduler(0, os.SCHED_RR, os.sched_param(SERVICE_PRIORITY))
+    except OSError as exc:
+        log.log(
+            logging.DEBUG if quiet else logging.WARNING,
+            "running WITHOUT real-time priority (SCHED_RR %d refused: %s); ordinary load on "
+            "this machine can starve it into stopping motion. To allow it: %s",
+            SERVICE_PRIORITY,
+            exc.strerror,
+            fix_command(),
+        )
+        return False
+    log.debug("every thread runs SCHED_RR priority %d", SERVICE_PRIORITY)
+    return True
+
+
 def fix_command(pid: int | str = "self") -> str:
-    """The one command that lets process ``pid`` of this machine (an executor) run SCHED_FIFO;
+    """The one command that lets process ``pid`` of this machine (an executor, a service, the
+    launcher) take the priorities above, the clock's SCHED_FIFO and the others' SCHED_RR alike;
     ELSEWHERE when this process cannot look at it (not Linux, another user's process)."""
     proc = f"/proc/{pid}"
     try:

@@ -1,9 +1,10 @@
-"""The executor clock's real-time settings: where it may run, the timer slack, and the one
-command that lets it run SCHED_FIFO."""
+"""Real-time settings: where the executor's clock may run, its timer slack, the priority every
+other thread of a cell asks for, and the one command that allows them."""
 
 from __future__ import annotations
 
 import ctypes
+import logging
 import os
 import sys
 import threading
@@ -13,7 +14,10 @@ import pytest
 from motocell.shared.realtime import (
     CAP_SYS_NICE,
     ELSEWHERE,
+    RT_PRIORITY,
+    SERVICE_PRIORITY,
     clock_cpus,
+    enter_service_priority,
     fix,
     fix_command,
     tighten_timer_slack,
@@ -72,3 +76,89 @@ def test_this_process_is_looked_up_in_proc() -> None:
 
 def test_a_process_that_cannot_be_seen_gets_the_general_advice() -> None:
     assert fix_command(2**22 + 1) == ELSEWHERE  # above every pid_max
+
+
+# -- the other threads of a cell's processes -------------------------------------------------
+
+
+def test_the_services_run_above_ordinary_threads_and_below_the_clock() -> None:
+    assert 1 <= SERVICE_PRIORITY < RT_PRIORITY
+
+
+class Scheduler:
+    """``os.sched_setscheduler`` as the kernel would answer it, recorded."""
+
+    def __init__(self, refuse: bool) -> None:
+        self.refuse = refuse
+        self.calls: list[tuple[int, int, int]] = []
+
+    def __call__(self, pid: int, policy: int, param: os.sched_param) -> None:
+        self.calls.append((pid, policy, param.sched_priority))
+        if self.refuse:
+            raise PermissionError(1, "Operation not permitted")
+
+
+@pytest.fixture
+def linux(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(sys, "platform", "linux")
+
+
+def test_a_service_asks_sched_rr_for_the_calling_thread_which_its_threads_inherit(
+    linux: None, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    scheduler = Scheduler(refuse=False)
+    monkeypatch.setattr(os, "sched_setscheduler", scheduler, raising=False)
+    caplog.set_level(logging.DEBUG)
+    assert enter_service_priority(logging.getLogger("gateway"))
+    # No SCHED_RESET_ON_FORK: the kernel would reset the threads Zenoh starts as well.
+    assert scheduler.calls == [(0, os.SCHED_RR, SERVICE_PRIORITY)]
+    assert [r.levelno for r in caplog.records] == [logging.DEBUG]
+
+
+def test_a_refused_service_warns_once_with_the_command_that_allows_it(
+    linux: None, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    monkeypatch.setattr(os, "sched_setscheduler", Scheduler(refuse=True), raising=False)
+    assert not enter_service_priority(logging.getLogger("gateway"))
+    (record,) = caplog.records
+    assert record.levelno == logging.WARNING
+    assert f"SCHED_RR {SERVICE_PRIORITY} refused: Operation not permitted" in record.message
+    assert record.message.endswith(f"To allow it: {fix_command()}")
+
+
+def test_under_a_launcher_a_refusal_is_left_to_the_launcher(
+    linux: None, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    monkeypatch.setattr(os, "sched_setscheduler", Scheduler(refuse=True), raising=False)
+    caplog.set_level(logging.INFO)
+    assert not enter_service_priority(logging.getLogger("gateway"), quiet=True)
+    assert caplog.records == []
+
+
+def test_off_linux_nothing_is_asked(monkeypatch: pytest.MonkeyPatch) -> None:
+    scheduler = Scheduler(refuse=False)
+    monkeypatch.setattr(sys, "platform", "darwin")
+    monkeypatch.setattr(os, "sched_setscheduler", scheduler, raising=False)
+    assert not enter_service_priority(logging.getLogger("gateway"))
+    assert scheduler.calls == []
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="scheduling policies are Linux's")
+def test_a_thread_started_after_it_runs_sched_rr_too() -> None:
+    seen: list[tuple[int, int]] = []
+
+    def service() -> None:
+        if not enter_service_priority(logging.getLogger("test"), quiet=True):
+            return
+        child = threading.Thread(
+            target=lambda: seen.append((os.sched_getscheduler(0), os.sched_getparam(0)[0]))
+        )
+        child.start()
+        child.join()
+
+    thread = threading.Thread(target=service)
+    thread.start()
+    thread.join()
+    if not seen:
+        pytest.skip("SCHED_RR refused here (no CAP_SYS_NICE, no rtprio limit)")
+    assert seen == [(os.SCHED_RR, SERVICE_PRIORITY)]
