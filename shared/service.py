@@ -34,6 +34,7 @@ from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import Listening, ServiceInfo, encode
 from motocell.shared.bus.session import ENCODING, StoppedWaiting, open_session
 from motocell.shared.config import EXIT_CONFIG, Cell, ConfigError, load_cell
+from motocell.shared.realtime import enter_service_priority
 from motocell.shared.service_names import (
     PER_GROUP,
     SERVICES,
@@ -257,6 +258,8 @@ def running_service(
         # `kill -USR1 <pid>` prints every thread's stack: how to see where a service is stuck.
         faulthandler.register(signal.SIGUSR1, all_threads=True)
         die_with_launcher()
+        # Before the session opens, whose threads inherit it; `motocell up` says a refusal once.
+        enter_service_priority(logging.getLogger(service), quiet=PARENT_PID_ENV in os.environ)
         try:
             cell = load_cell(args.config, args.name)
             parse_service(str(name), cell)  # an interpolator of a group the cell lacks
