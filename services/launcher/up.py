@@ -53,6 +53,7 @@ from motocell.shared.bus.credentials import load as load_credentials
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.session import StoppedWaiting, open_session
 from motocell.shared.config import EXIT_CONFIG, Cell, ConfigError, load_cell
+from motocell.shared.realtime import enter_service_priority
 from motocell.shared.registry import CellEntry, CellNameTakenError
 from motocell.shared.service import StopFlag, stop_on_signals
 from motocell.shared.service_names import UnknownServiceError, cell_services
@@ -67,8 +68,10 @@ def run(args: argparse.Namespace) -> int:
     try:
         cell = load_cell(args.config, args.name)
         this_host = ThisHost(cell, args)
+        # Before the router opens, so that its threads inherit it, and so do the services.
+        realtime = enter_service_priority(log, quiet=True)
         with stop_on_signals() as stop, _cell_bus(cell, args, this_host, stop) as bus:
-            return run_children(cell, args, this_host, bus, stop)
+            return run_children(cell, args, this_host, bus, stop, realtime=realtime)
     except StoppedWaiting:
         return 0  # stopped before the router it joins came
     except (
@@ -181,8 +184,15 @@ def _join(
 
 
 def run_children(
-    cell: Cell, args: argparse.Namespace, this_host: ThisHost, bus: CellBus, stop: StopFlag
+    cell: Cell,
+    args: argparse.Namespace,
+    this_host: ThisHost,
+    bus: CellBus,
+    stop: StopFlag,
+    *,
+    realtime: bool,
 ) -> int:
+    """``realtime``: whether this launcher got the services' priority (and so its children)."""
     options = UpOptions(
         config=args.config,
         name=args.name,
@@ -209,12 +219,18 @@ def run_children(
         this_host.ports,
         f"cell {cell.name} ready: {this_host.describe()}; Zenoh {bus.endpoint} ({security})",
     )
-    realtime = RealtimeNotice(bus.session, keys, lambda: _pid(children, EXECUTOR))
+    notice = RealtimeNotice(
+        bus.session,
+        keys,
+        lambda: _pid(children, EXECUTOR),
+        services_realtime=realtime,
+        executor_here=any(child.name == EXECUTOR for child in children),
+    )
     try:
-        status = supervise(children, RestartPolicy(), stop, lambda: _look(ready, realtime))
+        status = supervise(children, RestartPolicy(), stop, lambda: _look(ready, notice))
     finally:
         ready.close()
-        realtime.close()
+        notice.close()
         stop_children(children)
         log.info("cell %s stopped", cell.name)
     return status
@@ -243,6 +259,7 @@ def router(args: argparse.Namespace) -> int:
     """A Zenoh router in this process until SIGINT or SIGTERM."""
     try:
         with stop_on_signals() as stop:
+            enter_service_priority(log)  # every stream of the cells it serves goes through it
             serve_router(args.listen, args.connect, stop, args.config)
     except ConnectionError as exc:
         print(f"motocell router: {exc}", file=sys.stderr)
