@@ -35,7 +35,12 @@ from typing import Any
 
 import numpy as np
 
-from motocell.bench.clients import StateClientProcess, StreamClientProcess, stream_bound_s
+from motocell.bench.clients import (
+    StateClientProcess,
+    StreamClientProcess,
+    StreamRefusedError,
+    stream_bound_s,
+)
 from motocell.bench.harness import (
     CHECK_MOTION_READY,
     CHECK_QUEUE_CNT,
@@ -70,6 +75,8 @@ COMMAND_MESSAGES = {"CHECK_MOTION_READY": CHECK_MOTION_READY, "CHECK_QUEUE_CNT":
 """Timed idle, and as the probes (in this order) of a stream while 4 groups move."""
 MOVING = " while 4 groups move"
 RECORDING_S = 600.0
+RETRIES = 2
+"""Runs measured again after a refused stream, when the caller counts refusals (figure 11)."""
 """Bound of the state client's record (it only loads the cell here)."""
 
 Series = dict[str, list[np.ndarray]]
@@ -128,11 +135,16 @@ def measure(
     counts: tuple[int, int],
     conditions: Sequence[str],
     before_run: Callable[[int], None] | None = None,
+    refusals: list[tuple[int, str]] | None = None,
 ) -> tuple[dict[str, Series], list[tuple[int, bytes]]]:
     """One run per entry of ``conditions`` (its label), on one cell, ``before_run(index)``
     called before each (figure 11 starts or stops a neighbour cell there); the round trips per
     label, and the gateway's metrics samples. Runs go up and back in pairs, so every label
-    sees both directions when it has two runs or more."""
+    sees both directions when it has two runs or more.
+
+    A stream the cell refuses ends the figure, unless ``refusals`` is given: the refusal is
+    noted there (the run's index, why), the cell recovered (START_TRAJ_MODE) and the run measured
+    again, at most ``RETRIES`` times."""
     series: dict[str, Series] = {c: {name: [] for name in series_names()} for c in conditions}
     with contextlib.ExitStack() as stack:
         directory = stack.enter_context(workdir())
@@ -149,10 +161,21 @@ def measure(
             if before_run is not None:
                 before_run(index)
             direction = 1.0 if direction_index(index, len(set(conditions))) % 2 == 0 else -1.0
-            run_series = series[condition]
-            _one_run(
-                cell, observer, streamer, counts=counts, direction=direction, series=run_series
-            )
+            for attempt in range(RETRIES + 1):
+                found: Series = {name: [] for name in series_names()}
+                try:
+                    _one_run(
+                        cell, observer, streamer, counts=counts, direction=direction, series=found
+                    )
+                except StreamRefusedError as refused:
+                    if refusals is None or attempt == RETRIES:
+                        raise
+                    refusals.append((index, str(refused)))
+                    streamer.recover()
+                    continue
+                for name, runs in found.items():
+                    series[condition][name] += runs
+                break
         observer.wait_still()
         time.sleep(1.2)  # the last second's gateway/metrics
     return series, gateway_metrics

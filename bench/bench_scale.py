@@ -72,7 +72,7 @@ from motocell.bench.harness import (
 from motocell.shared.bus.schemas import Tick
 from motocell.shared.config import Cell
 from motocell.shared.motion.kinematics import AxisMap
-from motocell.shared.protocol.constants import Command, Result
+from motocell.shared.protocol.constants import Result
 from motocell.testkit.cell import RunningCell, running_cell
 from motocell.testkit.client import ex_messages, smooth_move
 
@@ -344,14 +344,7 @@ class DemoCell:
 
     def _recover(self) -> None:
         """START_TRAJ_MODE until it succeeds (after an alarm), then from wherever it stands."""
-        deadline = time.monotonic() + RECOVER_TIMEOUT_S
-        while True:
-            result, subcode = self.streamer.command(Command.START_TRAJ_MODE)
-            if result == Result.SUCCESS:
-                break
-            if time.monotonic() > deadline:
-                raise RuntimeError(f"{self.name}: START_TRAJ_MODE refused ({result}, {subcode})")
-            time.sleep(0.5)
+        self.streamer.recover(RECOVER_TIMEOUT_S)
         self.here = self._still()
 
     def stop(self) -> None:

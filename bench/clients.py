@@ -31,6 +31,7 @@ from motocell.testkit.cell import RunningCell
 START_TIMEOUT_S = 30.0
 JOB_TIMEOUT_S = 600.0
 """Beyond a job's own bound: a job that takes longer is a hang."""
+RECOVER_TIMEOUT_S = 30.0
 
 
 def stream_bound_s(nominal_s: float) -> float:
@@ -183,8 +184,12 @@ class StreamRecord:
 
     def check(self) -> StreamRecord:
         if self.error:
-            raise RuntimeError(f"streaming failed: {self.error}")
+            raise StreamRefusedError(f"streaming failed: {self.error}")
         return self
+
+
+class StreamRefusedError(RuntimeError):
+    """A stream stopped at a point the cell refused (NOT_READY, INVALID, ...)."""
 
 
 class StreamClientProcess:
@@ -230,6 +235,20 @@ class StreamClientProcess:
         result, subcode = self.command(Command.START_TRAJ_MODE)
         if result != Result.SUCCESS:
             raise RuntimeError(f"START_TRAJ_MODE refused: result {result}, subcode {subcode}")
+
+    def recover(self, timeout: float = RECOVER_TIMEOUT_S) -> None:
+        """After a refused stream: START_TRAJ_MODE until it succeeds (it resets an alarm, as a
+        ROS driver's robot_enable does)."""
+        deadline = time.monotonic() + timeout
+        while True:
+            result, subcode = self.command(Command.START_TRAJ_MODE)
+            if result == Result.SUCCESS:
+                return
+            if time.monotonic() > deadline:
+                raise RuntimeError(
+                    f"START_TRAJ_MODE refused for {timeout:g} s: result {result}, subcode {subcode}"
+                )
+            time.sleep(0.5)
 
     def begin(
         self,

@@ -16,7 +16,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from motocell.bench.clients import StateClientProcess, StreamClientProcess, StreamRecord
+from motocell.bench.clients import (
+    StateClientProcess,
+    StreamClientProcess,
+    StreamRecord,
+    StreamRefusedError,
+)
 from motocell.bench.harness import (
     EXECUTOR_MODES,
     Observer,
@@ -44,6 +49,8 @@ SETTLE_S = 0.5
 """After the first move, until the ring is full and state flows."""
 RUN_OVERHEAD_S = 20.0
 """Per run besides its window: waiting for the robot to stop and start, settling, stopping."""
+RETRIES = 2
+"""Windows measured again after a refused stream, when the caller counts refusals (figure 11)."""
 
 
 @dataclass
@@ -105,10 +112,13 @@ def measure_loaded(
     seconds: float,
     before_window: Callable[[int], None] | None = None,
     extra_s: float = 0.0,
+    refusals: list[tuple[int, str]] | None = None,
 ) -> list[LoadedRun]:
     """``runs`` windows of ``seconds`` on one loaded cell; ``before_window(run)`` is called
     before each (figure 11 starts or stops a neighbour cell there), ``extra_s`` is what it may
-    take in all (the state clients' records are sized for it)."""
+    take in all (the state clients' records are sized for it). A stream the cell refuses ends
+    the figure, unless ``refusals`` is given: it is noted there (the run, why), the cell
+    recovered (START_TRAJ_MODE) and the window measured again, at most ``RETRIES`` times."""
     with contextlib.ExitStack() as stack:
         directory = stack.enter_context(workdir())
         cell = stack.enter_context(bench_cell(directory, "bench34", state_period_ms=4.0))
@@ -128,7 +138,16 @@ def measure_loaded(
         for run in range(runs):
             if before_window is not None:
                 before_window(run)
-            windows.append(_window(cell, observer, streamer, run, seconds))
+            for attempt in range(RETRIES + 1):
+                try:
+                    windows.append(_window(cell, observer, streamer, run, seconds))
+                except StreamRefusedError as refused:
+                    if refusals is None or attempt == RETRIES:
+                        raise
+                    refusals.append((run, str(refused)))
+                    streamer.recover()
+                    continue
+                break
         observer.wait_still()
         recorded = [client.stop() for client in clients]
         dropped = sum(int(data["dropped"]) for data in recorded)
@@ -166,9 +185,10 @@ def _window(
         time.sleep(seconds)
         last = observer.mark()
         end_ns = time.monotonic_ns()
-    finally:
-        record = streamer.end()
-    return _Window(first, last, start_ns, end_ns, record.check())
+    except BaseException:
+        streamer.end().check()  # a refused point says why the robot did not move
+        raise
+    return _Window(first, last, start_ns, end_ns, streamer.end().check())
 
 
 def _loaded_run(
