@@ -21,6 +21,7 @@ from motocell.shared.bus.liveness import AT_REST_HEARTBEAT_S
 from motocell.shared.bus.schemas import ExecutorMetrics
 from motocell.shared.metrics import Window
 from motocell.shared.realtime import RT_PRIORITY, clock_cpus, fix_command, tighten_timer_slack
+from motocell.shared.service import PARENT_PID_ENV
 
 log = logging.getLogger("executor")
 
@@ -42,7 +43,10 @@ def enter_realtime() -> bool:
     try:
         os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(RT_PRIORITY))
     except (PermissionError, OSError) as exc:
-        log.warning(
+        # Under `motocell up` the launcher says it once for the whole cell.
+        quiet = PARENT_PID_ENV in os.environ
+        log.log(
+            logging.DEBUG if quiet else logging.WARNING,
             "running WITHOUT real-time priority (SCHED_FIFO %d refused: %s); expect missed "
             "periods under load. To allow it: %s",
             RT_PRIORITY,

@@ -37,6 +37,7 @@ from motocell.shared.bus.schemas import (
 from motocell.shared.config import PositionLoop, parse_cell
 from motocell.shared.motion.servo import Servos
 from motocell.shared.protocol.constants import Result
+from tests.statuses import ready_status
 
 FIRST_EPOCH = 100
 START = [[10, 20, 30, 40, 50, 60, 0, 0], [-5, 5, 0, 0, 0, 0, 0, 0]]
@@ -77,23 +78,10 @@ def status(
     servo_on: bool = True,
     alarms: Sequence[Alarm] = (),
 ) -> ControllerStatus:
-    return ControllerStatus(
-        seq=1,
+    return ready_status(
         servo_on=servo_on,
-        estop=False,
-        hold=False,
         alarms=list(alarms),
-        error=0,
-        play=True,
-        remote=True,
-        operating=True,
-        job_ready=True,
-        pfl_active=False,
-        incmove_error=False,
-        eco=False,
-        missing_services=[],
         motion_ready=motion_ready,
-        not_ready_subcode=0,
         tools=[0, 0],
         heartbeat_ms=heartbeat_ms,
     )
