@@ -44,6 +44,7 @@ from motocell.bench.clients import (
 from motocell.bench.harness import (
     CHECK_MOTION_READY,
     CHECK_QUEUE_CNT,
+    LogTail,
     Observer,
     bench_cell,
     figure_result,
@@ -52,6 +53,7 @@ from motocell.bench.harness import (
     positions_of,
     ramp,
     ramps,
+    refusal_text,
     workdir,
 )
 from motocell.shared.bus.schemas import Decoder, GatewayMetrics
@@ -157,6 +159,7 @@ def measure(
         streamer = stack.enter_context(StreamClientProcess(cell, directory))
         stack.enter_context(gc_paused())
         streamer.start_traj_mode()
+        log = LogTail(directory / "bench4.log")
         for index, condition in enumerate(conditions):
             if before_run is not None:
                 before_run(index)
@@ -170,11 +173,12 @@ def measure(
                 except StreamRefusedError as refused:
                     if refusals is None or attempt == RETRIES:
                         raise
-                    refusals.append((index, str(refused)))
+                    refusals.append((index, refusal_text(refused, log.lines("alarm"))))
                     streamer.recover()
                     continue
                 for name, runs in found.items():
                     series[condition][name] += runs
+                log.skip()  # a refusal's alarms: those logged since the last good run
                 break
         observer.wait_still()
         time.sleep(1.2)  # the last second's gateway/metrics

@@ -56,8 +56,10 @@ from motocell.bench.clients import StateClientProcess, StreamClientProcess, stre
 from motocell.bench.harness import (
     START_TIMEOUT_S,
     CostSampler,
+    LogTail,
     Observer,
     ProcessCost,
+    alarm_codes,
     bench_cell,
     cost_by_kind,
     figure_result,
@@ -224,6 +226,8 @@ class Trajectory:
     off_pulses: int
     """At rest, the largest |commanded or feedback pulses - last point| of any axis; -1 when
     not judged (a point was refused)."""
+    alarms: tuple[int, ...] = ()
+    """An aborted trajectory's alarms: those its cell logged since the last good one."""
 
     @property
     def aborted(self) -> bool:
@@ -302,6 +306,7 @@ class DemoCell:
         stack.callback(state.kill)
         self.streamer = stack.enter_context(StreamClientProcess(self.cell, directory))
         self.streamer.start_traj_mode()
+        self.log = LogTail(directory / f"{self.name}.log")
         self.here = self.observer.wait_still()
         home = positions_of(self.cell.cell, self.here)
         away = {g: tuple(p + MOVE_RAD for p in ps) for g, ps in home.items()}
@@ -323,13 +328,17 @@ class DemoCell:
         record = self.streamer.stream(ex_messages(plans), stream_bound_s(MOVE_S))
         if record.error:
             refused = int(record.result[-1]) if len(record.result) else 0
+            alarms = tuple(sorted(set(alarm_codes(self.log.lines("alarm")))))
             self._recover()
+            self.log.skip()
             return Trajectory(
-                self.name, time.monotonic_ns(), record.points, record.error, refused, -1
+                self.name, time.monotonic_ns(), record.points, record.error, refused, -1, alarms
             )
         self.here = self._still()
         off = off_goal_pulses(self.here, target_pulses(cell, goal))
-        return Trajectory(self.name, time.monotonic_ns(), record.points, "", 0, off)
+        alarms = tuple(sorted(set(alarm_codes(self.log.lines("alarm"))))) if off else ()
+        self.log.skip()
+        return Trajectory(self.name, time.monotonic_ns(), record.points, "", 0, off, alarms)
 
     def _still(self) -> Tick:
         """The robot at rest: the next still tick, or the last tick if the clock already rests
@@ -593,8 +602,22 @@ def moving_results(moving: Moving, quick: bool) -> list[dict[str, Any]]:
     return results
 
 
+def alarms_by_code(trajectories: Sequence[Trajectory]) -> dict[int, int]:
+    """Per alarm: how many aborted trajectories its cell raised it for."""
+    codes: dict[int, int] = {}
+    for t in trajectories:
+        if t.aborted:
+            for code in t.alarms:
+                codes[code] = codes.get(code, 0) + 1
+    return dict(sorted(codes.items()))
+
+
 def aborted_text(trajectories: Sequence[Trajectory]) -> str:
     kinds = aborted_by_kind(trajectories)
     if not kinds:
         return "none aborted"
-    return ", ".join(f"{name} {count}" for name, count in sorted(kinds.items()))
+    text = ", ".join(f"{name} {count}" for name, count in sorted(kinds.items()))
+    alarms = alarms_by_code(trajectories)
+    if alarms:
+        text += "; alarms logged: " + ", ".join(f"{c} ({n})" for c, n in alarms.items())
+    return text

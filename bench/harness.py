@@ -21,6 +21,7 @@ import importlib.metadata
 import math
 import os
 import platform
+import re
 import shutil
 import statistics
 import subprocess
@@ -446,6 +447,56 @@ def gc_paused() -> Iterator[None]:
     finally:
         gc.unfreeze()
         gc.enable()
+
+
+class LogTail:
+    """What a cell's log (``bench_cell``'s ``<name>.log``) says from a point on: why a stream
+    was refused, say (the services log every alarm they raise)."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.offset = 0
+        self.skip()
+
+    def skip(self) -> None:
+        """From now on."""
+        with contextlib.suppress(OSError):
+            self.offset = self.path.stat().st_size
+
+    def lines(self, containing: str = "") -> list[str]:
+        """The lines written since the last look that contain ``containing``, without their
+        timestamps."""
+        try:
+            with self.path.open("rb") as log:
+                log.seek(self.offset)
+                text = log.read().decode(errors="replace")
+                self.offset = log.tell()
+        except OSError:
+            return []
+        return [without_timestamp(line) for line in text.splitlines() if containing in line]
+
+
+def without_timestamp(line: str) -> str:
+    """``2026-11-26 04:13:15,926 executor/0[1635] ERROR ...`` -> ``executor/0[1635] ERROR ...``."""
+    parts = line.split(" ", 2)
+    if len(parts) == 3 and parts[0][:1].isdigit() and parts[1][:1].isdigit():
+        return parts[2]
+    return line
+
+
+ALARM = re.compile(r"alarm (\d+)")
+
+
+def alarm_codes(lines: Sequence[str]) -> list[int]:
+    """The alarm numbers the lines name (``... (alarm 4200)``), in order."""
+    return [int(code) for line in lines for code in ALARM.findall(line)]
+
+
+def refusal_text(error: object, logged: Sequence[str], most: int = 3) -> str:
+    """A refusal, and the last ``most`` alarm lines its cell logged meanwhile."""
+    if not logged:
+        return str(error)
+    return f"{error}; the cell's log: {' | '.join(logged[-most:])}"
 
 
 @contextmanager

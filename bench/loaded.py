@@ -24,11 +24,13 @@ from motocell.bench.clients import (
 )
 from motocell.bench.harness import (
     EXECUTOR_MODES,
+    LogTail,
     Observer,
     bench_cell,
     gc_paused,
     positions_of,
     ramps,
+    refusal_text,
     wait_moving,
     wake_ns,
     workdir,
@@ -135,6 +137,7 @@ def measure_loaded(
         stack.enter_context(gc_paused())
         streamer.start_traj_mode()
         windows = []
+        log = LogTail(directory / "bench34.log")
         for run in range(runs):
             if before_window is not None:
                 before_window(run)
@@ -144,9 +147,10 @@ def measure_loaded(
                 except StreamRefusedError as refused:
                     if refusals is None or attempt == RETRIES:
                         raise
-                    refusals.append((run, str(refused)))
+                    refusals.append((run, refusal_text(refused, log.lines("alarm"))))
                     streamer.recover()
                     continue
+                log.skip()  # a refusal's alarms: those logged since the last good window
                 break
         observer.wait_still()
         recorded = [client.stop() for client in clients]

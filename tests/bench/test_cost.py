@@ -2,20 +2,26 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from motocell.bench.bench_cost import Window, deviation_percent, rate_hz, took_points
 from motocell.bench.clients import StreamRecord
 from motocell.bench.harness import (
+    LogTail,
     ProcessCost,
     Usage,
+    alarm_codes,
     cost_by_kind,
     parse_schedstat,
     parse_switches,
     process_cost,
+    refusal_text,
     total,
     usage_between,
+    without_timestamp,
 )
 
 # -- /proc -------------------------------------------------------------------------------------
@@ -94,3 +100,32 @@ def record(accepted_ns: list[int]) -> StreamRecord:
 def test_a_moving_cell_took_points_in_every_window_it_moved() -> None:
     windows = [Window([], 0, 100), Window([], 100, 200), Window([], 200, 300)]
     assert took_points(record([50, 150, 0]), windows) == [True, True, False]
+
+
+# -- the cell's log ------------------------------------------------------------------------------
+
+
+def test_a_log_tail_gives_the_lines_written_since_the_last_look(tmp_path: Path) -> None:
+    log = tmp_path / "cell.log"
+    log.write_text("2026-11-26 04:13:15,000 gateway/0[1] INFO up\n")
+    tail = LogTail(log)
+    with log.open("a") as out:
+        out.write(
+            "2026-11-26 04:13:15,926 executor/0[1635] ERROR no controller status heard; "
+            "stopping motion (alarm 4200)\n"
+            "2026-11-26 04:13:16,000 gateway/0[1] INFO nothing\n"
+        )
+    alarms = tail.lines("alarm")
+    assert alarms == [
+        "executor/0[1635] ERROR no controller status heard; stopping motion (alarm 4200)"
+    ]
+    assert alarm_codes(alarms) == [4200]
+    assert tail.lines() == []
+    assert LogTail(tmp_path / "none.log").lines() == []
+
+
+def test_a_refusal_names_the_last_alarms_logged() -> None:
+    assert refusal_text("point 0 refused", []) == "point 0 refused"
+    text = refusal_text("point 0 refused", ["a (alarm 1)", "b (alarm 2)", "c", "d"], most=2)
+    assert text == "point 0 refused; the cell's log: c | d"
+    assert without_timestamp("no timestamp here") == "no timestamp here"

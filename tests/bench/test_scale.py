@@ -14,6 +14,8 @@ from motocell.bench.bench_scale import (
     Trajectory,
     Window,
     aborted_by_kind,
+    aborted_text,
+    alarms_by_code,
     ended_within,
     idle_steps,
     is_still,
@@ -118,3 +120,16 @@ def test_the_largest_moving_count_had_no_missed_period_within_the_cpu_limit() ->
     assert largest_moving(found) == 3
     found.probes[1] = moving_window(1, 2, 30.0)
     assert largest_moving(found) == 0
+
+
+def test_aborted_trajectories_name_the_alarms_their_cells_logged() -> None:
+    done = [
+        Trajectory("a", 1, 20, "point 3 refused", int(Result.NOT_READY), -1, (4200,)),
+        Trajectory("b", 2, 20, "", 0, 5, (4200, 4416)),
+        Trajectory("c", 3, 20, "", 0, 0),
+    ]
+    assert alarms_by_code(done) == {4200: 2, 4416: 1}
+    assert aborted_text(done) == (
+        "NOT_READY 1, not exactly at the end 1; alarms logged: 4200 (2), 4416 (1)"
+    )
+    assert aborted_text(done[2:]) == "none aborted"
