@@ -114,6 +114,8 @@ QUICK_WINDOW_S = 2.0
 SETTLE_S = 1.0
 """After a cell is added and driven: its start-up burst passes."""
 STILL_TIMEOUT_S = 20.0
+ARRIVE_S = 5.0
+"""After the last point was taken: how long the robot may take to come to rest at it."""
 RECOVER_TIMEOUT_S = 30.0
 
 
@@ -334,11 +336,24 @@ class DemoCell:
             return Trajectory(
                 self.name, time.monotonic_ns(), record.points, record.error, refused, -1, alarms
             )
-        self.here = self._still()
-        off = off_goal_pulses(self.here, target_pulses(cell, goal))
-        alarms = tuple(sorted(set(alarm_codes(self.log.lines("alarm"))))) if off else ()
+        self.here, off = self._arrive(target_pulses(cell, goal))
+        alarms = ()
+        if off:
+            alarms = tuple(sorted(set(alarm_codes(self.log.lines("alarm")))))
+            self._recover()
         self.log.skip()
         return Trajectory(self.name, time.monotonic_ns(), record.points, "", 0, off, alarms)
+
+    def _arrive(self, targets: Mapping[int, np.ndarray]) -> tuple[Tick, int]:
+        """The robot at rest exactly at its last point: the first still tick there, or, after
+        ``ARRIVE_S``, the last still tick and how far off it is. A still tick before the end
+        (the ring run dry mid-move, motion resuming) is not the end."""
+        deadline = time.monotonic() + ARRIVE_S
+        while True:
+            tick = self._still()
+            off = off_goal_pulses(tick, targets)
+            if off == 0 or time.monotonic() > deadline:
+                return tick, off
 
     def _still(self) -> Tick:
         """The robot at rest: the next still tick, or the last tick if the clock already rests
@@ -447,6 +462,15 @@ def ended_within(trajectories: Sequence[Trajectory], window: Window) -> list[Tra
     return [t for t in trajectories if window.start_ns <= t.ended_ns <= window.end_ns]
 
 
+def ended_outside(
+    trajectories: Sequence[Trajectory], windows: Sequence[Window]
+) -> list[Trajectory]:
+    """Those that ended in none of the windows: while a cell was being added (or stopped)."""
+    return [
+        t for t in trajectories if not any(w.start_ns <= t.ended_ns <= w.end_ns for w in windows)
+    ]
+
+
 # -- results -----------------------------------------------------------------------------------
 def run(quick: bool) -> list[dict[str, Any]]:
     with workdir() as directory:
@@ -520,6 +544,7 @@ def moving_results(moving: Moving, quick: bool) -> list[dict[str, Any]]:
     n = moving.windows[0].cells if moving.windows else 0
     tag = f"[{n} four-group cells moving]"
     every = moving.trajectories
+    outside = ended_outside(every, [w.window for w in [*moving.probes.values(), *moving.windows]])
     results = [
         figure_result(
             FIGURE,
@@ -528,6 +553,13 @@ def moving_results(moving: Moving, quick: bool) -> list[dict[str, Any]]:
             [sum(t.aborted for t in every)],
             goal=("==", 0),
             note=f"of {len(every)}; {aborted_text(every)}",
+        ),
+        figure_result(
+            FIGURE,
+            "  of them while a cell was being started beside them (outside every window)",
+            "trajectories",
+            [sum(t.aborted for t in outside)],
+            note=aborted_text(outside),
         ),
         figure_result(
             FIGURE,

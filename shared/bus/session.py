@@ -31,10 +31,11 @@ log = logging.getLogger(__name__)
 LEASE_MS = 5000
 """Transport lease: how long a process may go unheard before its router closes its session and
 deletes its liveliness tokens, which is when the cell counts it gone. A crash closes the socket
-and is noticed in milliseconds whatever the lease (docs/liveness.md, section 1); the lease only bounds how
-long a hung (stopped, starved) process passes for alive. Five times the stalls a loaded host
-was seen to cause (issue 12: every service "gone" for about 1 s at load 10-30 with a 1 s lease);
-motion does not wait for it, the executor bounds its own lateness (docs/liveness.md)."""
+and is noticed in milliseconds whatever the lease (docs/liveness.md, section 1); the lease
+only bounds how long a hung (stopped, starved) process passes for alive. Five times the stalls
+a loaded host was seen to cause (issue 12: every service "gone" for about 1 s at load 10-30
+with a 1 s lease); motion does not wait for it, the executor bounds its own lateness
+(docs/liveness.md)."""
 CONNECT_WAIT_S = 30.0
 """How long a service waits for its router to come up (compose starts them together)."""
 CONNECT_RETRY_S = 0.2

@@ -16,6 +16,7 @@ from motocell.bench.bench_scale import (
     aborted_by_kind,
     aborted_text,
     alarms_by_code,
+    ended_outside,
     ended_within,
     idle_steps,
     is_still,
@@ -106,6 +107,7 @@ def test_trajectories_abort_on_a_refused_point_or_off_their_end() -> None:
         "result 99": 1,
     }
     assert [t.ended_ns for t in ended_within(done, Window([], 2, 4))] == [2, 3, 4]
+    assert [t.ended_ns for t in ended_outside(done, [Window([], 2, 3), Window([], 5, 9)])] == [1, 4]
 
 
 def moving_window(cells: int, missed: int, cpu: float) -> MovingWindow:
