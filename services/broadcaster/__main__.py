@@ -55,6 +55,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         log.info("state port on %s:%d (%s-endian)", host, port, byte_order)
         ticks.start()
         acceptor.start()
+        ctx.alive.announce()
         try:
             while not ctx.stop.is_set():
                 loop.cycle()

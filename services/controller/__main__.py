@@ -12,7 +12,9 @@ from motocell.shared.service import argument_parser, running_service
 def main(argv: Sequence[str] | None = None) -> None:
     args = argument_parser("controller", "The simulated Yaskawa controller.").parse_args(argv)
     with running_service("controller", "0", args) as ctx:
-        ControllerService(ctx).run()
+        controller = ControllerService(ctx)
+        ctx.alive.announce()
+        controller.run()
 
 
 if __name__ == "__main__":

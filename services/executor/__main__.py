@@ -42,6 +42,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         inputs = Inputs(ctx.session, ctx.keys, groups, ctx.stop)
         outputs = Outputs(ctx.session, ctx.keys, groups)
         inputs.start()
+        ctx.alive.announce()
         try:
             Clock(build_core(ctx), inputs, outputs, ctx.stop).run()
         finally:

@@ -69,6 +69,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         adapters = (cell_port, motion_server, io_server, reporter)
         for adapter in adapters:
             adapter.start()
+        ctx.alive.announce()
         log.info(
             "listening on %s:%d and %d (%s-endian)", host, port_base, port_base + 2, byte_order
         )

@@ -35,6 +35,7 @@ def run(ctx: ServiceContext, group_index: int) -> None:
     inputs = Inputs(ctx, group_index)
     points: deque[Point] = deque()
     inputs.start()
+    ctx.alive.announce()
     try:
         while not ctx.stop.is_set():
             inputs.wait(feeder.waits_for_ring(points), reports.next_metrics)
