@@ -1,10 +1,15 @@
 """``motocell credentials``: everything a secured cell's bus needs, in a directory only you can
-read: a password per identity and the router's user dictionary; with ``--tls`` also a CA, the
-router's certificate and a certificate per identity (mutual TLS).
+read: a password per identity and the router's user dictionary; with ``--tls`` also a CA (its
+private key kept, to add and renew certificates later), the router's certificate and a
+certificate per identity (mutual TLS).
+
+Given a directory it made before, it adds what is missing and touches nothing that exists:
+another cell's identities (``--config second-cell.toml``: the same CA signs them, so one router
+can serve both), or an identity the cell file gained (a new group's interpolator).
 
 For cells whose router and services do not start together under ``motocell up`` (which makes
 its own at every start): compose, or services spread over several hosts. Each party then gets
-only its own files.
+only its own files; keep this directory, with the CA's key, off the cell's hosts.
 """
 
 from __future__ import annotations
@@ -14,9 +19,15 @@ import sys
 from pathlib import Path
 
 from motocell.shared.bus.access import Identity, cell_identities
-from motocell.shared.bus.credentials import CA_FILE, USERS_FILE, write_passwords
+from motocell.shared.bus.credentials import (
+    CA_FILE,
+    USERS_FILE,
+    CredentialsError,
+    add_passwords,
+    write_passwords,
+)
 from motocell.shared.bus.router import ROUTER_CERTIFICATE, ROUTER_KEY
-from motocell.shared.config import ConfigError, load_cell
+from motocell.shared.config import Cell, ConfigError, load_cell
 
 DEFAULT_HOSTS = ("localhost", "127.0.0.1")
 """The names a router's certificate is valid for unless ``--host`` says otherwise."""
@@ -26,7 +37,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The options of ``motocell credentials`` (``tools.cli`` names the command)."""
     parser.description = __doc__
     parser.formatter_class = argparse.RawDescriptionHelpFormatter
-    parser.add_argument("directory", metavar="DIR", help="created, readable only by you")
+    parser.add_argument(
+        "directory",
+        metavar="DIR",
+        help="created, readable only by you; or one made before, to add the cell's identities",
+    )
     parser.add_argument(
         "--config", metavar="FILE", help="the cell file: its name, and one identity per group"
     )
@@ -54,10 +69,13 @@ def run(args: argparse.Namespace) -> int:
     directory = Path(args.directory)
     try:
         cell = load_cell(args.config, args.cell)
-        _check_directory(directory)
         if args.host and not args.tls:
             raise ValueError("--host names the router in its TLS certificate: add --tls")
-    except (ConfigError, ValueError) as exc:
+        if _is_credentials(directory):
+            print(_add_cell(directory, cell, args.tls))
+            return 0
+        _check_new_directory(directory)
+    except (ConfigError, CredentialsError, ValueError) as exc:
         print(f"motocell credentials: {exc}", file=sys.stderr)
         return 2
     identities = cell_identities(len(cell.groups))
@@ -72,13 +90,45 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _check_directory(directory: Path) -> None:
-    """New credentials go into a new or empty directory: refreshing a directory in place would
-    mix old and new files, and any party still holding the old ones would be refused."""
+def _is_credentials(directory: Path) -> bool:
+    return (directory / USERS_FILE).is_file()
+
+
+def _add_cell(directory: Path, cell: Cell, tls: bool) -> str:
+    """The identities of ``cell`` that ``directory`` lacks, with certificates from its CA if
+    it has one; nothing that exists is touched."""
+    has_ca = (directory / CA_FILE).is_file()
+    if tls and not has_ca:
+        raise ValueError(
+            f"{directory} holds passwords only: give --tls a new directory (every party of the "
+            "cell then needs the new files)"
+        )
+    users = [identity.username(cell.name) for identity in cell_identities(len(cell.groups))]
+    if has_ca:
+        from motocell.shared.bus.certificates import (  # noqa: PLC0415
+            issue_client_certificate,
+            load_authority,
+        )
+
+        authority = load_authority(directory)  # before anything is written: it may be missing
+        added = add_passwords(directory, users)
+        for user in added:
+            issue_client_certificate(directory, user, authority)
+    else:
+        added = add_passwords(directory, users)
+    if not added:
+        return f"{directory} already holds every identity of cell {cell.name}: nothing added"
+    signed = f", signed by its CA ({CA_FILE})" if has_ca else ""
+    return f"added to {directory}{signed}: {' '.join(added)}"
+
+
+def _check_new_directory(directory: Path) -> None:
+    """New credentials go into a new or empty directory, or one this command made: anything
+    else may be someone's files."""
     if directory.exists() and (not directory.is_dir() or any(directory.iterdir())):
         raise ValueError(
-            f"{directory} exists and is not empty: give a new directory (or remove this one; "
-            "every party of the cell then needs the new files)"
+            f"{directory} exists and holds no credentials (no {USERS_FILE} file): give a new "
+            "directory, or the one `motocell credentials` made"
         )
 
 
@@ -86,14 +136,14 @@ def report(directory: Path, cell: str, identities: list[Identity], hosts: list[s
     """What was written, who needs which file, and how to use them."""
     files = [
         (USERS_FILE, "the router's user dictionary (transport.auth.usrpwd.dictionary_file)"),
-        ("IDENTITY.password", "one per identity: " + " ".join(i.name for i in identities)),
+        ("USER.password", "one per identity: " + " ".join(i.username(cell) for i in identities)),
     ]
     router_files = USERS_FILE
     if hosts is not None:
         files += [
-            (CA_FILE, "the cell's certificate authority"),
+            (f"{CA_FILE}, ca.key", "the cell's certificate authority (keep ca.key off the hosts)"),
             (f"{ROUTER_CERTIFICATE}, {ROUTER_KEY}", f"the router's, for {', '.join(hosts)}"),
-            ("IDENTITY.pem, IDENTITY.key", "one certificate per identity (mutual TLS)"),
+            ("USER.pem, USER.key", "one certificate per identity (mutual TLS)"),
         ]
         router_files = f"{USERS_FILE}, {CA_FILE}, router.*"
     endpoint = "tcp/ROUTER:7447" if hosts is None else f"tls/{hosts[0]}:7447"
@@ -103,8 +153,8 @@ def report(directory: Path, cell: str, identities: list[Identity], hosts: list[s
             f"wrote the credentials of cell {cell} into {directory} (readable only by you):",
             *(f"  {name:<28}{meaning}" for name, meaning in files),
             f"Copy to each host only what runs there: the router {router_files}; a service or "
-            f"tool its own IDENTITY.* files{'' if hosts is None else ' and ' + CA_FILE}.",
-            f"Zenoh usernames are {cell}.IDENTITY. Services join with --credentials DIR; "
+            f"tool its own USER.* files{'' if hosts is None else ' and ' + CA_FILE}.",
+            f"Zenoh usernames (USER) are {cell}.IDENTITY. Services join with --credentials DIR; "
             "observe and operate the cell with:",
             f"  motocell ps {where}",
             f"  motocell fault estop on {where}",

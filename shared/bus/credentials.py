@@ -1,12 +1,15 @@
 """A cell's identities on disk: one password per identity, and the router's user dictionary.
 
-Layout of a credentials directory (mode 0700; every file 0600, readable only by its owner):
+Layout of a credentials directory (mode 0700; every file 0600, readable only by its owner).
+Every identity's files are named by its Zenoh username, so the identities of several cells
+can share one directory (and one CA):
 
 - ``users``: the router's ``transport.auth.usrpwd.dictionary_file``, ``user:password`` lines;
-- ``<identity>.password``: that identity's password (``gateway.password``,
-  ``interpolator-1.password``, ``observer.password``);
-- with TLS (``motocell credentials --tls``): ``ca.pem``, ``router.pem``/``router.key`` and
-  ``<identity>.pem``/``<identity>.key`` (certificate common name = the Zenoh username).
+- ``<user>.password``: that identity's password (``dual.gateway.password``,
+  ``dual.interpolator-1.password``, ``site.observer.password``);
+- with TLS (``motocell credentials --tls``): ``ca.pem`` and the CA's private key ``ca.key``,
+  ``router.pem``/``router.key`` and ``<user>.pem``/``<user>.key`` (certificate common name =
+  the Zenoh username).
 
 Passwords are 32 random bytes: Zenoh never sends them in clear, but without TLS a captured
 handshake could be attacked offline, so they must not be guessable.
@@ -16,6 +19,7 @@ from __future__ import annotations
 
 import os
 import secrets
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -23,6 +27,9 @@ from motocell.shared.bus.access import Identity
 
 USERS_FILE = "users"
 CA_FILE = "ca.pem"
+CA_KEY_FILE = "ca.key"
+"""The CA's private key: only in the directory where credentials are made, never on a host of
+the cell (it signs anyone into the bus)."""
 
 
 class CredentialsError(Exception):
@@ -42,43 +49,74 @@ class Credentials:
     """This identity's certificate and key: mutual TLS when set."""
 
 
-def write_passwords(directory: Path, cell: str, identities: list[Identity]) -> None:
+def password_path(directory: Path, user: str) -> Path:
+    return directory / f"{user}.password"
+
+
+def certificate_paths(directory: Path, user: str) -> tuple[Path, Path]:
+    """Where ``user``'s certificate and private key are."""
+    return directory / f"{user}.pem", directory / f"{user}.key"
+
+
+def write_passwords(directory: Path, cell: str, identities: Sequence[Identity]) -> None:
     """Create (or refresh) ``directory`` with a new password for every identity."""
-    directory.mkdir(parents=True, exist_ok=True, mode=0o700)
-    directory.chmod(0o700)
-    lines = []
-    for identity in identities:
-        password = secrets.token_urlsafe(32)
-        write_private(directory / f"{identity.name}.password", password + "\n")
-        lines.append(f"{identity.username(cell)}:{password}\n")
-    write_private(directory / USERS_FILE, "".join(lines))
+    make_private_directory(directory)
+    users = [identity.username(cell) for identity in identities]
+    write_private(directory / USERS_FILE, "".join(_new_password(directory, u) for u in users))
+
+
+def add_passwords(directory: Path, users: Sequence[str]) -> list[str]:
+    """A password for each of ``users`` that has none in ``directory``, added to the router's
+    dictionary; every existing password and line is left as it is. Returns the users added."""
+    added = [user for user in users if not password_path(directory, user).exists()]
+    lines = "".join(_new_password(directory, user) for user in added)
+    descriptor = os.open(directory / USERS_FILE, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o600)
+    with os.fdopen(descriptor, "a") as file:
+        file.write(lines)
+    return added
+
+
+def _new_password(directory: Path, user: str) -> str:
+    """A fresh password written for ``user``; its line of the router's dictionary."""
+    password = secrets.token_urlsafe(32)
+    write_private(password_path(directory, user), password + "\n")
+    return f"{user}:{password}\n"
 
 
 def load(directory: Path, cell: str, identity: Identity) -> Credentials:
     """The credentials of ``identity`` from ``directory`` (TLS files used when present)."""
-    password_file = directory / f"{identity.name}.password"
+    return load_user(directory, identity.username(cell))
+
+
+def load_user(directory: Path, user: str) -> Credentials:
+    """The credentials of the Zenoh username ``user`` from ``directory``."""
+    path = password_path(directory, user)
     try:
-        password = password_file.read_text().strip()
+        password = path.read_text().strip()
     except FileNotFoundError:
         raise CredentialsError(
-            f"no password for {identity.name} in {directory}: generate the cell's credentials "
+            f"no password for {user} in {directory}: generate the cell's credentials "
             f"with `motocell credentials {directory}` (or start the cell with `motocell up`)"
         ) from None
     except PermissionError:
         raise CredentialsError(
-            f"cannot read {password_file}: run as the user who started the cell"
+            f"cannot read {path}: run as the user who started the cell"
         ) from None
     ca = directory / CA_FILE
-    certificate = directory / f"{identity.name}.pem"
-    key = directory / f"{identity.name}.key"
+    certificate, key = certificate_paths(directory, user)
     has_certificate = certificate.is_file() and key.is_file()
     return Credentials(
-        identity.username(cell),
+        user,
         password,
         ca if ca.is_file() else None,
         certificate if has_certificate else None,
         key if has_certificate else None,
     )
+
+
+def make_private_directory(directory: Path) -> None:
+    directory.mkdir(parents=True, exist_ok=True, mode=0o700)
+    directory.chmod(0o700)
 
 
 def write_private(path: Path, content: str | bytes) -> None:
