@@ -8,6 +8,16 @@ faults. Nothing else is written here: change a route in the catalogue and the AC
 How Zenoh applies it (as measured on this project's machines): the router filters each
 message per connection, ``ingress`` as it arrives from a client and ``egress`` as it leaves
 towards one; a denied message is dropped silently.
+
+Who a session is: its Zenoh username, and with mutual TLS also its certificate's common name.
+Both are the identity's ``<cell>.<name>``, and a subject lists both, which Zenoh matches only
+when each kind matches: a password with another identity's certificate, or either alone, is
+no one. Without mutual TLS (a password-only bus, a TLS bus without client certificates) a
+session has no common name, so there the subject is the username alone.
+
+A site's router serves several cells (``access_control`` of every cell's parties): each cell's
+identities keep their own cell's keys, a site observer watches every cell, and the routers of
+a mesh pass each other everything, each having filtered its own clients.
 """
 
 from __future__ import annotations
@@ -35,9 +45,20 @@ RECEIVING: dict[Op, tuple[tuple[str, tuple[str, ...]], ...]] = {
         (EGRESS, ("liveliness_token", "reply")),
     ),
 }
+ANY_CELL = "*"
+"""The cell level of a key expression that matches every cell."""
+MESSAGES = (
+    ("put", "delete", "declare_subscriber"),
+    ("query", "reply", "declare_queryable"),
+    ("liveliness_token", "declare_liveliness_subscriber", "liveliness_query"),
+)
+"""Every message kind Zenoh's access control knows."""
 DECLARATIONS = ("declare_subscriber", "declare_queryable", "declare_liveliness_subscriber")
 """Told to every identity of the cell: a publisher or querier learns that someone listens (and
 routes to it) only from these. They carry key expressions, never data."""
+
+Rule = tuple[str, tuple[str, ...], str]
+"""(flow, message kinds, key expression): one allow rule."""
 
 
 @dataclass(frozen=True)
@@ -85,7 +106,7 @@ def own_keys(route: Route, cell: str, identity: Identity, sending: bool) -> list
     return [f"{root}/{cell}/{'/'.join(levels)}"]
 
 
-def _rules_for(cell: str, identity: Identity) -> Iterator[tuple[str, tuple[str, ...], str]]:
+def _rules_for(cell: str, identity: Identity) -> Iterator[Rule]:
     for route in ROUTES:
         if identity.role in route.senders:
             for flow, messages in SENDING[route.op]:
@@ -98,9 +119,7 @@ def _rules_for(cell: str, identity: Identity) -> Iterator[tuple[str, tuple[str, 
         yield EGRESS, DECLARATIONS, f"{root}/{cell}/**"
 
 
-def _receiving(
-    route: Route, cell: str, identity: Identity
-) -> Iterator[tuple[str, tuple[str, ...], str]]:
+def _receiving(route: Route, cell: str, identity: Identity) -> Iterator[Rule]:
     """A receiver declares (and replies) on its own keys, but a query reaches it on the key
     the querier asked: a wildcard query (``service/*/*``) must be let out to every server."""
     wildcard = f"{ALIVE_ROOT if route.op is Op.TOKEN else ROOT}/{cell}/{route.suffix}"
@@ -112,7 +131,7 @@ def _receiving(
                 yield flow, messages, key
 
 
-def _whole_cell(cell: str, identity: Identity) -> Iterator[tuple[str, tuple[str, ...], str]]:
+def _whole_cell(cell: str, identity: Identity) -> Iterator[Rule]:
     """A role that receives every route of a kind may subscribe to the whole cell at once: a
     ``motocell/<cell>/**`` subscriber (an observer's) is checked against the whole expression,
     and would be refused if only the single keys were allowed."""
@@ -123,17 +142,57 @@ def _whole_cell(cell: str, identity: Identity) -> Iterator[tuple[str, tuple[str,
                 yield flow, messages, f"{root}/{cell}/**"
 
 
-def access_control(cell: str, identities: Iterable[Identity]) -> dict[str, Any]:
-    """The ``access_control`` section of the router's Zenoh config for ``cell``."""
+@dataclass(frozen=True)
+class Party:
+    """One subject of a router's access control: a Zenoh username (and with mutual TLS the
+    certificate common name, the same text) and what it may do."""
+
+    name: str
+    rules: tuple[Rule, ...]
+
+
+def cell_parties(cell: str, identities: Iterable[Identity]) -> list[Party]:
+    """``identities`` of ``cell``, each allowed what its role's routes list."""
+    return [
+        Party(identity.username(cell), tuple(_rules_for(cell, identity))) for identity in identities
+    ]
+
+
+def site_observer(name: str) -> Party:
+    """An observer of every cell the router carries (``ps``, ``watch``, ``record``): what a
+    cell's observer may, with any cell's name. It acts on nothing."""
+    return Party(name, tuple(_rules_for(ANY_CELL, Identity(Role.OBSERVER))))
+
+
+def router_link(name: str) -> Party:
+    """Another router of the site's mesh: every message both ways on every cell's keys. Each
+    router filters its own clients by the same rules, so what a router passes on was allowed
+    where it came in."""
+    everything = tuple(kind for kinds in MESSAGES for kind in kinds)
+    return Party(
+        name,
+        tuple(
+            (flow, everything, f"{root}/**")
+            for flow in (INGRESS, EGRESS)
+            for root in (ROOT, ALIVE_ROOT)
+        ),
+    )
+
+
+def access_control(parties: Iterable[Party], *, certificates: bool) -> dict[str, Any]:
+    """The ``access_control`` section of a router's Zenoh config. ``certificates``: clients
+    present certificates (mutual TLS), and each subject must match both name and certificate."""
     rules: list[dict[str, Any]] = []
     subjects: list[dict[str, Any]] = []
     policies: list[dict[str, Any]] = []
-    for identity in identities:
-        username = identity.username(cell)
-        subjects.append({"id": username, "usernames": [username]})
+    for party in parties:
+        subject: dict[str, Any] = {"id": party.name, "usernames": [party.name]}
+        if certificates:
+            subject["cert_common_names"] = [party.name]
+        subjects.append(subject)
         ids = []
-        for index, (flow, messages, key) in enumerate(_rules_for(cell, identity)):
-            rule_id = f"{username}#{index}"
+        for index, (flow, messages, key) in enumerate(party.rules):
+            rule_id = f"{party.name}#{index}"
             ids.append(rule_id)
             rules.append(
                 {
@@ -144,7 +203,7 @@ def access_control(cell: str, identities: Iterable[Identity]) -> dict[str, Any]:
                     "key_exprs": [key],
                 }
             )
-        policies.append({"id": username, "subjects": [username], "rules": ids})
+        policies.append({"id": party.name, "subjects": [party.name], "rules": ids})
     return {
         "enabled": True,
         "default_permission": "deny",

@@ -15,7 +15,14 @@ from typing import Any
 import pytest
 import zenoh
 
-from motocell.shared.bus.access import Identity, access_control, cell_identities
+from motocell.shared.bus.access import (
+    Identity,
+    access_control,
+    cell_identities,
+    cell_parties,
+    router_link,
+    site_observer,
+)
 from motocell.shared.bus.catalog import Role
 from motocell.shared.bus.credentials import load, write_passwords
 from motocell.shared.bus.router import router_settings, zenoh_config
@@ -25,9 +32,11 @@ from motocell.testkit.processes import wait_until
 CELL = "c1"
 
 
-def allowed(config: dict[str, Any], identity: Identity, flow: str, message: str) -> set[str]:
-    """The key expressions ``identity`` may use ``message`` on in ``flow``."""
-    policy = next(p for p in config["policies"] if p["id"] == identity.username(CELL))
+def allowed(config: dict[str, Any], identity: Identity | str, flow: str, message: str) -> set[str]:
+    """The key expressions ``identity`` (or the party of that name) may use ``message`` on
+    in ``flow``."""
+    name = identity if isinstance(identity, str) else identity.username(CELL)
+    policy = next(p for p in config["policies"] if p["id"] == name)
     rules = {rule["id"]: rule for rule in config["rules"]}
     return {
         key
@@ -37,7 +46,7 @@ def allowed(config: dict[str, Any], identity: Identity, flow: str, message: str)
     }
 
 
-CONFIG = access_control(CELL, cell_identities(2))
+CONFIG = access_control(cell_parties(CELL, cell_identities(2)), certificates=False)
 
 
 def test_default_deny_and_one_subject_per_identity() -> None:
@@ -45,6 +54,30 @@ def test_default_deny_and_one_subject_per_identity() -> None:
     names = [subject["usernames"] for subject in CONFIG["subjects"]]
     assert ["c1.interpolator-1"] in names and ["c1.observer"] in names
     assert len(names) == len(cell_identities(2))
+    assert not any("cert_common_names" in subject for subject in CONFIG["subjects"])
+
+
+def test_with_certificates_a_subject_is_its_username_and_its_certificate_together() -> None:
+    config = access_control(cell_parties(CELL, cell_identities(1)), certificates=True)
+    for subject in config["subjects"]:
+        assert subject["usernames"] == subject["cert_common_names"] == [subject["id"]]
+
+
+def test_a_site_observer_watches_every_cell_and_acts_on_nothing() -> None:
+    config = access_control([site_observer("site.observer")], certificates=True)
+    name = "site.observer"
+    assert allowed(config, name, "ingress", "declare_subscriber") >= {"motocell/*/**"}
+    assert allowed(config, name, "ingress", "query") == {"motocell/*/service/*/*"}
+    assert "@motocell/*/**" in allowed(config, name, "ingress", "liveliness_query")
+    for message in ("put", "delete", "liveliness_token", "declare_queryable"):
+        assert allowed(config, name, "ingress", message) == set(), message
+
+
+def test_a_router_of_the_mesh_passes_everything_on_every_cell() -> None:
+    config = access_control([router_link("site.router")], certificates=True)
+    for flow in ("ingress", "egress"):
+        for message in ("put", "query", "reply", "liveliness_token", "declare_subscriber"):
+            assert allowed(config, "site.router", flow, message) == {"motocell/**", "@motocell/**"}
 
 
 def test_an_interpolator_sends_only_on_its_own_group() -> None:
