@@ -44,13 +44,15 @@ class Authority:
 
 def write_certificates(
     directory: Path, cell: str, identities: Sequence[Identity], hosts: Sequence[str]
-) -> None:
+) -> Authority:
     """A CA (its key kept), a router certificate valid for ``hosts`` (names or addresses the
-    services dial), and a client certificate per identity, into ``directory``."""
+    services dial), and a client certificate per identity, into ``directory``. Returns the
+    CA."""
     authority = create_authority(directory, f"motocell {cell} CA")
     issue_router_certificate(directory, f"{cell}.router", hosts, authority)
     for identity in identities:
         issue_client_certificate(directory, identity.username(cell), authority)
+    return authority
 
 
 def create_authority(directory: Path, name: str) -> Authority:
@@ -100,6 +102,63 @@ def issue_router_certificate(
     """The router's certificate, valid for the names and addresses in ``hosts``."""
     names = [_subject_name(host) for host in hosts]
     _issue((directory / ROUTER_CERTIFICATE, directory / ROUTER_KEY), common_name, authority, names)
+
+
+def router_hosts(directory: Path) -> list[str]:
+    """The names and addresses the router's certificate in ``directory`` is valid for."""
+    return _hosts(_certificate(directory / ROUTER_CERTIFICATE))
+
+
+def add_router_hosts(directory: Path, hosts: Sequence[str], authority: Authority) -> list[str]:
+    """A new router certificate valid for its former names and ``hosts`` (and a new key), if
+    any of them is new. Returns the names added."""
+    certificate = _certificate(directory / ROUTER_CERTIFICATE)
+    known = _hosts(certificate)
+    added = [host for host in dict.fromkeys(hosts) if host not in known]
+    if added:
+        issue_router_certificate(directory, _common_name(certificate), known + added, authority)
+    return added
+
+
+def renew_certificates(
+    directory: Path, within: datetime.timedelta, authority: Authority
+) -> list[str]:
+    """Every certificate of ``directory`` that expires within ``within`` from now issued again
+    for a year (new keys; the same names, the CA and every password kept). Returns the file
+    names renewed; CredentialsError if the CA itself expires in that window."""
+    deadline = datetime.datetime.now(datetime.UTC) + within
+    if authority.certificate.not_valid_after_utc <= deadline:
+        raise CredentialsError(
+            f"the CA of {directory} expires on "
+            f"{authority.certificate.not_valid_after_utc:%Y-%m-%d}: every party needs new "
+            "credentials from a new directory (`motocell credentials NEWDIR --tls`)"
+        )
+    renewed = []
+    for path in sorted(directory.glob("*.pem")):
+        certificate = _certificate(path)
+        if path.name == CA_FILE or certificate.not_valid_after_utc > deadline:
+            continue
+        if path.name == ROUTER_CERTIFICATE:
+            hosts = _hosts(certificate)
+            issue_router_certificate(directory, _common_name(certificate), hosts, authority)
+        else:
+            issue_client_certificate(directory, _common_name(certificate), authority)
+        renewed.append(path.name)
+    return renewed
+
+
+def _certificate(path: Path) -> x509.Certificate:
+    return x509.load_pem_x509_certificate(path.read_bytes())
+
+
+def _common_name(certificate: x509.Certificate) -> str:
+    (attribute,) = certificate.subject.get_attributes_for_oid(NameOID.COMMON_NAME)
+    return str(attribute.value)
+
+
+def _hosts(certificate: x509.Certificate) -> list[str]:
+    names = certificate.extensions.get_extension_for_class(x509.SubjectAlternativeName).value
+    return [str(name.value) for name in names]
 
 
 def _issue(

@@ -26,6 +26,7 @@ from pathlib import Path
 from motocell.shared.bus.access import Identity
 
 USERS_FILE = "users"
+PASSWORD_SUFFIX = ".password"
 CA_FILE = "ca.pem"
 CA_KEY_FILE = "ca.key"
 """The CA's private key: only in the directory where credentials are made, never on a host of
@@ -50,7 +51,7 @@ class Credentials:
 
 
 def password_path(directory: Path, user: str) -> Path:
-    return directory / f"{user}.password"
+    return directory / f"{user}{PASSWORD_SUFFIX}"
 
 
 def certificate_paths(directory: Path, user: str) -> tuple[Path, Path]:

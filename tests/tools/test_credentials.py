@@ -3,13 +3,13 @@ a router and the cell's parties then use as they are."""
 
 from __future__ import annotations
 
+import datetime
 import stat
 from pathlib import Path
 
 import pytest
 import zenoh
 from cryptography import x509
-from cryptography.exceptions import InvalidSignature
 
 from motocell.shared.bus.access import Identity, cell_identities
 from motocell.shared.bus.catalog import Role
@@ -19,6 +19,7 @@ from motocell.shared.bus.router import router_settings, zenoh_config
 from motocell.shared.bus.session import open_session
 from motocell.shared.ports import free_port
 from motocell.tools.cli import build_parser
+from tests.certificates import expire_in, verifies
 
 DUAL_ARM = Path(__file__).resolve().parents[2] / "shared" / "cells" / "dual-arm-positioner.toml"
 
@@ -40,12 +41,13 @@ def test_a_password_per_identity_of_the_cell_in_a_private_directory(
     assert motocell("credentials", str(directory), "--config", str(DUAL_ARM)) == 0
     out = capsys.readouterr().out
     assert out.startswith(f"wrote the credentials of cell dual into {directory}")
-    assert f"--cell dual --credentials {directory}" in out
+    assert f"--cell dual --credentials {directory}/bundles/dual.observer" in out
     assert mode(directory) == 0o700
-    assert all(mode(path) == 0o600 for path in directory.iterdir())
+    assert all(mode(path) == 0o600 for path in directory.iterdir() if path.is_file())
     identities = cell_identities(3)
     assert {path.name for path in directory.iterdir()} == {
         "users",
+        "bundles",
         *(f"{identity.username('dual')}.password" for identity in identities),
     }
     users = (directory / "users").read_text().splitlines()
@@ -113,6 +115,7 @@ def test_with_tls_a_ca_a_router_certificate_for_the_hosts_and_one_per_identity(
         (["--host", "robot-pc"], "--host names the router in its TLS certificate: add --tls"),
         (["--cell", "a/b"], "name: 'a/b' must be letters, digits, - or _"),
         (["--config", "/nonexistent.toml"], "/nonexistent.toml"),
+        (["--renew"], "holds no credentials to renew"),
     ],
 )
 def test_arguments_that_cannot_work_write_nothing(
@@ -133,18 +136,12 @@ def test_a_directory_with_files_in_it_is_left_alone(
 
 
 def contents(directory: Path) -> dict[str, bytes]:
-    return {path.name: path.read_bytes() for path in directory.iterdir() if path.is_file()}
-
-
-def verifies(certificate_file: Path, ca_file: Path) -> bool:
-    """Whether the CA in ``ca_file`` signed the certificate in ``certificate_file``."""
-    certificate = x509.load_pem_x509_certificate(certificate_file.read_bytes())
-    ca = x509.load_pem_x509_certificate(ca_file.read_bytes())
-    try:
-        certificate.verify_directly_issued_by(ca)
-    except (ValueError, TypeError, InvalidSignature):
-        return False
-    return True
+    """Every file under ``directory``, by its path there."""
+    return {
+        str(path.relative_to(directory)): path.read_bytes()
+        for path in directory.rglob("*")
+        if path.is_file()
+    }
 
 
 def test_a_second_cell_joins_the_directory_signed_by_the_same_ca_touching_nothing(
@@ -157,10 +154,12 @@ def test_a_second_cell_joins_the_directory_signed_by_the_same_ca_touching_nothin
     assert motocell("credentials", str(directory), "--config", str(DUAL_ARM)) == 0
     assert capsys.readouterr().out.startswith(f"added to {directory}, signed by its CA")
     after = contents(directory)
-    assert {name: after[name] for name in before if name != "users"} == {
-        name: content for name, content in before.items() if name != "users"
+    dictionaries = ("users", "bundles/router/users")
+    assert {name: after[name] for name in before if name not in dictionaries} == {
+        name: content for name, content in before.items() if name not in dictionaries
     }
-    assert after["users"].startswith(before["users"])
+    for name in dictionaries:
+        assert after[name].startswith(before[name]) and after[name] != before[name]
     for identity in cell_identities(3):
         user = identity.username("dual")
         assert verifies(directory / f"{user}.pem", directory / "ca.pem")
@@ -215,4 +214,181 @@ def test_tls_is_not_added_to_a_directory_of_passwords(
     before = contents(tmp_path / "c")
     assert motocell("credentials", str(tmp_path / "c"), "--cell", "lab", "--tls") == 2
     assert "holds passwords only" in capsys.readouterr().err
+    assert contents(tmp_path / "c") == before
+
+
+def test_each_bundle_holds_its_party_s_files_and_never_the_ca_key(tmp_path: Path) -> None:
+    directory = tmp_path / "c"
+    assert motocell("credentials", str(directory), "--cell", "lab", "--tls") == 0
+    bundles = directory / "bundles"
+    users = [identity.username("lab") for identity in cell_identities(1)]
+    assert {path.name for path in bundles.iterdir()} == {"router", *users}
+    for user in users:
+        files = {path.name for path in (bundles / user).iterdir()}
+        assert files == {f"{user}.password", f"{user}.pem", f"{user}.key", "ca.pem"}
+    assert {path.name for path in (bundles / "router").iterdir()} == {
+        "users",
+        "ca.pem",
+        "router.pem",
+        "router.key",
+    }
+    for path in bundles.rglob("*"):
+        assert mode(path) == (0o700 if path.is_dir() else 0o600), path
+        assert path.name != "ca.key"
+        if path.is_file():
+            assert path.read_bytes() == (directory / path.name).read_bytes()
+    assert mode(directory / "ca.key") == 0o600
+
+
+def test_a_router_and_an_observer_with_only_their_bundles_meet(tmp_path: Path) -> None:
+    directory = tmp_path / "c"
+    assert motocell("credentials", str(directory), "--cell", "lab", "--tls") == 0
+    endpoint = f"tls/127.0.0.1:{free_port()}"
+    settings = router_settings(
+        [endpoint],
+        cell="lab",
+        identities=cell_identities(1),
+        credentials=directory / "bundles" / "router",
+        mutual_tls=True,
+    )
+    router = zenoh.open(zenoh_config(settings))
+    try:
+        bundle = directory / "bundles" / "lab.observer"
+        observer = load(bundle, "lab", Identity(Role.OBSERVER))
+        assert observer.certificate is not None and observer.ca == bundle / "ca.pem"
+        open_session("client", [endpoint], wait=False, credentials=observer).close()
+    finally:
+        router.close()
+
+
+def test_an_identity_of_no_cell_gets_a_password_and_a_certificate_of_the_ca(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    directory = tmp_path / "site"
+    assert motocell("credentials", str(directory), "--cell", "one", "--tls") == 0
+    capsys.readouterr()
+    assert motocell("credentials", str(directory), "--identity", "site.observer") == 0
+    assert "site.observer" in capsys.readouterr().out
+    assert "site.observer:" in (directory / "users").read_text()
+    assert verifies(directory / "site.observer.pem", directory / "ca.pem")
+    assert {path.name for path in (directory / "bundles" / "site.observer").iterdir()} == {
+        "site.observer.password",
+        "site.observer.pem",
+        "site.observer.key",
+        "ca.pem",
+    }
+    assert not (directory / "cell1.observer.password").exists()  # no cell named: none added
+
+
+def test_a_host_added_makes_the_router_reachable_by_that_name(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    directory = tmp_path / "c"
+    argv = ["credentials", str(directory), "--cell", "lab"]
+    assert motocell(*argv, "--tls", "--host", "127.0.0.1") == 0
+    before = contents(directory)
+    port = free_port()
+
+    def observer_joins_by_name() -> bool:
+        settings = router_settings(
+            [f"tls/127.0.0.1:{port}"],
+            cell="lab",
+            identities=cell_identities(1),
+            credentials=directory,
+            mutual_tls=True,
+        )
+        router = zenoh.open(zenoh_config(settings))
+        try:
+            observer = load(directory, "lab", Identity(Role.OBSERVER))
+            open_session("client", [f"tls/localhost:{port}"], wait=False, credentials=observer)
+        except ConnectionError:
+            return False
+        else:
+            return True
+        finally:
+            router.close()
+
+    assert not observer_joins_by_name()
+    capsys.readouterr()
+    assert motocell(*argv, "--host", "localhost", "--host", "127.0.0.1") == 0
+    assert "now also valid for localhost" in capsys.readouterr().out
+    router = x509.load_pem_x509_certificate((directory / "router.pem").read_bytes())
+    names = router.extensions.get_extension_for_class(x509.SubjectAlternativeName).value
+    assert names.get_values_for_type(x509.DNSName) == ["localhost"]
+    assert verifies(directory / "router.pem", directory / "ca.pem")
+    after = contents(directory)
+    changed = {name for name in after if after[name] != before.get(name)}
+    assert changed == {
+        "router.pem",
+        "router.key",
+        "bundles/router/router.pem",
+        "bundles/router/router.key",
+    }
+    assert observer_joins_by_name()
+
+
+def test_renewal_reissues_only_what_expires_within_the_window(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    directory = tmp_path / "c"
+    assert motocell("credentials", str(directory), "--cell", "lab", "--tls") == 0
+    expire_in(directory, "lab.gateway.pem", 20)
+    expire_in(directory, "router.pem", 40)
+    motocell("credentials", str(directory))  # the bundles, as they would be
+    before = contents(directory)
+    capsys.readouterr()
+
+    assert motocell("credentials", str(directory), "--renew") == 0
+    assert "renewed for a year (expiring within 30 days): lab.gateway" in capsys.readouterr().out
+    after = contents(directory)
+    changed = {name for name in after if after[name] != before[name]}
+    gateway = {"lab.gateway.pem", "lab.gateway.key"}
+    assert changed == gateway | {f"bundles/lab.gateway/{name}" for name in gateway}
+    certificate = x509.load_pem_x509_certificate(after["lab.gateway.pem"])
+    remaining = certificate.not_valid_after_utc - datetime.datetime.now(datetime.UTC)
+    assert remaining > datetime.timedelta(days=364)
+    assert certificate.subject == x509.load_pem_x509_certificate(before["lab.gateway.pem"]).subject
+    assert verifies(directory / "lab.gateway.pem", directory / "ca.pem")
+
+    assert motocell("credentials", str(directory), "--renew", "--within", "45") == 0
+    assert "renewed for a year (expiring within 45 days): router" in capsys.readouterr().out
+    router = x509.load_pem_x509_certificate((directory / "router.pem").read_bytes())
+    names = router.extensions.get_extension_for_class(x509.SubjectAlternativeName).value
+    assert names.get_values_for_type(x509.DNSName) == ["localhost"]
+
+    renewed = contents(directory)
+    assert motocell("credentials", str(directory), "--renew") == 0
+    assert "nothing renewed" in capsys.readouterr().out
+    assert contents(directory) == renewed
+
+
+def test_renewal_stops_at_a_ca_that_expires_within_the_window(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    directory = tmp_path / "c"
+    assert motocell("credentials", str(directory), "--cell", "lab", "--tls") == 0
+    before = contents(directory)
+    assert motocell("credentials", str(directory), "--renew", "--within", "4000") == 2
+    assert "the CA of" in capsys.readouterr().err
+    assert contents(directory) == before
+
+
+@pytest.mark.parametrize(
+    ("argv", "problem"),
+    [
+        (["--within", "3"], "--within says what --renew renews: add --renew"),
+        (["--renew", "--cell", "x"], "--renew goes alone"),
+        (["--identity", "a b"], "--identity 'a b': a Zenoh username"),
+        (["--identity", "router"], "not 'router'"),
+        (["--host", "robot-pc"], "holds passwords only, so --host cannot be added"),
+        (["--renew"], "holds passwords only: they do not expire"),
+    ],
+)
+def test_what_cannot_be_done_to_a_directory_leaves_it_alone(
+    argv: list[str], problem: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert motocell("credentials", str(tmp_path / "c"), "--cell", "lab") == 0
+    before = contents(tmp_path / "c")
+    assert motocell("credentials", str(tmp_path / "c"), *argv) == 2
+    assert problem in capsys.readouterr().err
     assert contents(tmp_path / "c") == before
