@@ -6,6 +6,8 @@ images, and the gateway's listen address and port base."""
 
 from __future__ import annotations
 
+import contextlib
+import io
 import os
 import signal
 import subprocess
@@ -21,8 +23,6 @@ import yaml
 
 from motocell.shared.bus.access import Identity, cell_identities
 from motocell.shared.bus.catalog import SERVICES, Role
-from motocell.shared.bus.certificates import write_certificates
-from motocell.shared.bus.credentials import write_passwords
 from motocell.shared.config import load_cell
 from motocell.shared.motion.kinematics import AxisMap
 from motocell.shared.ports import free_port, free_port_block
@@ -31,6 +31,7 @@ from motocell.shared.protocol.constants import Command, Result
 from motocell.testkit.cell import wait_for_whole_cell, zenoh_router
 from motocell.testkit.client import MotionClient, StateListener, smooth_move, stream_ex
 from motocell.testkit.processes import alive, wait_until
+from motocell.tools.cli import build_parser
 from motocell.tools.deploy import (
     COMPOSE_CELL,
     CREDENTIALS_MOUNT,
@@ -39,6 +40,9 @@ from motocell.tools.deploy import (
     compose_router_settings,
     router_config_text,
 )
+
+LOCAL_CREDENTIALS = Path("deploy/credentials")
+"""Where compose.yaml's instructions write the credentials, in the compose project."""
 
 pytestmark = pytest.mark.cell
 
@@ -51,27 +55,50 @@ def compose_file(repo: Path) -> dict[str, Any]:
 def compose_commands(
     repo: Path, router: str, port_base: int, credentials: Path
 ) -> dict[str, list[str]]:
+    """Each service's command, with what its container mounts at the credentials mount found
+    in ``credentials`` (the directory compose's ``./deploy/credentials`` stands for)."""
     commands = {}
     for name, service in compose_file(repo)["services"].items():
         if name == "zenohd":
             continue
         command = [str(part) for part in service["command"]]
         assert command[:2] == ["python", "-m"], f"{name}: runs a motocell module"
+        mounted = credentials / mounted_credentials(service).relative_to(LOCAL_CREDENTIALS)
         rewritten = [sys.executable, "-m"]
         for original in command[2:]:
             part = original.replace("tls/zenohd:7447", router)
             part = part.replace("/etc/motocell/cells/", f"{repo}/shared/cells/")
-            part = part.replace(CREDENTIALS_MOUNT, str(credentials))
+            part = part.replace(CREDENTIALS_MOUNT, str(mounted))
             rewritten.append({"0.0.0.0": "127.0.0.1", "50240": str(port_base)}.get(part, part))
-        assert rewritten[rewritten.index("--credentials") + 1] == str(credentials), name
+        assert rewritten[rewritten.index("--credentials") + 1] == str(mounted), name
         commands[name] = rewritten
     return commands
 
 
+def mounted_credentials(service: dict[str, Any]) -> Path:
+    """The folder of the compose project that ``service`` mounts at the credentials mount."""
+    (source,) = [
+        volume.split(":")[0]
+        for volume in service["volumes"]
+        if volume.split(":")[1] == CREDENTIALS_MOUNT
+    ]
+    return Path(source)
+
+
+def service_identity(command: list[str]) -> Identity:
+    """Who a compose service's command runs as."""
+    role = Role(command[2].removeprefix("motocell.services."))
+    return Identity(role, command[command.index("--group") + 1] if "--group" in command else "0")
+
+
 def router_config(repo: Path, credentials: Path, listen: str, out: Path) -> Path:
-    """deploy/zenoh/router.json5 with this machine's paths and endpoint."""
+    """deploy/zenoh/router.json5 with this machine's paths and endpoint: the router's files
+    where compose mounts them from, in ``credentials``."""
+    mounted = credentials / mounted_credentials(
+        compose_file(repo)["services"]["zenohd"]
+    ).relative_to(LOCAL_CREDENTIALS)
     text = (repo / ROUTER_CONFIG).read_text()
-    text = text.replace(CREDENTIALS_MOUNT, str(credentials)).replace(LISTEN, listen)
+    text = text.replace(CREDENTIALS_MOUNT, str(mounted)).replace(LISTEN, listen)
     out.write_text(text)
     return out
 
@@ -79,11 +106,11 @@ def router_config(repo: Path, credentials: Path, listen: str, out: Path) -> Path
 @pytest.fixture
 def compose_cell(repo: Path, tmp_path: Path) -> Iterator[int]:
     credentials = tmp_path / "credentials"
-    cell = load_cell(repo / COMPOSE_CELL)
-    identities = cell_identities(len(cell.groups))
-    # What `motocell credentials ... --tls --host` writes, for the router's test address.
-    write_passwords(credentials, cell.name, identities)
-    write_certificates(credentials, cell.name, identities, ["127.0.0.1"])
+    # As compose.yaml's instructions say, for the router's test address.
+    argv = ["credentials", str(credentials), "--config", str(repo / COMPOSE_CELL), "--tls"]
+    args = build_parser().parse_args([*argv, "--host", "127.0.0.1"])
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert args.run(args) == 0
     port_base = free_port_block(3)
     listen = f"tls/127.0.0.1:{free_port()}"
     config = router_config(repo, credentials, listen, tmp_path / "router.json5")
@@ -174,9 +201,7 @@ def test_compose_runs_one_container_per_service_identity_of_its_cell(repo: Path)
         if name == "zenohd":
             continue
         command = [str(part) for part in service["command"]]
-        role = Role(command[2].removeprefix("motocell.services."))
-        group = command[command.index("--group") + 1] if "--group" in command else "0"
-        running.append(Identity(role, group))
+        running.append(service_identity(command))
         assert command[command.index("--config") + 1].endswith(Path(COMPOSE_CELL).name), name
         assert command[command.index("--zenoh-connect") + 1] == f"tls/zenohd:{router_port}", name
     services = [i for i in cell_identities(len(cell.groups)) if i.role in SERVICES]
@@ -200,16 +225,20 @@ def test_the_compose_router_is_tls_only_with_access_control(repo: Path) -> None:
     assert settings["adminspace"]["enabled"] is False
 
 
-def test_compose_mounts_the_generated_router_config_and_the_credentials_everywhere(
-    repo: Path,
-) -> None:
-    """Where the router config and the credentials it names are, in every container, and the
-    router image the Python wheel's Zenoh version, so the two speak the same protocol."""
+def test_each_container_mounts_only_its_own_credentials_bundle(repo: Path) -> None:
+    """The router its bundle and the generated config, each service its identity's bundle
+    (read-only), nothing else; and the router image the Python wheel's Zenoh version, so the
+    two speak the same protocol."""
     services = compose_file(repo)["services"]
-    credentials = f"./deploy/credentials:{CREDENTIALS_MOUNT}:ro"
+    cell = load_cell(repo / COMPOSE_CELL)
     router = services.pop("zenohd")
     assert router["image"] == f"eclipse/zenoh:{version('eclipse-zenoh')}"
     config = router["command"][router["command"].index("-c") + 1]
-    assert router["volumes"] == [f"./{ROUTER_CONFIG}:{config}:ro", credentials]
+    bundles = f"./{LOCAL_CREDENTIALS}/bundles"
+    assert router["volumes"] == [
+        f"./{ROUTER_CONFIG}:{config}:ro",
+        f"{bundles}/router:{CREDENTIALS_MOUNT}:ro",
+    ]
     for name, service in services.items():
-        assert service["volumes"] == [credentials], name
+        user = service_identity([str(part) for part in service["command"]]).username(cell.name)
+        assert service["volumes"] == [f"{bundles}/{user}:{CREDENTIALS_MOUNT}:ro"], name
