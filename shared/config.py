@@ -53,6 +53,8 @@ SAMPLE_CELLS = "cells"
 EXIT_CONFIG = 2
 """The exit status of a process that cannot start as configured (a bad file or option, refused
 credentials, a taken name): restarting it would not help, so the launcher stops the cell."""
+MAX_PORT = 65535
+"""The highest TCP port: a cell's port base leaves room for its state and I/O ports below it."""
 
 
 class ConfigError(ValueError):
@@ -530,8 +532,8 @@ def resolve(
         raise ConfigError(f"{where}: pending_points: must be 1 to {MAX_PENDING_POINTS}")
     if not 0 <= cell_file.start_buffer_periods <= MAX_START_BUFFER_PERIODS:
         raise ConfigError(f"{where}: start_buffer_periods: must be 0 to {MAX_START_BUFFER_PERIODS}")
-    if not 1 <= cell_file.port_base <= 65533:
-        raise ConfigError(f"{where}: port_base: must be 1 to 65533")
+    if not 1 <= cell_file.port_base <= MAX_PORT - 2:
+        raise ConfigError(f"{where}: port_base: must be 1 to {MAX_PORT - 2}")
     _check_tools(f"{where}: tools", cell_file.tools)
     groups: list[Group] = []
     for index, group in enumerate(cell_file.groups):

@@ -9,9 +9,12 @@ the same way can collide, and each pick is random.
 
 from __future__ import annotations
 
+import argparse
 import random
 import socket
 from pathlib import Path
+
+from motocell.shared.config import MAX_PORT
 
 EPHEMERAL_RANGE = Path("/proc/sys/net/ipv4/ip_local_port_range")
 PICKED_SPAN = 12000
@@ -33,8 +36,23 @@ def free_port_block(count: int, host: str = "127.0.0.1") -> int:
             return base
     while True:  # no room below the ephemeral range: the kernel's choice
         base = _kernel_port(host)
-        if base + count <= 65535 and all(port_free(base + i, host) for i in range(count)):
+        if base + count <= MAX_PORT and all(port_free(base + i, host) for i in range(count)):
             return base
+
+
+def port_base_argument(text: str) -> int:
+    """argparse's type for a service's ``--port-base``: the motion port, the state and I/O
+    ports after it. 0 is refused (it once meant "the cell file's" without a word)."""
+    try:
+        base = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not 1 <= base <= MAX_PORT - 2:
+        raise argparse.ArgumentTypeError(
+            f"{base}: the motion, state and I/O ports ({base}-{base + 2}) must lie within "
+            f"1-{MAX_PORT}"
+        )
+    return base
 
 
 def port_free(port: int, host: str = "127.0.0.1") -> bool:

@@ -14,6 +14,7 @@ from motocell.services.broadcaster.reports import Reports
 from motocell.services.broadcaster.state_port import Acceptor, StatePort
 from motocell.services.broadcaster.ticks import TickSource
 from motocell.shared.bus.session import answer, observed, publisher
+from motocell.shared.ports import port_base_argument
 from motocell.shared.protocol.codec import ByteOrder
 from motocell.shared.service import argument_parser, listen, running_service
 
@@ -23,7 +24,9 @@ log = logging.getLogger("broadcaster")
 def main(argv: Sequence[str] | None = None) -> None:
     parser = argument_parser("broadcaster", "Controller state at the state period.")
     parser.add_argument("--host", help="address to listen on (default: the cell file's)")
-    parser.add_argument("--port-base", type=int, help="motion port; the state port follows it")
+    parser.add_argument(
+        "--port-base", type=port_base_argument, help="motion port; the state port follows it"
+    )
     parser.add_argument("--byte-order", choices=("little", "big"))
     args = parser.parse_args(argv)
     with running_service("broadcaster", "0", args) as ctx:

@@ -18,6 +18,7 @@ from motocell.services.gateway.metrics import GatewayStats
 from motocell.services.gateway.reporter import Reporter
 from motocell.services.gateway.tcp import RequestServer, SocketListener
 from motocell.services.gateway.zenoh_cell import ZenohCell
+from motocell.shared.ports import port_base_argument
 from motocell.shared.protocol.codec import ByteOrder
 from motocell.shared.service import argument_parser, listen, running_service
 
@@ -27,7 +28,9 @@ log = logging.getLogger("gateway")
 def main(argv: Sequence[str] | None = None) -> None:
     parser = argument_parser("gateway", "Simple Message TCP servers of one controller.")
     parser.add_argument("--host", help="address to listen on (default: the cell file's)")
-    parser.add_argument("--port-base", type=int, help="motion port; I/O is port-base + 2")
+    parser.add_argument(
+        "--port-base", type=port_base_argument, help="motion port; I/O is port-base + 2"
+    )
     parser.add_argument("--byte-order", choices=("little", "big"))
     args = parser.parse_args(argv)
     with running_service("gateway", "0", args) as ctx:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from motocell.services.launcher.core import WELL_KNOWN_ENDPOINT
+from motocell.services.launcher.core import PORT_BASE_AUTO, WELL_KNOWN_ENDPOINT
 from motocell.shared.service import add_cell_arguments
 
 
@@ -22,9 +22,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--port-base",
-        type=int,
         metavar="N",
-        help="motion port N, state N+1, I/O N+2 (default: the cell file's, 50240)",
+        help=f"motion port N, state N+1, I/O N+2 (default: the cell file's, 50240); "
+        f"{PORT_BASE_AUTO}: three free ports, which the ready line prints",
     )
     parser.add_argument(
         "--byte-order",

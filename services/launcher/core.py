@@ -7,7 +7,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from enum import Enum
 
-from motocell.shared.config import EXIT_CONFIG, Cell
+from motocell.shared.config import EXIT_CONFIG, MAX_PORT, Cell
 from motocell.shared.service_names import (
     PER_GROUP,
     ServiceName,
@@ -20,7 +20,9 @@ WELL_KNOWN_PORT = 7447
 """The first cell on a machine takes it, so observers find that cell with no arguments."""
 WELL_KNOWN_ENDPOINT = f"tcp/127.0.0.1:{WELL_KNOWN_PORT}"
 RESTART_DELAY_S = 1.0
-MAX_PORT = 65535
+PORT_BASE_AUTO = "auto"
+"""``--port-base auto``: three free ports, chosen at start; the ready line and the registry
+(``motocell ps``) name them."""
 TCP_SERVICES = ("broadcaster", "gateway")
 """They serve the Simple Message ports: the state port, and the motion and I/O ports."""
 
@@ -109,13 +111,21 @@ def tcp_ports(port_base: int, services: Sequence[ServiceName]) -> list[TcpPort]:
     return sorted(ports, key=lambda p: p.port)
 
 
-def port_base_problem(port_base: int) -> str | None:
-    """Why ``port_base`` cannot be a cell's (the state and I/O ports follow it), or None."""
+def port_base_problem(given: str) -> str | None:
+    """Why ``--port-base given`` cannot be a cell's, or None: ``auto``, or a number whose
+    state and I/O ports (N+1, N+2) exist too. 0 is refused, not taken for the default."""
+    if given == PORT_BASE_AUTO:
+        return None
+    how = f"`--port-base {PORT_BASE_AUTO}` picks three free ports and the ready line prints them"
+    try:
+        port_base = int(given)
+    except ValueError:
+        return f"--port-base {given} is not a number: give the motion port N, or {how}"
     if 1 <= port_base <= MAX_PORT - 2:
         return None
     return (
         f"--port-base {port_base} is out of range: the motion, state and I/O ports "
-        f"({port_base}-{port_base + 2}) must lie within 1-{MAX_PORT}"
+        f"({port_base}-{port_base + 2}) must lie within 1-{MAX_PORT}; {how}"
     )
 
 
@@ -125,7 +135,7 @@ def _port_options(options: UpOptions) -> list[str]:
     extra = []
     if options.host:
         extra += ["--host", options.host]
-    if options.port_base:
+    if options.port_base is not None:
         extra += ["--port-base", str(options.port_base)]
     if options.byte_order:
         extra += ["--byte-order", options.byte_order]

@@ -9,7 +9,8 @@ import errno
 import socket
 from collections.abc import Sequence
 
-from motocell.services.launcher.core import MAX_PORT, TcpPort
+from motocell.services.launcher.core import TcpPort
+from motocell.shared.config import MAX_PORT
 
 
 class PortError(Exception):

@@ -34,6 +34,7 @@ import zenoh
 from motocell.services.launcher.children import Child, stop_children, supervise
 from motocell.services.launcher.core import (
     EXECUTOR,
+    PORT_BASE_AUTO,
     RestartPolicy,
     UpOptions,
     child_specs,
@@ -53,6 +54,7 @@ from motocell.shared.bus.credentials import load as load_credentials
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.session import StoppedWaiting, open_session
 from motocell.shared.config import EXIT_CONFIG, Cell, ConfigError, load_cell
+from motocell.shared.ports import free_port_block
 from motocell.shared.realtime import enter_service_priority
 from motocell.shared.registry import CellEntry, CellNameTakenError
 from motocell.shared.service import StopFlag, stop_on_signals
@@ -93,11 +95,18 @@ class ThisHost:
     def __init__(self, cell: Cell, args: argparse.Namespace) -> None:
         self.services = services_here(cell, args.skip or ())
         self.host: str = args.host or cell.host
-        self.port_base: int = args.port_base or cell.port_base
-        problem = port_base_problem(self.port_base)
+        self.port_base = self._port_base(args.port_base, cell)
+        self.ports = tcp_ports(self.port_base, self.services)
+
+    def _port_base(self, given: str | None, cell: Cell) -> int:
+        if given is None:
+            return cell.port_base
+        problem = port_base_problem(given)
         if problem is not None:
             raise PortError(problem)
-        self.ports = tcp_ports(self.port_base, self.services)
+        if given == PORT_BASE_AUTO:
+            return free_port_block(3, self.host)
+        return int(given)
 
     def check_ports(self) -> None:
         """PortError unless every TCP port this launcher's services need is free."""
@@ -198,7 +207,7 @@ def run_children(
         name=args.name,
         credentials=str(bus.credentials) if bus.credentials else None,
         host=args.host,
-        port_base=args.port_base,
+        port_base=None if args.port_base is None else this_host.port_base,
         byte_order=args.byte_order,
     )
     specs = child_specs(this_host.services, options, bus.endpoint, [sys.executable, "-m"])
@@ -212,6 +221,8 @@ def run_children(
         )
     keys = CellKeys(cell.name)
     security = "secured" if bus.credentials else "open bus"
+    if not bus.credentials:
+        log.warning(OPEN_BUS_WARNING, cell.name)
     ready = ReadyNotice(
         bus.session,
         keys,
@@ -235,6 +246,11 @@ def run_children(
         log.info("cell %s stopped", cell.name)
     return status
 
+
+OPEN_BUS_WARNING = (
+    "cell %s runs on an open bus: anyone who reaches its Zenoh router can move the robot "
+    "(drop --open-bus unless this network is trusted; docs/security.md)"
+)
 
 LOOK_S = 0.05
 """How often the launcher looks whether the cell is ready, until it has said so."""

@@ -191,13 +191,50 @@ def test_a_taken_tcp_port_is_one_line_and_status_2(tmp_path: Path, offset: int) 
     assert "taken by another process" in output
 
 
-def test_a_port_base_beyond_the_port_range_is_one_line_and_status_2(tmp_path: Path) -> None:
-    status, output = run_to_the_end(tmp_path, "up", *up_options()[2:], "--port-base", "70000")
+@pytest.mark.parametrize("port_base", ["70000", "0"])
+def test_a_port_base_beyond_the_port_range_is_one_line_and_status_2(
+    tmp_path: Path, port_base: str
+) -> None:
+    # 0 once meant the cell file's 50240-50242 without a word.
+    status, output = run_to_the_end(tmp_path, "up", *up_options()[2:], "--port-base", port_base)
     assert status == EXIT_CONFIG, output
+    end = int(port_base) + 2
     assert output.strip() == (
-        "motocell up: --port-base 70000 is out of range: the motion, state and I/O ports "
-        "(70000-70002) must lie within 1-65535"
+        f"motocell up: --port-base {port_base} is out of range: the motion, state and I/O ports "
+        f"({port_base}-{end}) must lie within 1-65535; `--port-base auto` picks three free "
+        "ports and the ready line prints them"
     )
+
+
+def test_port_base_auto_takes_free_ports_and_says_which(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv(RUNTIME_DIR_ENV, str(tmp_path / "run"))  # the registry motocell() gives
+    with motocell(tmp_path, "up", "--port-base", "auto", *up_options()[2:]) as up:
+        up.wait_for(" ready: ")
+        entry = registry.find(CELL)
+        assert f"motion {HOST}:{entry.port_base}, state {entry.port_base + 1}" in up.text()
+        assert connectable(HOST, entry.port_base)
+        assert connectable(HOST, entry.port_base + 1)
+        assert connectable(HOST, entry.port_base + 2)
+        up.process.send_signal(signal.SIGTERM)
+        assert up.finish() == 0
+    assert entry.port_base != load_cell(None).port_base
+
+
+def test_an_open_bus_says_so_in_one_warning(tmp_path: Path) -> None:
+    with motocell(tmp_path, "up", "--open-bus", *up_options()) as up:
+        up.wait_for(" ready: ")
+        up.process.send_signal(signal.SIGTERM)
+        assert up.finish() == 0
+        output = up.text()
+    warnings = [
+        line
+        for line in output.splitlines()
+        if " WARNING " in line and "real-time priority" not in line  # as above
+    ]
+    assert len(warnings) == 1, output
+    assert "anyone who reaches its Zenoh router can move the robot" in warnings[0]
 
 
 def test_a_taken_zenoh_listen_port_is_one_line_and_status_2(tmp_path: Path) -> None:

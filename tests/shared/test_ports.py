@@ -3,6 +3,7 @@ between the pick and the bind."""
 
 from __future__ import annotations
 
+import argparse
 import socket
 from pathlib import Path
 
@@ -46,3 +47,14 @@ def test_an_unreadable_range_means_linux_default(
 ) -> None:
     monkeypatch.setattr(ports, "EPHEMERAL_RANGE", tmp_path / "missing")
     assert free_port() < 32768
+
+
+@pytest.mark.parametrize("text", ["1", "50240", "65533"])
+def test_a_service_takes_a_port_base_whose_three_ports_exist(text: str) -> None:
+    assert ports.port_base_argument(text) == int(text)
+
+
+@pytest.mark.parametrize("text", ["0", "-5", "65534", "many"])
+def test_a_service_refuses_a_port_base_0_rather_than_meaning_the_default(text: str) -> None:
+    with pytest.raises(argparse.ArgumentTypeError):
+        ports.port_base_argument(text)

@@ -146,14 +146,20 @@ def test_the_ports_are_those_of_the_services_run_here() -> None:
     assert tcp_ports(50240, services_here(ONE_ARM, ("broadcaster",))) == everything[::2]
 
 
-@pytest.mark.parametrize("port_base", [1, 50240, 65533])
-def test_a_port_base_whose_three_ports_exist_is_fine(port_base: int) -> None:
-    assert port_base_problem(port_base) is None
+@pytest.mark.parametrize("given", ["1", "50240", "65533", "auto"])
+def test_a_port_base_whose_three_ports_exist_or_auto_is_fine(given: str) -> None:
+    assert port_base_problem(given) is None
 
 
-@pytest.mark.parametrize("port_base", [0, -1, 65534, 70000])
-def test_a_port_base_beyond_the_port_range_says_so(port_base: int) -> None:
-    assert f"--port-base {port_base} is out of range" in str(port_base_problem(port_base))
+@pytest.mark.parametrize("given", ["0", "-1", "65534", "70000"])
+def test_a_port_base_beyond_the_port_range_says_so_and_how_to_get_free_ports(given: str) -> None:
+    problem = str(port_base_problem(given))
+    assert f"--port-base {given} is out of range" in problem
+    assert "`--port-base auto` picks three free ports" in problem
+
+
+def test_a_port_base_that_is_not_a_number_says_so() -> None:
+    assert "--port-base fifty is not a number" in str(port_base_problem("fifty"))
 
 
 # -- router endpoints ---------------------------------------------------------------------
