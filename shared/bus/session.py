@@ -233,14 +233,21 @@ def _why_not(
             f"no Zenoh router answers at {', '.join(connect) or '(no endpoint)'}: is the cell "
             "running there? (`motocell ps` lists the cells on this machine)"
         )
+    # ssl and the probe only once refused: nothing for a session that opens.
+    from motocell.shared.bus.refusal import tls_problem  # noqa: PLC0415
+
+    problem = tls_problem(listening[0], credentials)
+    if problem is not None:
+        return problem
     if credentials is None:
         return (
             f"the Zenoh router at {listening[0]} refused this session: it requires "
             "credentials (give the cell's credentials directory with --credentials DIR)"
         )
     return (
-        f"the Zenoh router at {listening[0]} refused {credentials.user}: wrong password or "
-        "certificate. Use the credentials of the cell that runs there (`motocell up` writes "
+        f"the Zenoh router at {listening[0]} refused {credentials.user}: wrong password, or a "
+        "user it does not know (a router reads its users at start: restart it after adding "
+        "an identity). Use the credentials of the cell that runs there (`motocell up` writes "
         "new ones at every start; `motocell ps` shows each cell's)"
     )
 
