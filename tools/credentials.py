@@ -33,12 +33,13 @@ from motocell.shared.bus.credentials import (
     add_passwords,
     write_passwords,
 )
+from motocell.shared.bus.expiry import WARN_WITHIN
 from motocell.shared.bus.router import ROUTER_CERTIFICATE, ROUTER_KEY
 from motocell.shared.config import ConfigError, load_cell
 
 DEFAULT_HOSTS = ("localhost", "127.0.0.1")
 """The names a router's certificate is valid for unless ``--host`` says otherwise."""
-RENEW_WITHIN_DAYS = 30
+RENEW_WITHIN_DAYS = WARN_WITHIN.days
 """What ``--renew`` renews by default: what ``motocell ps`` and ``watch`` warn about."""
 USERNAME = re.compile(r"[A-Za-z0-9_-]+(\.[A-Za-z0-9_-]+)*")
 

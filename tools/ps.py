@@ -10,6 +10,8 @@ reached the cell.
 from __future__ import annotations
 
 import argparse
+import datetime
+import sys
 import time
 from dataclasses import dataclass
 
@@ -18,6 +20,7 @@ import zenoh
 
 from motocell.shared.bus.access import Identity
 from motocell.shared.bus.catalog import Role
+from motocell.shared.bus.expiry import warnings
 from motocell.shared.bus.keys import ALIVE_ROOT, ROOT
 from motocell.shared.bus.schemas import Decoder, ServiceInfo
 from motocell.tools import cells
@@ -148,6 +151,12 @@ def tcp_ports(rows: list[Row]) -> dict[str, str]:
 def run_ps(args: argparse.Namespace) -> int:
     try:
         found = cells.targets(args)
+    except CellsError as exc:
+        return cells.failed("ps", exc)
+    now = datetime.datetime.now(datetime.UTC)
+    for line in warnings([t.credentials for t in found if t.credentials], now):
+        print(f"motocell ps: {line}", file=sys.stderr)
+    try:
         joined = cells.join_all(found, OBSERVER)
     except CellsError as exc:
         return cells.failed("ps", exc)

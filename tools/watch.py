@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import datetime
 import sys
 import threading
 import time
@@ -31,6 +32,7 @@ import zenoh
 from motocell.shared.bus import catalog
 from motocell.shared.bus.access import Identity
 from motocell.shared.bus.catalog import Role
+from motocell.shared.bus.expiry import warnings
 from motocell.shared.bus.keys import ALIVE_ROOT, ROOT, service_of_alive
 from motocell.shared.bus.liveness import STALE_HEARTBEATS, heartbeat_ms, silence_bound_s
 from motocell.shared.bus.schemas import (
@@ -486,6 +488,11 @@ class Buses:
     def joined(self) -> bool:
         return bool(self._joined)
 
+    @property
+    def targets(self) -> list[Target]:
+        """The buses wanted now, joined or not."""
+        return list(self._wanted)
+
     def close(self) -> None:
         for session in self._joined.values():
             session.close()
@@ -513,9 +520,14 @@ def run_watch(args: argparse.Namespace) -> int:
         buses = Buses(args, watcher)
     except CellsError as exc:
         return cells.failed("watch", exc)
+    # Read once: a certificate does not end between two frames of one watch.
+    now = datetime.datetime.now(datetime.UTC)
+    ending = warnings([t.credentials for t in buses.targets if t.credentials], now)
+    for line in ending:
+        print(f"motocell watch: {line}", file=sys.stderr, flush=True)
     try:
         with stop_on_signals() as stop:
-            show(watcher, buses, stop, args.interval, args.count)
+            show(watcher, buses, stop, args.interval, args.count, warned=ending)
     except CellsError as exc:
         return cells.failed("watch", exc)
     finally:
@@ -524,10 +536,17 @@ def run_watch(args: argparse.Namespace) -> int:
 
 
 def show(
-    watcher: Watcher, buses: Buses, stop: StopFlag, interval: float, count: int | None
+    watcher: Watcher,
+    buses: Buses,
+    stop: StopFlag,
+    interval: float,
+    count: int | None,
+    *,
+    warned: list[str],
 ) -> None:
     """Render every ``interval`` s until ``count`` frames or ``stop``; nothing before a bus is
-    joined, and the first frame once it is complete (or ``FIRST_FRAME_WAIT_S`` passed)."""
+    joined, and the first frame once it is complete (or ``FIRST_FRAME_WAIT_S`` passed).
+    ``warned``: lines every frame shows (certificates that end soon)."""
     clear = "\x1b[H\x1b[2J" if sys.stdout.isatty() else ""
     frames = 0
     while not stop.is_set():
@@ -537,7 +556,9 @@ def show(
             continue
         if frames == 0:
             watcher.wait_until_complete(stop, FIRST_FRAME_WAIT_S)
-        sys.stdout.write(clear + render(watcher, buses.waiting, time.monotonic()) + "\n")
+        sys.stdout.write(
+            clear + render(watcher, [*warned, *buses.waiting], time.monotonic()) + "\n"
+        )
         sys.stdout.flush()
         frames += 1
         if count is not None and frames >= count:
