@@ -27,12 +27,20 @@ def run(args: argparse.Namespace) -> int:
     # matplotlib and mcap are in the tools extra, and matplotlib is slow to import: imported by
     # this command only, not by every `motocell`.
     from motocell.tools.plotting import plot_recording  # noqa: PLC0415
+    from motocell.tools.recording import Recording  # noqa: PLC0415
 
     out = args.out or str(Path(args.file).with_suffix(".png"))
+    recording = Recording(args.file)
     try:
-        plot_recording(args.file, out, args.cell)
+        plot_recording(recording, out, args.cell)
     except (OSError, ValueError) as exc:
-        print(f"motocell plot: {exc}", file=sys.stderr)
+        cut = f" ({CUT})" if recording.cut else ""
+        print(f"motocell plot: {exc}{cut}", file=sys.stderr)
         return 1
+    if recording.cut:
+        print(f"motocell plot: {args.file}: {CUT}; plotted what it holds", file=sys.stderr)
     print(f"wrote {out}")
     return 0
+
+
+CUT = "cut short, its recorder did not close it (killed, or a full disk)"

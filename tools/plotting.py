@@ -6,7 +6,6 @@ import this module.
 
 from __future__ import annotations
 
-import struct
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -16,13 +15,10 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
-from mcap.exceptions import McapError
 
 from motocell.shared.bus import catalog
-from motocell.tools.recording import read_recording
+from motocell.tools.recording import Recording
 
-MCAP_MAGIC = b"\x89MCAP0\r\n"
-"""The first 8 bytes of every MCAP file (the MCAP format specification, "Magic")."""
 WIDTH_IN = 12.0
 ROW_HEIGHT_IN = 2.5
 DPI = 100
@@ -42,28 +38,20 @@ class CellSeries:
     ticks: list[dict[str, Any]] = field(default_factory=list)
 
 
-def collect(path: str | Path) -> dict[str, CellSeries]:
-    """``state`` and ``executor/tick`` of every cell in the recording; ValueError with one
-    line for a file that is not an MCAP file, or not a whole one."""
-    with open(path, "rb") as stream:
-        if stream.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
-            raise ValueError(f"{path}: not an MCAP file (`motocell record` writes them)")
+def collect(recording: Recording) -> dict[str, CellSeries]:
+    """``state`` and ``executor/tick`` of every cell in the recording, a cut one too (what
+    it holds); ValueError with one line for a file that is not an MCAP file."""
     cells: dict[str, CellSeries] = {}
-    try:
-        for key, log_ns, payload in read_recording(path):
-            name = catalog.cell_of(key)
-            series = cells.setdefault(name, CellSeries(first_ns=log_ns))
-            suffix = catalog.suffix_of(key)
-            if suffix == "state":
-                series.state_ns.append(log_ns)
-                series.states.append(payload)
-            elif suffix == "executor/tick":
-                series.tick_ns.append(log_ns)
-                series.ticks.append(payload)
-    except (McapError, struct.error, OSError) as exc:
-        # What the mcap reader raises for a file cut short depends on where it was cut: a
-        # seek before the start (EINVAL), a short unpack, a record running past the end.
-        raise ValueError(f"{path}: an MCAP file cut short or damaged") from exc
+    for key, log_ns, payload in recording.messages():
+        name = catalog.cell_of(key)
+        series = cells.setdefault(name, CellSeries(first_ns=log_ns))
+        suffix = catalog.suffix_of(key)
+        if suffix == "state":
+            series.state_ns.append(log_ns)
+            series.states.append(payload)
+        elif suffix == "executor/tick":
+            series.tick_ns.append(log_ns)
+            series.ticks.append(payload)
     return cells
 
 
@@ -80,14 +68,15 @@ def choose_cell(cells: dict[str, CellSeries], cell: str | None, path: str | Path
     return with_state[0]
 
 
-def plot_recording(path: str | Path, out: str | Path, cell: str | None = None) -> Figure:
+def plot_recording(recording: Recording, out: str | Path, cell: str | None = None) -> Figure:
     """Plot one cell of a recording into the PNG ``out``; return the figure that was saved.
 
     Lines carry a ``gid`` (``group<g>/joint<j>/commanded``, ``.../feedback``,
     ``.../following_error``, ``.../velocity``, ``.../velocity/commanded``, ``group<g>/depth``,
     ``lateness``) so callers can find each series.
     """
-    cells = collect(path)
+    path = recording.path
+    cells = collect(recording)
     name = choose_cell(cells, cell, path)
     series = cells[name]
     groups = len(series.states[0]["groups"])

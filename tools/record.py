@@ -8,8 +8,11 @@ else can travel on it); an open bus is recorded whole, keys the catalogue does n
 The file opens as-is in Foxglove and the ``mcap`` CLI (info, cat, doctor): one channel per key,
 the payloads the catalogue knows as JSON with their JSON Schema, anything else as the raw msgpack
 (``tools.recording`` has the layout). Zenoh's threads only stamp and queue each sample; one
-writer thread writes the file. Ctrl-C (SIGINT) or SIGTERM ends the recording normally: the file
-gets its summary.
+writer thread writes the file, and hands it to the file system at least every ``FLUSH_S``.
+Ctrl-C (SIGINT) or SIGTERM ends the recording normally: the file gets its summary, and the
+closing lines count what it holds. A recorder killed outright (SIGKILL, a power cut) leaves a
+file without a summary that Foxglove and the standard MCAP reader refuse; it holds everything
+up to about a second before the kill, and ``motocell plot`` reads it and says it was cut.
 """
 
 from __future__ import annotations
@@ -19,7 +22,7 @@ import queue
 import sys
 import threading
 import time
-from typing import TYPE_CHECKING, Protocol
+from typing import Protocol
 
 import zenoh
 
@@ -31,9 +34,6 @@ from motocell.tools import cell_files, cells
 from motocell.tools.cell_files import Joined
 from motocell.tools.cells import Target
 
-if TYPE_CHECKING:
-    from motocell.tools.recording import McapSink
-
 
 class Sink(Protocol):
     """Where the recorder's writer thread puts each sample: an MCAP file (``McapSink``), or
@@ -41,12 +41,19 @@ class Sink(Protocol):
 
     def write(self, received_ns: int, key: str, data: bytes) -> None: ...
 
+    def flush(self) -> None: ...
+
     def finish(self) -> None: ...
 
 
 QUEUE_SIZE = 100_000
 """Samples waiting for the writer: about 100 s of one busy cell, a few tens of MB at most. A
 writer that falls further behind than that loses samples (counted) instead of memory."""
+
+FLUSH_S = 1.0
+"""How long a sample may wait in the writer's chunk before it reaches the file: what a
+recorder killed outright (SIGKILL, a power cut) loses at most, beside its queue. Each flush
+ends an MCAP chunk; a chunk of a second still compresses well."""
 
 OBSERVED = tuple(
     route.suffix for route in ROUTES if route.op is Op.PUT and Role.OBSERVER in route.receivers
@@ -89,14 +96,25 @@ class Recorder:
                 self.dropped += 1
 
     def _drain(self) -> None:
+        flush_at: float | None = None
+        """When what the sink holds unflushed must reach the file (None: nothing waits)."""
         while True:
-            item = self.queue.get()
+            try:
+                item = self.queue.get(timeout=_until(flush_at))
+            except queue.Empty:  # quiet for a while: hand the file what waits
+                item = _FLUSH
             if item is None:  # the stop marker
                 return
             if self.error is not None:
                 continue  # keep emptying the queue so the stop marker gets through
             try:
-                self.sink.write(*item)
+                if item is not _FLUSH:
+                    self.sink.write(*item)
+                    if flush_at is None:
+                        flush_at = time.monotonic() + FLUSH_S
+                if flush_at is not None and time.monotonic() >= flush_at:
+                    self.sink.flush()
+                    flush_at = None
             except Exception as exc:  # a full disk, a closed file: report it, stop recording
                 self.error = exc
                 self.stop.set()
@@ -110,6 +128,15 @@ class Recorder:
                 self.sink.finish()
             except OSError as exc:  # the summary did not fit on the disk
                 self.error = exc
+
+
+_FLUSH = (0, "", b"")
+"""Not a sample: the writer's own reminder that a flush is due."""
+
+
+def _until(deadline: float | None) -> float | None:
+    """How long to wait for the next sample before ``deadline`` (None: as long as it takes)."""
+    return None if deadline is None else max(0.0, deadline - time.monotonic())
 
 
 def run_recorder(
@@ -189,19 +216,19 @@ def _record(joined: Joined, known: dict[str, Cell], args: argparse.Namespace) ->
     if recorder.error is not None:
         print(f"motocell record: writing {args.out} failed: {recorder.error}", file=sys.stderr)
         return 1
-    _report(args.out, sink, recorder.dropped, elapsed)
+    _report(args.out, recorder.dropped, elapsed)
     return 0
 
 
-def _report(out: str, sink: McapSink, dropped: int, elapsed: float) -> None:
-    channels = sorted(sink.channels.values(), key=lambda c: (c.topic, c.id))
-    total = sum(c.count for c in channels)
+def _report(out: str, dropped: int, elapsed: float) -> None:
+    """What the file holds, as its own summary counts it: the keys' channels and the view's."""
+    from motocell.tools.recording import channel_counts  # noqa: PLC0415
+
+    channels = sorted(channel_counts(out))
+    total = sum(count for _, count in channels)
     print(f"wrote {out}: {total} messages on {len(channels)} channels in {elapsed:.1f} s")
-    for channel in channels:
-        print(f"{channel.count:>9}  {channel.topic}")
-    shown = sink.view.topics()
-    if shown:
-        print(f"and for Foxglove (as `motocell view` serves them): {', '.join(shown)}")
+    for topic, count in channels:
+        print(f"{count:>9}  {topic}")
     if dropped:
         print(
             f"motocell record: {dropped} samples dropped (the writer fell behind)",

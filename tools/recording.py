@@ -1,4 +1,4 @@
-"""A recording's MCAP file: written while recording (``McapSink``), read back (``read_recording``).
+"""A recording's MCAP file: written while recording (``McapSink``), read back (``Recording``).
 
 Why MCAP: it is the robotics world's standard log container (ROS 2's default bag format), so a
 recording opens as-is in Foxglove, the ``mcap`` CLI (info, cat, doctor) and the ``mcap`` readers of
@@ -20,15 +20,18 @@ this module.
 
 from __future__ import annotations
 
+import struct
 from collections.abc import Callable, Iterator, Mapping
-from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
 import foxglove
 import msgspec
 from foxglove.mcap import MCAPWriteOptions
+from mcap.exceptions import McapError
 from mcap.reader import make_reader
+from mcap.records import Channel, Message
+from mcap.stream_reader import StreamReader
 from mcap.well_known import MessageEncoding
 
 from motocell.shared.bus import catalog
@@ -66,17 +69,6 @@ class WatchedStream:
             raise
 
 
-@dataclass
-class _Channel:
-    channel: foxglove.Channel
-    topic: str
-    count: int = 0
-
-    @property
-    def id(self) -> int:
-        return self.channel.id()
-
-
 class McapSink:
     """Owns the MCAP file; used by one thread only (the writer thread)."""
 
@@ -94,7 +86,7 @@ class McapSink:
         self.writer = foxglove.open_mcap(self.stream, context=self.context, writer_options=options)
         self.view = ViewChannels(self.context, cells or {})
         self.on_new_channel = on_new_channel
-        self.channels: dict[tuple[str, str], _Channel] = {}
+        self.channels: dict[tuple[str, str], foxglove.Channel] = {}
         self._last_log_time = 0
 
     def metadata(self, name: str, data: dict[str, str]) -> None:
@@ -112,18 +104,17 @@ class McapSink:
         log_time = self._last_log_time = max(received_ns, self._last_log_time)
         if value is not None:
             channel = self._channel(key, MessageEncoding.JSON, type(value))
-            channel.channel.log(msgspec.json.encode(catalog.to_named(value)), log_time=log_time)
+            channel.log(msgspec.json.encode(catalog.to_named(value)), log_time=log_time)
             self.view.publish(key, value, log_time)
         else:
             channel = self._channel(key, MessageEncoding.MessagePack, None)
-            channel.channel.log(data, log_time=log_time)
-        channel.count += 1
+            channel.log(data, log_time=log_time)
         if self.stream.error is not None:
             raise self.stream.error
 
     def _channel(
         self, key: str, encoding: str, payload_type: type[msgspec.Struct] | None
-    ) -> _Channel:
+    ) -> foxglove.Channel:
         channel = self.channels.get((key, encoding))
         if channel is not None:
             return channel
@@ -136,11 +127,21 @@ class McapSink:
         else:
             metadata["payload"] = payload_type.__name__
             made = json_channel(key, payload_type, self.context, metadata)
-        channel = _Channel(made, key)
-        self.channels[(key, encoding)] = channel
+        self.channels[(key, encoding)] = made
         if self.on_new_channel is not None:
             self.on_new_channel(key, encoding, metadata["payload"])
-        return channel
+        return made
+
+    def flush(self) -> None:
+        """Close the chunk being filled and hand the file everything written so far, so a
+        recorder killed later loses nothing of it; OSError once the file could not be
+        written."""
+        try:
+            self.writer.flush()
+        except RuntimeError as exc:  # foxglove-sdk's error, for what the stream raised
+            raise self.stream.error or OSError(str(exc)) from exc
+        if self.stream.error is not None:
+            raise self.stream.error
 
     def finish(self) -> None:
         """The summary and the footer; OSError when they could not be written."""
@@ -153,19 +154,68 @@ class McapSink:
 # --------------------------------------------------------------------------- reading back
 
 
-def read_recording(path: str | Path) -> Iterator[tuple[str, int, dict[str, Any]]]:
-    """(key, log_time_ns, payload) of every JSON message on a key of the cells, in log-time
-    order.
+class Recording:
+    """A recording read back, whole or cut: a recorder killed (SIGKILL, a power cut) leaves a
+    file without its summary, whose last chunk may end mid-record. The standard MCAP reader
+    refuses such a file; this one reads its records in file order and keeps every message
+    before the cut (``McapSink`` flushes them at least every ``FLUSH_S``)."""
 
-    The view's topics (``/<cell>/...``) and raw msgpack channels (keys the catalogue does not
-    know) are left out; read them with ``mcap.reader.make_reader``.
-    """
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+        self.cut = False
+        """Known once ``messages`` has run to its end: the file stops before its footer."""
+
+    def messages(self) -> Iterator[tuple[str, int, dict[str, Any]]]:
+        """(key, log_time_ns, payload) of every JSON message on a key of the cells, in
+        log-time order (``McapSink`` writes them in that order). OSError for a file that
+        cannot be read, NotARecordingError for one that is not MCAP.
+
+        The view's topics (``/<cell>/...``) and raw msgpack channels (keys the catalogue does
+        not know) are left out; read them with ``mcap.reader.make_reader``.
+        """
+        with open(self.path, "rb") as stream:
+            if stream.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
+                raise NotARecordingError(
+                    f"{self.path}: not an MCAP file (`motocell record` writes them)"
+                )
+            stream.seek(0)
+            self.cut = True
+            topics: dict[int, str] = {}
+            records = StreamReader(stream).records
+            while True:
+                try:
+                    record = next(records)
+                except StopIteration:  # the footer and the closing magic were read
+                    self.cut = False
+                    return
+                except (McapError, struct.error):
+                    return  # the cut: a record, or the closing magic, runs past the end
+                if isinstance(record, Channel) and _of_the_cells(record):
+                    topics[record.id] = record.topic
+                elif isinstance(record, Message) and record.channel_id in topics:
+                    payload = msgspec.json.decode(record.data, type=dict[str, Any])
+                    yield topics[record.channel_id], record.log_time, payload
+
+
+def channel_counts(path: str | Path) -> list[tuple[str, int]]:
+    """(topic, messages) of every channel of a whole recording, from its summary's
+    statistics: its keys' channels and the view's."""
     with open(path, "rb") as stream:
-        reader = make_reader(stream)
-        for _schema, channel, message in reader.iter_messages(log_time_order=True):
-            if channel.message_encoding != MessageEncoding.JSON:
-                continue
-            if not channel.topic.startswith(f"{ROOT}/"):
-                continue
-            payload = msgspec.json.decode(message.data, type=dict[str, Any])
-            yield channel.topic, message.log_time, payload
+        summary = make_reader(stream).get_summary()
+    if summary is None or summary.statistics is None:
+        return []
+    counts = summary.statistics.channel_message_counts
+    return [(channel.topic, counts.get(channel.id, 0)) for channel in summary.channels.values()]
+
+
+class NotARecordingError(ValueError):
+    """The file does not start as an MCAP file does."""
+
+
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+"""The first 8 bytes of every MCAP file (the MCAP format specification, "Magic")."""
+
+
+def _of_the_cells(channel: Channel) -> bool:
+    """A key of the cells, in JSON: not one of the view's topics, nor a raw msgpack one."""
+    return channel.message_encoding == MessageEncoding.JSON and channel.topic.startswith(f"{ROOT}/")

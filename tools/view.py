@@ -144,6 +144,9 @@ class ViewSink:
         if value is not None:
             self.channels.publish(key, value, received_ns)
 
+    def flush(self) -> None:
+        """Nothing kept, nothing to flush."""
+
     def finish(self) -> None:
         """Nothing kept, nothing to finish."""
 

@@ -34,7 +34,8 @@ from motocell.testkit.cell import RunningCell, zenoh_router
 from motocell.testkit.client import smooth_move, stream
 from motocell.testkit.processes import connectable, wait_until
 from motocell.tools.plotting import plot_recording
-from motocell.tools.recording import read_recording
+from motocell.tools.recording import NotARecordingError
+from motocell.tools.recording import Recording as RecordingFile
 
 pytestmark = pytest.mark.cell
 
@@ -163,7 +164,7 @@ def publish_unknown(endpoint: str, key: str, stdout: Lines) -> None:
 
 def test_recording_is_a_valid_mcap_of_the_motion(recording: Recording) -> None:
     assert recording.returncode == 0, recording.stdout
-    assert any(line.startswith(f"wrote {recording.path}: ") for line in recording.stdout)
+    (said,) = [line for line in recording.stdout if line.startswith(f"wrote {recording.path}: ")]
 
     with recording.path.open("rb") as file:
         reader = make_reader(file, validate_crcs=True)
@@ -211,8 +212,11 @@ def test_recording_is_a_valid_mcap_of_the_motion(recording: Recording) -> None:
             payload = json.loads(message.data)
             assert set(payload) == set(json.loads(schema_.data)["properties"]), channel.topic
         assert counts == dict(summary.statistics.channel_message_counts)
+    # The closing summary counts what the file holds: the keys' channels and the view's.
+    total = sum(counts.values())
+    assert said.startswith(f"wrote {recording.path}: {total} messages on {len(channels)} channels")
 
-    states = [p for key, _, p in read_recording(recording.path) if key == keys.state]
+    states = [p for key, _, p in RecordingFile(recording.path).messages() if key == keys.state]
     feedback = np.array([s["groups"][0]["positions"] for s in states])
     np.testing.assert_allclose(feedback[0], recording.start, rtol=0, atol=TOLERANCE_RAD)
     np.testing.assert_allclose(feedback[-1] - feedback[0], MOVE, rtol=0, atol=TOLERANCE_RAD)
@@ -224,7 +228,9 @@ def test_the_recorded_state_carries_the_arm_poses(recording: Recording, cell: Ru
     """Every recorded state holds the arm's flange and TCP (tool 0, all zero: the flange) at the
     feedback and at the commanded position, as the kinematics give them for its joints."""
     chain = Chain(cell.cell.groups[0].model)
-    states = [p for key, _, p in read_recording(recording.path) if key == recording.keys.state]
+    states = [
+        p for key, _, p in RecordingFile(recording.path).messages() if key == recording.keys.state
+    ]
     for state in states:
         group = state["groups"][0]
         assert group["tool"] == 0
@@ -253,7 +259,7 @@ def lines_by_gid(figure: Figure) -> dict[str, Line2D]:
 
 def test_plot_draws_the_recorded_series(recording: Recording, tmp_path: Path) -> None:
     png = tmp_path / "cell.png"
-    figure = plot_recording(recording.path, png)
+    figure = plot_recording(RecordingFile(recording.path), png)
 
     image = imread(png)
     width, height = np.round(figure.get_size_inches() * figure.dpi).astype(int)
@@ -261,7 +267,7 @@ def test_plot_draws_the_recorded_series(recording: Recording, tmp_path: Path) ->
     background = np.all(image[..., :3] > 0.98, axis=-1)
     assert background.mean() < 0.97, "the image is (nearly) blank"
 
-    records = list(read_recording(recording.path))
+    records = list(RecordingFile(recording.path).messages())
     t0 = records[0][1]
     keys = recording.keys
     states = [(t, p) for key, t, p in records if key == keys.state]
@@ -306,6 +312,53 @@ def test_plot_draws_the_recorded_series(recording: Recording, tmp_path: Path) ->
     colour = np.array(to_rgb(feedback.get_color()))
     matching = np.all(np.abs(inside - colour) < 0.02, axis=-1)
     assert matching.sum() > 50, "joint 1's line is not visible in the position panel"
+
+
+KILL_LOSS_S = 3.0
+"""What a killed recorder may lose at most in this test: its flushes come a second apart
+(``record.FLUSH_S``), plus the writer's lag on a loaded machine."""
+
+
+def test_a_recorder_killed_outright_leaves_a_file_read_up_to_the_last_second(
+    cell: RunningCell, tmp_path: Path
+) -> None:
+    out = tmp_path / "killed.mcap"
+    keys = cell.keys
+    env = {**os.environ, RUNTIME_DIR_ENV: str(cell.runtime_dir)}
+    with Recorder(record_command(out, "--cell", cell.cell.name), env) as recorder:
+        # At rest, with no state client, a cell sends a few kB a second: a 1 MiB chunk would
+        # take minutes to fill. What arrives reaches the file within a second all the same.
+        wait_until(lambda: _samples_in(out, "") > 0, 30.0, "a sample in the file being written")
+        # A state client connected: the broadcaster sends state every period.
+        with cell.state():
+            wait_until(lambda: _samples_in(out, "/state") > 0, 30.0, "a state in the file")
+            killed_ns = time.time_ns()
+            recorder.process.kill()
+            recorder.process.wait()
+    recording = RecordingFile(out)
+    states = [t for key, t, _ in recording.messages() if key == keys.state]
+    assert recording.cut
+    assert killed_ns - states[-1] < KILL_LOSS_S * 1e9, (killed_ns - states[-1]) / 1e9
+    plotted = subprocess.run(
+        [sys.executable, "-m", "motocell.tools.cli", "plot", str(out)],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert plotted.returncode == 0, plotted
+    assert plotted.stderr == (
+        f"motocell plot: {out}: cut short, its recorder did not close it (killed, or a full "
+        "disk); plotted what it holds\n"
+    )
+
+
+def _samples_in(path: Path, suffix: str) -> int:
+    """The samples of keys ending in ``suffix`` that the file holds now."""
+    try:
+        return sum(1 for key, _, _ in RecordingFile(path).messages() if key.endswith(suffix))
+    except (FileNotFoundError, NotARecordingError):  # not yet opened, or no magic yet
+        return 0
 
 
 def test_record_without_a_router_fails_fast_and_clearly(tmp_path: Path) -> None:

@@ -18,7 +18,7 @@ from motocell.shared.bus.schemas import (
 )
 from motocell.tools import plot
 from motocell.tools.plotting import plot_recording
-from motocell.tools.recording import McapSink
+from motocell.tools.recording import McapSink, Recording
 
 
 def plot_of(path: Path) -> int:
@@ -51,20 +51,37 @@ def test_a_file_that_is_not_mcap_gets_one_line_whatever_its_length(
     assert not path.with_suffix(".png").exists()
 
 
+CUT = "cut short, its recorder did not close it (killed, or a full disk)"
+
+
 @pytest.mark.parametrize("keep", [8, 20, 100, 0.5, -10])
-def test_a_recording_cut_short_gets_one_line(
+def test_a_cut_recording_without_states_gets_one_line_that_says_it_was_cut(
     keep: float, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     whole = recording()
     path = tmp_path / "cut.mcap"
     path.write_bytes(whole[: int(len(whole) * keep) if isinstance(keep, float) else keep])
     assert plot_of(path) == 1
-    assert capsys.readouterr().err == f"motocell plot: {path}: an MCAP file cut short or damaged\n"
+    assert capsys.readouterr().err == (
+        f"motocell plot: {path}: no state samples in the recording ({CUT})\n"
+    )
 
 
-def states_recording(command_velocities: list[float]) -> bytes:
+def test_a_cut_recording_is_plotted_up_to_the_cut_and_says_so(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "cut.mcap"
+    path.write_bytes(states_recording([2.5] * 6, flushed=True)[:-400])
+    assert plot_of(path) == 0
+    out = capsys.readouterr()
+    assert out.err == f"motocell plot: {path}: {CUT}; plotted what it holds\n"
+    assert out.out == f"wrote {path.with_suffix('.png')}\n"
+
+
+def states_recording(command_velocities: list[float], *, flushed: bool = False) -> bytes:
     """A one-arm cell's state and ticks, its states with ``command_velocities`` (a recording
-    made before the servo model has none)."""
+    made before the servo model has none); ``flushed``: each sample in a chunk of its own, as
+    the recorder's flushes leave them."""
     stream = io.BytesIO()
     sink = McapSink(stream)
     status = RobotStatusFields(1, 0, 0, 0, 1, 2, 1)
@@ -74,6 +91,8 @@ def states_recording(command_velocities: list[float]) -> bytes:
         sink.write(1_000 + n, "motocell/c/state", encode(State(n + 1, n, 0, [group], status)))
         tick = Tick(n, 0, 0, 0, True, [GroupTick([0] * 8, [0] * 8, [0] * 8, 0)])
         sink.write(1_000 + n, "motocell/c/executor/tick", encode(tick))
+        if flushed:
+            sink.flush()
     sink.finish()
     return stream.getvalue()
 
@@ -90,7 +109,7 @@ def test_the_velocity_panel_says_what_it_draws(
 ) -> None:
     path = tmp_path / "run.mcap"
     path.write_bytes(states_recording(command_velocities))
-    figure = plot_recording(path, tmp_path / "run.png")
+    figure = plot_recording(Recording(path), tmp_path / "run.png")
     velocities = figure.axes[2]
     assert velocities.get_title() == title
     gids = [str(line.get_gid()) for line in velocities.get_lines()]

@@ -1,5 +1,6 @@
 """The recorder's queue between Zenoh's callback threads and its one writer: what fits is
-written in order, what does not is counted, exactly, whichever threads drop it."""
+written in order, what does not is counted, exactly, whichever threads drop it; what was
+written reaches the file by a flush, also when no sample follows."""
 
 from __future__ import annotations
 
@@ -52,8 +53,44 @@ class BlockedSink:
             raise TimeoutError("the test never released the sink")
         self.written.append((key, data))
 
+    def flush(self) -> None:
+        """Nothing to hand on: every sample is written when released."""
+
     def finish(self) -> None:
         self.finished = True
+
+
+class FlushWatch:
+    """Says when a flush follows a write."""
+
+    def __init__(self) -> None:
+        self.events: list[str] = []
+        self.flushed = threading.Event()
+
+    def write(self, received_ns: int, key: str, data: bytes) -> None:
+        self.events.append(f"write {key}")
+
+    def flush(self) -> None:
+        self.events.append("flush")
+        self.flushed.set()
+
+    def finish(self) -> None:
+        self.events.append("finish")
+
+
+def test_a_sample_is_flushed_without_waiting_for_another(monkeypatch: pytest.MonkeyPatch) -> None:
+    # A resting cell sends a sample a second or less: the last one before a kill must not
+    # wait in the chunk for a next one, or for the chunk to fill.
+    monkeypatch.setattr(record, "FLUSH_S", 0.05)
+    sink = FlushWatch()
+    recorder = record.Recorder(sink, StopFlag())
+    recorder.start()
+    try:
+        recorder.on_sample(sample("only", b"1"))
+        assert sink.flushed.wait(10.0), "no flush followed the sample"
+    finally:
+        recorder.close()
+    assert sink.events == ["write only", "flush", "finish"]
 
 
 def test_samples_that_do_not_fit_are_counted_exactly_across_callback_threads(

@@ -22,7 +22,7 @@ from motocell.shared.bus.schemas import (
     Tick,
 )
 from motocell.shared.config import Cell, load_cell
-from motocell.tools.recording import McapSink, read_recording
+from motocell.tools.recording import McapSink, Recording
 from motocell.tools.view_channels import SCENE_EVERY_NS
 from tests.foxglove_ws import protobuf_class
 
@@ -128,7 +128,7 @@ def test_reading_a_recording_back_gives_the_keys_not_the_views_topics(tmp_path: 
         sink = McapSink(stream, cells={cell.name: cell})
         sink.write(START_NS, "motocell/cell1/state", msgspec.msgpack.encode(state(cell, 1)))
         sink.finish()
-    assert [key for key, _, _ in read_recording(path)] == ["motocell/cell1/state"]
+    assert [key for key, _, _ in Recording(path).messages()] == ["motocell/cell1/state"]
 
 
 class FullDisk(io.BytesIO):
