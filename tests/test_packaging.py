@@ -10,23 +10,17 @@ The layout these artifacts come from: ARCHITECTURE.md, Code layout."""
 
 from __future__ import annotations
 
-import contextlib
-import os
 import re
 import shutil
-import signal
-import subprocess
 import sys
 import tarfile
-import time
 import zipfile
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
-from motocell.shared.ports import free_port, free_port_block
-from motocell.testkit.processes import alive, cmdline, descendants, wait_until
+from tests.installed import cell_starts_and_stops, clean_env, free_cell_ports, run
 
 pytestmark = [pytest.mark.cell, pytest.mark.timeout(1800)]
 
@@ -36,30 +30,6 @@ HOST = "127.0.0.1"
 BUILD_TIMEOUT_S = 600.0
 INSTALL_TIMEOUT_S = 900.0
 """Generous: on a loaded machine pip and the build's isolated environment take minutes."""
-READY_TIMEOUT_S = 180.0
-STOP_TIMEOUT_S = 30.0
-
-
-def run(command: list[str | Path], timeout: float, cwd: Path, env: dict[str, str]) -> str:
-    """Run ``command`` to completion; its output, or AssertionError with that output."""
-    done = subprocess.run(
-        [str(part) for part in command],
-        cwd=cwd,
-        env=env,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-        timeout=timeout,
-        check=False,
-    )
-    assert done.returncode == 0, f"{command} exited with {done.returncode}:\n{done.stdout}"
-    return done.stdout
-
-
-def clean_env() -> dict[str, str]:
-    """This process's environment without what points at the development venv or the tree."""
-    env = {k: v for k, v in os.environ.items() if k not in {"PYTHONPATH", "VIRTUAL_ENV"}}
-    return {**env, "PIP_NO_INPUT": "1", "PIP_DISABLE_PIP_VERSION_CHECK": "1"}
 
 
 def source_copy(destination: Path) -> Path:
@@ -147,13 +117,8 @@ def test_the_installed_package_is_the_artifact(venv: Path) -> None:
 
 
 def test_a_cell_starts_from_the_install_and_stops_on_sigterm(venv: Path) -> None:
-    port_base = free_port_block(3, HOST)
-    router_port = free_port(HOST)
-    while port_base <= router_port < port_base + 3:
-        router_port = free_port(HOST)
-    env = {**clean_env(), "MOTOCELL_RUNTIME_DIR": str(venv / "runtime"), "MOTOCELL_LOG": "INFO"}
-    log_path = venv / "up.log"
-    command = [
+    port_base, router_port = free_cell_ports(HOST)
+    command: list[str | Path] = [
         venv / "bin" / "motocell",
         "up",
         "--config",
@@ -165,39 +130,4 @@ def test_a_cell_starts_from_the_install_and_stops_on_sigterm(venv: Path) -> None
         "--zenoh-listen",
         f"tcp/{HOST}:{router_port}",
     ]
-    with log_path.open("wb") as log:
-        launcher = subprocess.Popen(
-            [str(part) for part in command], cwd=venv, env=env, stdout=log, stderr=log
-        )
-    children: set[int] = set()
-
-    def ready() -> bool:
-        children.update(descendants(launcher.pid))
-        if launcher.poll() is not None:
-            raise AssertionError(f"motocell up exited with {launcher.returncode}")
-        return re.search(r"cell \S+ ready: ", log_path.read_text(errors="replace")) is not None
-
-    try:
-        wait_until(ready, READY_TIMEOUT_S, "the cell's ready line")
-        pythons = {
-            args[0] for pid in descendants(launcher.pid) | {launcher.pid} if (args := cmdline(pid))
-        }
-        assert pythons == {str(venv / "bin" / "python")}, pythons
-    except (AssertionError, TimeoutError) as error:
-        raise AssertionError(f"{error}\n{log_path.read_text(errors='replace')}") from error
-    finally:
-        if launcher.poll() is None:
-            launcher.send_signal(signal.SIGTERM)
-        try:
-            launcher.wait(timeout=STOP_TIMEOUT_S)
-        except subprocess.TimeoutExpired:
-            launcher.kill()
-            launcher.wait()
-        deadline = time.monotonic() + STOP_TIMEOUT_S
-        while any(alive(pid) for pid in children) and time.monotonic() < deadline:
-            time.sleep(0.1)
-        for pid in children:
-            with contextlib.suppress(ProcessLookupError):
-                os.kill(pid, signal.SIGKILL)
-    assert launcher.returncode == 0, log_path.read_text(errors="replace")
-    assert not [pid for pid in children if alive(pid)], "services outlived the launcher"
+    cell_starts_and_stops(command, venv, venv)

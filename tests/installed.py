@@ -1,0 +1,99 @@
+"""Running motocell from a venv it was installed into, apart from the development venv and the
+source tree: tests/test_packaging.py (the sdist and the wheel) and tests/e2e/test_image.py (the
+image's files) use it."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import re
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+from motocell.shared.ports import free_port, free_port_block
+from motocell.testkit.processes import alive, cmdline, descendants, wait_until
+
+READY_TIMEOUT_S = 180.0
+"""Generous: on a loaded machine a cell from a cold venv takes long to import and start."""
+STOP_TIMEOUT_S = 30.0
+
+
+def run(command: list[str | Path], timeout: float, cwd: Path, env: dict[str, str]) -> str:
+    """Run ``command`` to completion; its output, or AssertionError with that output."""
+    done = subprocess.run(
+        [str(part) for part in command],
+        cwd=cwd,
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        timeout=timeout,
+        check=False,
+    )
+    assert done.returncode == 0, f"{command} exited with {done.returncode}:\n{done.stdout}"
+    return done.stdout
+
+
+def clean_env() -> dict[str, str]:
+    """This process's environment without what points at the development venv or the tree."""
+    env = {k: v for k, v in os.environ.items() if k not in {"PYTHONPATH", "VIRTUAL_ENV"}}
+    return {**env, "PIP_NO_INPUT": "1", "PIP_DISABLE_PIP_VERSION_CHECK": "1"}
+
+
+def free_cell_ports(host: str) -> tuple[int, int]:
+    """A free block of the cell's three TCP ports, and a free port for its router apart."""
+    port_base = free_port_block(3, host)
+    router_port = free_port(host)
+    while port_base <= router_port < port_base + 3:
+        router_port = free_port(host)
+    return port_base, router_port
+
+
+def cell_starts_and_stops(command: list[str | Path], venv: Path, cwd: Path) -> None:
+    """Run a launcher ``command`` until its cell's ready line, check that every process of the
+    cell runs ``venv``'s Python, stop it with SIGTERM: it exits 0 and leaves nothing behind."""
+    env = {**clean_env(), "MOTOCELL_RUNTIME_DIR": str(cwd / "runtime"), "MOTOCELL_LOG": "INFO"}
+    log_path = cwd / "up.log"
+    with log_path.open("wb") as log:
+        launcher = subprocess.Popen(
+            [str(part) for part in command], cwd=cwd, env=env, stdout=log, stderr=log
+        )
+    children: set[int] = set()
+
+    def ready() -> bool:
+        children.update(descendants(launcher.pid))
+        if launcher.poll() is not None:
+            raise AssertionError(f"the launcher exited with {launcher.returncode}")
+        return re.search(r"cell \S+ ready: ", log_path.read_text(errors="replace")) is not None
+
+    try:
+        wait_until(ready, READY_TIMEOUT_S, "the cell's ready line")
+        pythons = {
+            args[0] for pid in descendants(launcher.pid) | {launcher.pid} if (args := cmdline(pid))
+        }
+        assert pythons == {str(venv / "bin" / "python")}, pythons
+    except (AssertionError, TimeoutError) as error:
+        raise AssertionError(f"{error}\n{log_path.read_text(errors='replace')}") from error
+    finally:
+        stop(launcher, children)
+    assert launcher.returncode == 0, log_path.read_text(errors="replace")
+    assert not [pid for pid in children if alive(pid)], "services outlived the launcher"
+
+
+def stop(launcher: subprocess.Popen[bytes], children: set[int]) -> None:
+    """SIGTERM the launcher and wait for it and ``children``; kill what is left after that."""
+    if launcher.poll() is None:
+        launcher.send_signal(signal.SIGTERM)
+    try:
+        launcher.wait(timeout=STOP_TIMEOUT_S)
+    except subprocess.TimeoutExpired:
+        launcher.kill()
+        launcher.wait()
+    deadline = time.monotonic() + STOP_TIMEOUT_S
+    while any(alive(pid) for pid in children) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    for pid in children:
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(pid, signal.SIGKILL)
