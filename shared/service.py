@@ -27,7 +27,7 @@ import zenoh
 
 from motocell.shared.bus.access import Identity
 from motocell.shared.bus.catalog import Role
-from motocell.shared.bus.claim import NameTakenError, claim_name, watch_claims
+from motocell.shared.bus.claim import ClaimError, claim_name, watch_claims
 from motocell.shared.bus.credentials import CredentialsError
 from motocell.shared.bus.credentials import load as load_credentials
 from motocell.shared.bus.keys import CellKeys
@@ -304,7 +304,7 @@ def running_service(
             UnknownServiceError,
             CredentialsError,
             ConnectionError,
-            NameTakenError,
+            ClaimError,
         ) as exc:
             print(f"motocell {name}: {exc}", file=sys.stderr)
             raise SystemExit(EXIT_CONFIG) from None

@@ -1,47 +1,175 @@
-"""One process per service name on a cell's bus: a liveliness claim, settled and tie-broken.
+"""One process per service name on a cell's bus: a liveliness claim, final once settled.
 
-Before a service joins, it looks for a claim on its own name (``gateway``, ``interpolator/1``)
-and refuses at once if there is one. Two processes starting at the same instant can both see
-none, so each declares its claim (a token carrying its Zenoh session id), waits for the bus to
-settle, and keeps the name only if its id is the lowest claiming it; the other withdraws.
-Measured on this project's machines: without the settling delay 5 of 30 simultaneous
-starts ended with two winners; with 10-50 ms, none did.
+A claim is a liveliness token ``@motocell/<cell>/claim/<service>/<instance>/<chunk>``. Its last
+chunk is the claimant's Zenoh session id while it settles (a bid), and a second token adds
+the id with ``.held`` once it holds the name. The rules (docs/topology.md, "One process per
+service name"):
+
+1. A start that finds any claim on its name is refused; so is one whose look-up the router
+   leaves unanswered: "no answer" is never read as "no claim".
+2. Only starts that both found none (truly simultaneous) settle it among themselves: each bids,
+   waits ``SETTLE_S`` and loses to any held claim or a lower id's bid; the winner marks its
+   claim held, waits again and withdraws if a lower id's held claim appeared meanwhile (two
+   bids that crossed on the way to the router). Measured on this project's machines: without
+   settling, 5 of 30 simultaneous starts ended with two winners; with 10-50 ms, none did.
+3. A held claim is final: its holder never gives way to a claim that appears later, however
+   low its id (a second start whose look-up was slow, a token anyone with the password
+   declares). It logs it and keeps running.
+4. A holder that lost its router has been apart from the cell: whoever claimed the name
+   meanwhile has been driving. It gives way to a held claim it finds there while it is apart
+   or within ``REJOIN_S`` of being back; after that its claim is final again.
 """
 
 from __future__ import annotations
 
+import logging
+import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 
 import zenoh
 
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import Decoder, ServiceInfo
+from motocell.shared.service_names import PER_GROUP
 
 SETTLE_S = 0.05
+"""How long a bid, then a fresh hold, waits for simultaneous claims to reach it (rule 2)."""
 QUERY_TIMEOUT_S = 1.0
+"""One look-up's bound; the router answers from its own token table within milliseconds."""
+LOOKUP_DEADLINE_S = 5.0
+"""How long a start asks again when the router leaves a look-up unanswered (a starved
+process or router) before it is refused: the bound on each of a claim's three look-ups."""
+REJOIN_S = 1.0
+"""After its router comes back, how long a holder takes a held claim it finds as one made
+while it was apart (rule 4): the router sends the claims it holds when the subscription is
+declared again, within milliseconds."""
+HELD = ".held"
 
+log = logging.getLogger(__name__)
 _info_decoder = Decoder(ServiceInfo)
 
 
-class NameTakenError(Exception):
-    """Another process already holds this service name on the cell's bus."""
+class ClaimError(Exception):
+    """The service cannot have its name; the message is one line saying why."""
 
 
-def claim_name(
-    session: zenoh.Session, keys: CellKeys, service: str, instance: str
-) -> zenoh.LivelinessToken:
-    """The claim token, held for as long as the service runs; NameTakenError if taken."""
-    if _claimants(session, keys, service, instance):
+class NameTakenError(ClaimError):
+    """Another process holds, or is claiming, this service name on the cell's bus."""
+
+
+class UnansweredLookupError(ClaimError):
+    """The router did not answer the look-up for claims within LOOKUP_DEADLINE_S."""
+
+
+@dataclass(frozen=True)
+class Claim:
+    """One claim token: whose (a Zenoh session id) and whether it holds the name."""
+
+    session: str
+    held: bool
+
+    @classmethod
+    def from_key(cls, key: str) -> Claim:
+        chunk = key.rsplit("/", 1)[-1]
+        return cls(chunk.removesuffix(HELD), chunk.endswith(HELD))
+
+    @property
+    def chunk(self) -> str:
+        return self.session + (HELD if self.held else "")
+
+
+def rival_of_bid(own: str, claims: Iterable[Claim]) -> Claim | None:
+    """What a settled bid of session ``own`` loses to (rule 2): another session's held claim,
+    else a lower id's bid; None: the bid wins."""
+    others = [claim for claim in claims if claim.session != own]
+    held = [claim for claim in others if claim.held]
+    lower = [claim for claim in others if claim.session < own]
+    return min(held or lower, key=lambda claim: claim.session, default=None)
+
+
+def rival_of_hold(own: str, claims: Iterable[Claim]) -> Claim | None:
+    """What a fresh hold of session ``own`` withdraws for after settling (rule 2): a lower
+    id's held claim, from a bid that crossed its own; None: the claim is final."""
+    crossed = [c for c in claims if c.held and c.session != own and c.session < own]
+    return min(crossed, key=lambda claim: claim.session, default=None)
+
+
+_STAGES = ((False, rival_of_bid), (True, rival_of_hold))
+"""A claim's two steps: bid, then hold; each settles and looks for what it loses to."""
+
+
+class Standing:
+    """Whether a holder must give way to a held claim it sees appear (rules 3 and 4): only
+    while none of its routers is connected, or within REJOIN_S of one connecting again.
+    Fed from Zenoh's threads, so its state is behind a lock; times are monotonic seconds."""
+
+    def __init__(self) -> None:
+        self._routers: set[str] = set()
+        self._apart = False
+        self._back_at: float | None = None
+        self._lock = threading.Lock()
+
+    def router_up(self, router: str, now: float) -> None:
+        with self._lock:
+            self._routers.add(router)
+            if self._apart:
+                self._apart, self._back_at = False, now
+
+    def router_down(self, router: str) -> None:
+        with self._lock:
+            self._routers.discard(router)
+            self._apart = not self._routers
+
+    def gives_way_to(self, claim: Claim, own: str, now: float) -> bool:
+        if not claim.held or claim.session == own:
+            return False
+        with self._lock:
+            rejoining = self._back_at is not None and now - self._back_at <= REJOIN_S
+            return self._apart or rejoining
+
+
+class HeldName:
+    """A claim that holds the name: its bid and held tokens, for as long as the service runs."""
+
+    def __init__(self, tokens: list[zenoh.LivelinessToken]) -> None:
+        self._tokens = tokens
+
+    def undeclare(self) -> None:
+        for token in reversed(self._tokens):
+            token.undeclare()
+
+
+def claim_name(session: zenoh.Session, keys: CellKeys, service: str, instance: str) -> HeldName:
+    """The name held for this session (rules 1 and 2); ClaimError if it cannot be."""
+    own = str(session.info.zid())
+    found = _claims(session, keys, service, instance)
+    if found:
         raise NameTakenError(_taken(session, keys, service, instance))
-    own_id = str(session.info.zid())
-    token = session.liveliness().declare_token(keys.claim(service, instance, own_id))
-    time.sleep(SETTLE_S)
-    claimants = _claimants(session, keys, service, instance)
-    if min(claimants, default=own_id) != own_id:
-        token.undeclare()
-        raise NameTakenError(_taken(session, keys, service, instance))
-    return token
+    tokens: list[zenoh.LivelinessToken] = []
+    try:
+        for held, rival_of in _STAGES:
+            chunk = Claim(own, held).chunk
+            tokens.append(session.liveliness().declare_token(keys.claim(service, instance, chunk)))
+            time.sleep(SETTLE_S)
+            if rival_of(own, _claims(session, keys, service, instance)) is not None:
+                raise NameTakenError(_taken(session, keys, service, instance))
+    except BaseException:
+        HeldName(tokens).undeclare()
+        raise
+    return HeldName(tokens)
+
+
+class ClaimWatch:
+    """What ``watch_claims`` declared: the claims' subscriber and the router events' listener."""
+
+    def __init__(self, undeclare: list[Callable[[], None]]) -> None:
+        self._undeclare = undeclare
+
+    def undeclare(self) -> None:
+        for step in self._undeclare:
+            step()
 
 
 def watch_claims(
@@ -50,33 +178,77 @@ def watch_claims(
     service: str,
     instance: str,
     on_clash: Callable[[str], None],
-) -> zenoh.Subscriber[None]:
-    """Calls ``on_clash`` (on a Zenoh thread) when another session claims this name after we
-    won it, e.g. when two halves of a network that each ran one are joined again. Both see
-    the clash; the one whose id is not the lowest is told, so exactly one gives way."""
-    own_id = str(session.info.zid())
+) -> ClaimWatch:
+    """Calls ``on_clash`` (on a Zenoh thread) when this holder must give way (rule 4): a held
+    claim of another session found while apart from its routers or just back. Any other claim
+    that appears is logged and changes nothing (rule 3)."""
+    own = str(session.info.zid())
+    standing = Standing()
+    name = _name(service, instance)
+
+    def transport(event: zenoh.TransportEvent) -> None:
+        if event.transport.whatami != zenoh.WhatAmI.ROUTER:
+            return
+        router = str(event.transport.zid)
+        if event.kind == zenoh.SampleKind.PUT:
+            standing.router_up(router, time.monotonic())
+        else:
+            standing.router_down(router)
+            log.info(
+                "lost router %s: this %s gives way if its name is taken meanwhile", router, name
+            )
 
     def seen(sample: zenoh.Sample) -> None:
-        other = str(sample.key_expr).rsplit("/", 1)[-1]
-        if sample.kind == zenoh.SampleKind.PUT and other != own_id and other < own_id:
-            on_clash(f"another {service} of cell {keys.cell} (session {other}) joined the bus")
+        claim = Claim.from_key(str(sample.key_expr))
+        if sample.kind != zenoh.SampleKind.PUT or claim.session == own:
+            return
+        if standing.gives_way_to(claim, own, time.monotonic()):
+            on_clash(
+                f"while this {name} was apart from its router, another (session "
+                f"{claim.session}) took the name of cell {keys.cell}"
+            )
+        else:
+            log.warning(
+                "a later claim on %s of cell %s (session %s) is ignored: this one holds it",
+                name,
+                keys.cell,
+                claim.session,
+            )
 
-    # With history: a claim declared while this subscription is still on its way to the router
-    # is reported too (only arrivals matter here, so the history/DELETE race cannot hurt).
-    return session.liveliness().declare_subscriber(
+    listener = session.info.declare_transport_events_listener(transport, history=True)
+    # With history: a claim declared while this subscription is on its way is reported too.
+    subscriber = session.liveliness().declare_subscriber(
         keys.claims(service, instance), seen, history=True
     )
+    return ClaimWatch([subscriber.undeclare, listener.undeclare])
 
 
-def _claimants(session: zenoh.Session, keys: CellKeys, service: str, instance: str) -> list[str]:
-    replies = session.liveliness().get(keys.claims(service, instance), timeout=QUERY_TIMEOUT_S)
-    return [str(reply.ok.key_expr).rsplit("/", 1)[-1] for reply in replies if reply.ok]
+def _name(service: str, instance: str) -> str:
+    """As an operator names it: the gateway, interpolator/1."""
+    return f"{service}/{instance}" if service == PER_GROUP else service
+
+
+def _claims(session: zenoh.Session, keys: CellKeys, service: str, instance: str) -> list[Claim]:
+    """Every claim on the name, from a look-up the router answered in full (rule 1)."""
+    deadline = time.monotonic() + LOOKUP_DEADLINE_S
+    while True:
+        key = keys.claims(service, instance)
+        replies = list(session.liveliness().get(key, timeout=QUERY_TIMEOUT_S))
+        if all(reply.ok for reply in replies):
+            return [Claim.from_key(str(reply.ok.key_expr)) for reply in replies if reply.ok]
+        if time.monotonic() >= deadline:
+            raise UnansweredLookupError(
+                f"cannot tell whether another {_name(service, instance)} of cell {keys.cell} "
+                f"runs: its router left the look-up unanswered for {LOOKUP_DEADLINE_S:.0f} s; "
+                "start it again once the router's host is less busy"
+            )
 
 
 def _taken(session: zenoh.Session, keys: CellKeys, service: str, instance: str) -> str:
     """Who holds the name, as far as its info queryable says."""
-    name = service if instance == "0" else f"{service}/{instance}"
-    holder = f"a {name} of cell {keys.cell} is already running on this Zenoh network"
+    name = _name(service, instance)
+    article = "an" if name[0] in "aeiou" else "a"
+    holder = f"{article} {name} of cell {keys.cell} is already running on this Zenoh network"
     for reply in session.get(keys.service_info(service, instance), timeout=QUERY_TIMEOUT_S):
         if reply.ok:
             info = _info_decoder.decode(reply.ok.payload.to_bytes())

@@ -1,29 +1,58 @@
-"""Claiming a service name on a real router: refused when held, one winner of a race, and a
-later clash noticed by the one that must give way."""
+"""Claiming a service name on a real router: refused when held or when the router does not
+answer, one winner of a race, a holder that never gives way while it keeps its router, and one
+that was cut off giving way to the one that claimed the name meanwhile (issue 24, item 3)."""
 
 from __future__ import annotations
 
+import logging
 import threading
+from collections.abc import Iterator
 
 import pytest
 import zenoh
 
-from motocell.shared.bus.claim import NameTakenError, claim_name, watch_claims
+from motocell.shared.bus import claim
+from motocell.shared.bus.claim import (
+    NameTakenError,
+    UnansweredLookupError,
+    claim_name,
+    watch_claims,
+)
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.session import open_session
 from motocell.testkit.processes import wait_until
+from tests.shared.bus.relay import Mode, Relay, wait_for_connections
 
 KEYS = CellKeys("c1")
+SEEN_TIMEOUT_S = 10.0
+"""A deadline for a hang: a claim reaches a watcher within milliseconds."""
+REJOIN_TIMEOUT_S = 20.0
+"""A Zenoh client tries its router again about once a second; generous for a loaded host."""
+
+
+@pytest.fixture
+def relay(endpoint: str) -> Iterator[Relay]:
+    relay = Relay(endpoint)
+    yield relay
+    relay.close()
+
+
+def ignored(caplog: pytest.LogCaptureFixture, session: str) -> bool:
+    """Whether a holder logged that it ignores the claim of ``session``."""
+    return any(
+        "is ignored" in record.getMessage() and f"(session {session})" in record.getMessage()
+        for record in caplog.records
+    )
 
 
 def test_a_held_name_is_refused(endpoint: str) -> None:
     first, second = (open_session("client", [endpoint], wait=False) for _ in range(2))
     try:
-        token = claim_name(first, KEYS, "gateway", "0")
+        held = claim_name(first, KEYS, "gateway", "0")
         with pytest.raises(NameTakenError, match="a gateway of cell c1 is already running"):
             claim_name(second, KEYS, "gateway", "0")
-        token.undeclare()
-        taken_over: list[zenoh.LivelinessToken] = []
+        held.undeclare()
+        taken_over: list[claim.HeldName] = []
 
         def free_again() -> bool:
             # The undeclaration travels through the router: the name is free a moment later.
@@ -46,7 +75,7 @@ def test_of_simultaneous_claims_exactly_one_wins(endpoint: str) -> None:
     lock = threading.Lock()
     start = threading.Barrier(len(sessions))
 
-    def claim(session: zenoh.Session) -> None:
+    def race(session: zenoh.Session) -> None:
         start.wait()
         try:
             claim_name(session, KEYS, "interpolator", "1")
@@ -56,7 +85,7 @@ def test_of_simultaneous_claims_exactly_one_wins(endpoint: str) -> None:
         with lock:
             outcomes.append(result)
 
-    threads = [threading.Thread(target=claim, args=(s,)) for s in sessions]
+    threads = [threading.Thread(target=race, args=(s,)) for s in sessions]
     try:
         for thread in threads:
             thread.start()
@@ -68,18 +97,73 @@ def test_of_simultaneous_claims_exactly_one_wins(endpoint: str) -> None:
             session.close()
 
 
-def test_a_later_claim_with_a_lower_id_makes_the_holder_give_way(endpoint: str) -> None:
+def test_a_holder_never_gives_way_to_a_later_claim_however_low_its_id(
+    endpoint: str, caplog: pytest.LogCaptureFixture
+) -> None:
+    caplog.set_level(logging.WARNING, logger=claim.__name__)
     holder, newcomer = (open_session("client", [endpoint], wait=False) for _ in range(2))
     clashes: list[str] = []
     try:
-        token = claim_name(holder, KEYS, "executor", "0")
+        held = claim_name(holder, KEYS, "executor", "0")
         watcher = watch_claims(holder, KEYS, "executor", "0", clashes.append)
-        lower = newcomer.liveliness().declare_token(KEYS.claim("executor", "0", "0"))
-        wait_until(lambda: bool(clashes), 5.0, "the holder to see the clash")
-        assert "another executor of cell c1" in clashes[0]
-        lower.undeclare()
+        forged = [
+            newcomer.liveliness().declare_token(KEYS.claim("executor", "0", chunk))
+            for chunk in ("0", "0.held")
+        ]
+        wait_until(lambda: ignored(caplog, "0"), SEEN_TIMEOUT_S, "the holder to see the claims")
+        assert clashes == []
+        for token in forged:
+            token.undeclare()
         watcher.undeclare()
-        token.undeclare()
+        held.undeclare()
     finally:
         holder.close()
         newcomer.close()
+
+
+def test_an_unanswered_look_up_is_refused_not_read_as_no_claim(
+    endpoint: str, relay: Relay, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(claim, "QUERY_TIMEOUT_S", 0.2)
+    monkeypatch.setattr(claim, "LOOKUP_DEADLINE_S", 0.5)
+    session = open_session("client", [relay.endpoint], wait=False)
+    try:
+        relay.set_mode(Mode.FROZEN)
+        with pytest.raises(UnansweredLookupError, match="left the look-up unanswered"):
+            claim_name(session, KEYS, "gateway", "0")
+        relay.set_mode(Mode.OPEN)
+    finally:
+        session.close()
+
+
+def test_a_holder_cut_off_gives_way_to_the_one_that_claimed_meanwhile(
+    endpoint: str, relay: Relay, caplog: pytest.LogCaptureFixture
+) -> None:
+    caplog.set_level(logging.WARNING, logger=claim.__name__)
+    apart = open_session("client", [relay.endpoint], wait=False)
+    stayed = open_session("client", [endpoint], wait=False)
+    apart_clashes: list[str] = []
+    stayed_clashes: list[str] = []
+    try:
+        apart_held = claim_name(apart, KEYS, "gateway", "0")
+        apart_watch = watch_claims(apart, KEYS, "gateway", "0", apart_clashes.append)
+        relay.set_mode(Mode.CUT)
+        wait_until(
+            lambda: not claim._claims(stayed, KEYS, "gateway", "0"),
+            SEEN_TIMEOUT_S,
+            "the router to drop the cut-off holder's claim",
+        )
+        stayed_held = claim_name(stayed, KEYS, "gateway", "0")
+        stayed_watch = watch_claims(stayed, KEYS, "gateway", "0", stayed_clashes.append)
+        relay.set_mode(Mode.OPEN)
+        wait_for_connections(relay, 1, REJOIN_TIMEOUT_S)
+        wait_until(lambda: bool(apart_clashes), REJOIN_TIMEOUT_S, "the cut-off one to give way")
+        assert "while this gateway was apart from its router" in apart_clashes[0]
+        apart_id = str(apart.info.zid())
+        wait_until(lambda: ignored(caplog, apart_id), SEEN_TIMEOUT_S, "the holder to see it")
+        assert stayed_clashes == []
+        for undeclare in (apart_watch, apart_held, stayed_watch, stayed_held):
+            undeclare.undeclare()
+    finally:
+        apart.close()
+        stayed.close()
