@@ -5,7 +5,7 @@ the standard library's TLS, with the same CA, host name and certificate Zenoh wa
 - a ``tls/`` endpoint: the router's certificate fails our check (another CA, not valid for
   the name dialled, expired), or the router refuses ours during the handshake (none given,
   another CA, expired; it says so in a TLS alert just after the handshake);
-- a ``tcp/`` endpoint: the router speaks TLS.
+- a ``tcp/`` endpoint, with credentials made for TLS: the router speaks TLS.
 
 None when TLS is not the cause: the router then refused the Zenoh login itself (a wrong
 password, or a user it does not know). Only ever called once a session was refused, so its
@@ -19,10 +19,11 @@ import ssl
 
 from motocell.shared.bus.credentials import Credentials
 
-PROBE_S = 0.5
+PROBE_S = 2.0
 """How long the probe waits for the router: an alert refusing a client certificate came within
-0.01 s on an idle machine; a router that accepted the certificate says nothing at all until the
-client's Zenoh handshake."""
+0.01 s on an idle machine, but more than 0.5 s with three test runs on two busy cores; a router
+that accepted the certificate says nothing at all until the client's Zenoh handshake, so a
+wrong password over TLS is told this much later."""
 HOSTNAME_MISMATCH = 62
 CERTIFICATE_EXPIRED = 10
 """OpenSSL's verification codes (``X509_V_ERR_HOSTNAME_MISMATCH``, ``..._CERT_HAS_EXPIRED``)."""
@@ -38,7 +39,10 @@ def tls_problem(endpoint: str, credentials: Credentials | None) -> str | None:
         return None
     port = int(port_text)
     if protocol == "tcp":
-        return _speaks_tls(endpoint, host, port)
+        # Only with TLS credentials in hand: a password-only refusal (a local cell's) is not
+        # held up by a probe that would wait PROBE_S on a router speaking plain TCP.
+        has_tls = credentials is not None and credentials.ca is not None
+        return _speaks_tls(endpoint, host, port) if has_tls else None
     if protocol != "tls":
         return None
     try:
@@ -115,8 +119,8 @@ def _our_certificate_refused(
     who = _who(credentials)
     if "CERTIFICATE_REQUIRED" in reason:
         return (
-            f"the router at {endpoint} requires a client certificate (mutual TLS) and {who} "
-            "has none: give the identity's bundle, with its USER.pem and USER.key"
+            f"the router at {endpoint} refused {who}: it requires a client certificate (mutual "
+            "TLS) and was given none; give the identity's bundle, with its USER.pem and USER.key"
         )
     if "CERTIFICATE_EXPIRED" in reason:
         return f"the router at {endpoint} refused {who}'s certificate: it has expired ({RENEW})"

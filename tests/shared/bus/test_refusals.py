@@ -113,7 +113,9 @@ def test_no_client_certificate(site: Path) -> None:
     endpoint = f"tls/127.0.0.1:{free_port()}"
     with router(site, endpoint):
         without = dataclasses.replace(observer(site), certificate=None, key=None)
-        assert "requires a client certificate (mutual TLS)" in refusal(endpoint, without)
+        assert f"refused {CELL}.observer: it requires a client certificate" in refusal(
+            endpoint, without
+        )
 
 
 def test_a_client_certificate_of_another_ca(site: Path, elsewhere: Path) -> None:
