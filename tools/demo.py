@@ -17,6 +17,7 @@ import tempfile
 import time
 from collections.abc import Sequence
 from contextlib import ExitStack
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -28,10 +29,12 @@ from motocell.shared.bus.catalog import Role
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.config import Cell, ConfigError, Group, load_cell
 from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.ports import port_base_argument
 from motocell.shared.protocol.codec import ByteOrder
 from motocell.shared.protocol.constants import Command, Result, describe_reply
 from motocell.shared.protocol.errors import PeerProtocolError
 from motocell.shared.protocol.messages import MotoMotionReply
+from motocell.shared.registry import CellEntry
 from motocell.testkit.cell import TickLog, running_cell
 from motocell.testkit.client import (
     Feedback,
@@ -61,11 +64,26 @@ LOG_LINES = 20
 def add_arguments(demo: argparse.ArgumentParser) -> None:
     """The options of ``motocell demo`` (``tools.cli`` names the command)."""
     demo.description = __doc__
-    demo.add_argument("--host", default="127.0.0.1", help="the running cell's address")
-    demo.add_argument("--port-base", type=int, help="use a running cell at this port base")
+    demo.add_argument(
+        "--cell",
+        metavar="NAME",
+        help="drive the cell of this name running here (`motocell up`, `motocell ps` lists "
+        "them): its ports, bus and cell file from the registry of running cells",
+    )
+    demo.add_argument(
+        "--port-base",
+        type=port_base_argument,
+        metavar="N",
+        help="drive the running cell at this port base (a cell started elsewhere: its "
+        "following error is not measured)",
+    )
+    demo.add_argument(
+        "--host", help="the running cell's address (default: its registry entry's, or 127.0.0.1)"
+    )
     demo.add_argument(
         "--config",
-        help="cell TOML file: of the cell the demo starts, or of the running cell (its groups)",
+        help="cell TOML file: of the cell the demo starts, or of the running cell (its groups; "
+        "default with --cell: the one it runs)",
     )
     demo.add_argument(
         "--byte-order",
@@ -80,18 +98,77 @@ def add_arguments(demo: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.points < 2 or not args.duration > 0:
         return _failed("--points must be 2 or more and --duration above 0", status=2)
+    if args.cell is not None and args.port_base is not None:
+        return _failed("--cell and --port-base each name a running cell: give one", status=2)
     try:
-        cell = load_cell(args.config)
-    except ConfigError as exc:
+        if args.cell is None and args.port_base is None:
+            return _started(args, load_cell(args.config))
+        running = find_running(args)
+    except (ConfigError, registry.NoSuchCellError) as exc:
         return _failed(str(exc), status=2)
-    byte_order = ByteOrder(args.byte_order or cell.byte_order)
-    if args.port_base:
-        with ExitStack() as stack:
-            bus = _running_cell_bus(cell, args.port_base)
-            if bus is not None:
-                stack.callback(bus.close)
-            return _reported(cell, args.host, args.port_base, byte_order, args, bus=bus)
+    with ExitStack() as stack:
+        bus, unmeasured = _observe(running.entry)
+        if bus is not None:
+            stack.callback(bus.close)
+        return _reported(
+            running.cell, running.host, running.port_base, args, bus=bus, unmeasured=unmeasured
+        )
+
+
+@dataclass(frozen=True)
+class RunningTarget:
+    """A running cell to drive: where its ports are, and its registry entry if it was
+    started on this machine (its bus, for the following error)."""
+
+    cell: Cell
+    host: str
+    port_base: int
+    entry: CellEntry | None
+
+
+def find_running(args: argparse.Namespace) -> RunningTarget:
+    """The cell ``--cell`` names (NoSuchCellError if none of that name runs here), or the one
+    at ``--port-base``: the entry registered with that port base, whatever its name, if any."""
+    if args.cell is not None:
+        entry: CellEntry | None = registry.find(args.cell)
+    else:
+        entry = next((e for e in registry.running() if e.port_base == args.port_base), None)
+    if entry is None:
+        return RunningTarget(
+            load_cell(args.config), args.host or LOOPBACK, args.port_base, entry=None
+        )
+    # The cell file it runs, under the name it runs as (`motocell up --name`).
+    cell = load_cell(args.config or entry.config or None, entry.name)
+    return RunningTarget(cell, args.host or _reachable(entry.host), entry.port_base, entry)
+
+
+LOOPBACK = "127.0.0.1"
+
+
+def _reachable(host: str) -> str:
+    """Where this machine reaches ports listening on ``host``: a wildcard is loopback."""
+    return LOOPBACK if host in ("0.0.0.0", "::", "") else host
+
+
+def _observe(entry: CellEntry | None) -> tuple[zenoh.Session | None, str]:
+    """The cell's Zenoh bus as its read-only observer, or None and why not."""
+    if entry is None:
+        return None, (
+            "no cell registered on this machine has that port base, so its Zenoh bus is not "
+            "known here; --cell NAME drives a cell started here"
+        )
+    credentials = Path(entry.credentials) if entry.credentials else None
+    target = Target(entry.zenoh_endpoint, (entry.name,), credentials, entry.pid)
+    try:
+        return join(target, Identity(Role.OBSERVER)), ""
+    except JoinError as exc:
+        return None, f"its Zenoh bus could not be joined: {exc}"
+
+
+def _started(args: argparse.Namespace, cell: Cell) -> int:
+    """Start a cell of ``cell``'s file, drive it, stop it."""
     print("starting a cell ...", flush=True)
+    status: int | None = None
     with tempfile.TemporaryDirectory(prefix="motocell-demo-") as scratch:
         log = Path(scratch) / "cell.log"
         try:
@@ -109,43 +186,29 @@ def run(args: argparse.Namespace) -> int:
                 bus = started.session()
                 try:
                     status = _reported(
-                        cell, started.host, started.port_base, byte_order, args, bus=bus
+                        cell, started.host, started.port_base, args, bus=bus, unmeasured=""
                     )
                 finally:
                     bus.close()
         except (TimeoutError, ChildProcessError, OSError) as exc:
             status = _failed(f"the cell did not start: {exc}")
+        except AssertionError as exc:  # the harness's stop, after the report
+            if status is None:
+                raise
+            print(f"motocell demo: stopping the cell: {exc} (killed: nothing is left running)")
         if status != 0:
             _print_tail(log)
         return status
-
-
-def _running_cell_bus(cell: Cell, port_base: int) -> zenoh.Session | None:
-    """The Zenoh bus of the cell at ``port_base`` if it runs on this machine (the registry of
-    running cells), as its read-only observer; None (no following error then) otherwise."""
-    try:
-        entry = registry.find(cell.name)
-    except registry.NoSuchCellError:
-        return None
-    if entry.port_base != port_base:
-        return None
-    credentials = Path(entry.credentials) if entry.credentials else None
-    try:
-        return join(
-            Target(entry.zenoh_endpoint, (entry.name,), credentials), Identity(Role.OBSERVER)
-        )
-    except JoinError:
-        return None
 
 
 def _reported(
     cell: Cell,
     host: str,
     port_base: int,
-    byte_order: ByteOrder,
     args: argparse.Namespace,
     *,
     bus: zenoh.Session | None,
+    unmeasured: str,
 ) -> int:
     """``drive``, with what stopped it said in one line."""
     try:
@@ -153,10 +216,11 @@ def _reported(
             cell,
             host,
             port_base,
-            byte_order=byte_order,
+            byte_order=ByteOrder(args.byte_order or cell.byte_order),
             points=args.points,
             duration=args.duration,
             bus=bus,
+            unmeasured=unmeasured,
         )
     except WrongByteOrderError as exc:
         order = exc.byte_order.value
@@ -191,8 +255,10 @@ def drive(
     points: int,
     duration: float,
     bus: zenoh.Session | None = None,
+    unmeasured: str = "no Zenoh bus was given",
 ) -> int:
-    """``bus``: the cell's Zenoh bus, for the following error (not reported without it)."""
+    """``bus``: the cell's Zenoh bus, for the following error (without it, ``unmeasured``
+    says why it is not reported). A status other than 0 comes with a line that says why."""
     wait_until(
         lambda: connectable(host, port_base + 1),
         READY_TIMEOUT_S,
@@ -224,7 +290,7 @@ def drive(
         reply = motion.command(Command.CHECK_MOTION_READY)
         _show("CHECK_MOTION_READY", reply)
         if reply.result != Result.SUCCESS:
-            return 1
+            return _failed("the cell is not ready to move (CHECK_MOTION_READY above)")
         here = state.latest()
         assert here is not None
         goals = {
@@ -237,8 +303,7 @@ def drive(
         }
         result = _stream(motion, trajectories)
         if result.points != points:
-            print(f"streaming stopped at point {result.points}: {result.outcome}")
-            return 1
+            return _failed(f"streaming stopped at point {result.points}: {result.outcome}")
         arrived = state.wait_for(lambda f: _arrived(f, cell, goals), timeout=duration + 10.0)
         elapsed = (arrived.received_ns - result.first_sent_ns) / 1e9
         error = max(_pulse_error(arrived, group, goals[group.index]) for group in cell.groups)
@@ -252,11 +317,15 @@ def drive(
         )
         print(f"final error:      {error} pulse(s) (max over {axes} axes)")
         if ticks is None:
-            print("following error:  not measured (the cell's Zenoh bus is not known here)")
+            print(f"following error:  not measured ({unmeasured})")
         else:
             _print_following(following_errors(cell, ticks.since(0)))
         _show("STOP_TRAJ_MODE", reply)
-        return 0 if reply.result == Result.SUCCESS and error == 0 else 1
+        if error != 0:
+            return _failed(f"the robot came to rest {error} pulse(s) from its goal")
+        if reply.result != Result.SUCCESS:
+            return _failed("STOP_TRAJ_MODE was refused (above)")
+        return 0
 
 
 def _print_following(errors: list[FollowingError]) -> None:

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
 from motocell.tools import demo
 from motocell.tools.demo import OFFSETS, goal_within
 
@@ -53,6 +54,74 @@ def test_a_bad_cell_file_is_one_line(capsys: pytest.CaptureFixture[str]) -> None
     assert args.run(args) == 2
     out = capsys.readouterr().out
     assert out.startswith("motocell demo: /nonexistent/cell.toml: cannot read")
+
+
+@pytest.mark.parametrize("port_base", ["0", "65534"])
+def test_a_port_base_without_three_ports_is_refused(
+    port_base: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # 0 once meant "start a cell" without a word.
+    with pytest.raises(SystemExit) as exited:
+        parse("--port-base", port_base)
+    assert exited.value.code == 2
+    assert "must lie within 1-65535" in capsys.readouterr().err
+
+
+def test_a_cell_and_a_port_base_together_are_refused_in_one_line(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    args = parse("--cell", "arm", "--port-base", "50240")
+    assert args.run(args) == 2
+    assert capsys.readouterr().out == (
+        "motocell demo: --cell and --port-base each name a running cell: give one\n"
+    )
+
+
+def test_a_cell_not_running_here_is_one_line_naming_those_that_are(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.setenv(RUNTIME_DIR_ENV, str(tmp_path))
+    args = parse("--cell", "arm")
+    assert args.run(args) == 2
+    assert capsys.readouterr().out == (
+        "motocell demo: no cell named arm is running here (running: none)\n"
+    )
+
+
+def test_a_slow_stop_after_the_report_is_one_line_not_a_traceback(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The harness kills a launcher that outlives its stop deadline and says so with an
+    AssertionError; after a report the demo says it in one line and keeps the report's
+    status."""
+
+    class Started:
+        host, port_base = "127.0.0.1", 50240
+
+        def session(self) -> Bus:
+            return Bus()
+
+    class Bus:
+        def close(self) -> None:
+            """Nothing was opened."""
+
+    @contextmanager
+    def slow_to_stop(config: object, **_: object) -> Iterator[Started]:
+        yield Started()
+        raise AssertionError("the launcher did not stop within 10.0 s of SIGTERM")
+
+    def report(*_: object, **__: object) -> int:
+        print("final error:      0 pulse(s) (max over 6 axes)")
+        return 0
+
+    monkeypatch.setattr(demo, "running_cell", slow_to_stop)
+    monkeypatch.setattr(demo, "_reported", report)
+    args = parse()
+    assert args.run(args) == 0
+    assert capsys.readouterr().out.splitlines()[-1] == (
+        "motocell demo: stopping the cell: the launcher did not stop within 10.0 s of SIGTERM "
+        "(killed: nothing is left running)"
+    )
 
 
 def test_a_cell_that_does_not_start_shows_its_last_log_lines(

@@ -1,0 +1,33 @@
+"""``motocell demo --cell NAME`` against a cell started with ``motocell up --name``: the demo
+finds it by the name it runs under, not its file's, and measures its following error."""
+
+from __future__ import annotations
+
+import signal
+from pathlib import Path
+
+import pytest
+
+from motocell.shared.config import load_cell
+from tests.e2e.test_start_and_stop import motocell, run_to_the_end, up_options
+
+pytestmark = pytest.mark.cell
+
+NAME = "renamed"
+
+
+def test_demo_finds_a_renamed_cell_by_its_name_and_measures_its_following_error(
+    tmp_path: Path,
+) -> None:
+    assert load_cell(None).name != NAME
+    with motocell(tmp_path, "up", "--name", NAME, "--port-base", "auto", *up_options()[2:]) as up:
+        up.wait_for(f"cell {NAME} ready: ")
+        options = ("--cell", NAME, "--points", "6", "--duration", "0.6")
+        status, output = run_to_the_end(tmp_path, "demo", *options)
+        up.process.send_signal(signal.SIGTERM)
+        assert up.finish() == 0
+    assert status == 0, output
+    lines = output.splitlines()
+    assert "final error:      0 pulse(s) (max over 6 axes)" in lines
+    start = lines.index("following error:  commanded - feedback while moving, per axis (ROS order)")
+    assert lines[start + 1].startswith("  R1 max: ")
