@@ -172,6 +172,31 @@ def test_a_second_cell_joins_the_directory_signed_by_the_same_ca_touching_nothin
     assert contents(directory) == after
 
 
+def test_a_second_cell_s_identities_join_a_router_of_the_shared_directory(
+    tmp_path: Path,
+) -> None:
+    """The second cell's router from the same files (its bundle, restarted after the
+    addition): its observer's certificate, from the first cell's CA, is accepted."""
+    directory = tmp_path / "site"
+    assert motocell("credentials", str(directory), "--cell", "one", "--tls") == 0
+    assert motocell("credentials", str(directory), "--cell", "two") == 0
+    endpoint = f"tls/127.0.0.1:{free_port()}"
+    settings = router_settings(
+        [endpoint],
+        cell="two",
+        identities=cell_identities(1),
+        credentials=directory / "bundles" / "router",
+        mutual_tls=True,
+    )
+    router = zenoh.open(zenoh_config(settings))
+    try:
+        bundle = directory / "bundles" / "two.observer"
+        observer = load(bundle, "two", Identity(Role.OBSERVER))
+        open_session("client", [endpoint], wait=False, credentials=observer).close()
+    finally:
+        router.close()
+
+
 def test_an_identity_added_later_joins_a_router_of_the_first_files(tmp_path: Path) -> None:
     """The router's certificate and dictionary from the first run, an observer certificate
     issued afterwards by the kept CA: mutual TLS accepts it."""
