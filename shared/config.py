@@ -462,12 +462,16 @@ def _cell_text(path: str | Path) -> str:
 def _load_cell(path: str | Path | None) -> Cell:
     if path is None:
         return resolve(CellFile())
-    where = str(path)
+    return parse_cell(read_cell_table(path), str(path))
+
+
+def read_cell_table(path: str | Path) -> dict[str, Any]:
+    """A cell file's tables as written, not yet checked (``parse_cell`` checks them): a file,
+    or a sample cell's name."""
     try:
-        raw = tomllib.loads(_cell_text(path))
+        return tomllib.loads(_cell_text(path))
     except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{where}: not valid TOML: {exc}") from exc
-    return parse_cell(raw, where)
+        raise ConfigError(f"{path}: not valid TOML: {exc}") from exc
 
 
 def parse_cell(raw: dict[str, Any], where: str = "cell") -> Cell:

@@ -16,7 +16,7 @@ import zenoh
 from motocell.shared.bus.access import Identity
 from motocell.shared.bus.catalog import Role
 from motocell.shared.bus.keys import CellKeys
-from motocell.shared.bus.schemas import CommandRequest
+from motocell.shared.bus.schemas import CommandReply, CommandRequest
 from motocell.shared.bus.session import call
 from motocell.shared.protocol.constants import Result, describe_reply
 from motocell.tools import cells
@@ -34,6 +34,8 @@ SWITCHES = {
     "play": {"play": 1, "teach": 0},
     "ot889": {"on": 1, "off": 0},
 }
+KINDS = (*SWITCHES, "alarm", "error")
+"""What ``motocell fault`` injects: a switch, or an alarm or error with its code."""
 CODES = range(1, 10_000)
 """A controller numbers its alarms and errors with at most four digits (4100, 2010)."""
 SUBCODES = range(10_000)
@@ -45,7 +47,7 @@ def add_arguments(fault: argparse.ArgumentParser) -> None:
         "Examples: motocell fault estop on | hold off | alarm 4100 2 | alarm clear | "
         "error 2010 | error clear | servo off | play teach | remote off | pfl on | ot889 off"
     )
-    fault.add_argument("kind", type=str.lower, choices=(*SWITCHES, "alarm", "error"))
+    fault.add_argument("kind", type=str.lower, choices=KINDS)
     fault.add_argument("setting", help="on/off, play/teach, a code, or clear (any case)")
     fault.add_argument("subcode", nargs="?", type=int, help="alarm subcode (default 0)")
     cells.add_arguments(fault, several=False)
@@ -84,6 +86,14 @@ def echo(args: argparse.Namespace) -> str:
     return " ".join(words)
 
 
+def inject(
+    session: zenoh.Session, cell: str, kind: str, request: CommandRequest
+) -> CommandReply | None:
+    """Ask ``cell``'s controller to apply the fault (``session`` joined as its operator); its
+    reply, or None when no controller answered in time."""
+    return call(session, CellKeys(cell).controller_fault(kind), request, timeout=3.0)
+
+
 def run(args: argparse.Namespace) -> int:
     try:
         request = request_for(args.kind, args.setting, args.subcode)
@@ -95,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
     except CellsError as exc:
         return cells.failed("fault", exc)
     try:
-        reply = call(session, CellKeys(cell).controller_fault(args.kind), request, timeout=3.0)
+        reply = inject(session, cell, args.kind, request)
         live = cells.cells_on(session) if reply is None else []
     finally:
         session.close()
