@@ -18,7 +18,7 @@ import pytest
 REPO = Path(__file__).resolve().parent.parent
 PACKAGE = "motocell"
 """The one import root of the installed code; the top-level folders are its subpackages."""
-OURS = frozenset({"shared", "services", "tools", "testkit", "bench"})
+OURS = frozenset({"shared", "services", "tools", "testkit", "bench", "testing"})
 
 MAY_IMPORT = {
     "shared": {"shared"},
@@ -26,6 +26,7 @@ MAY_IMPORT = {
     "testkit": {"testkit", "shared"},
     "tools": {"tools", "bench", "testkit", "services", "shared"},
     "bench": {"bench", "testkit", "services", "shared"},
+    "testing": {"testing", "tools", "testkit", "shared"},
 }
 """Which of our top-level packages each may import (services: plus its own service)."""
 

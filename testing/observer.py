@@ -1,0 +1,88 @@
+"""What a test asks of a running cell, as its bus carries it: the newest state snapshot, the
+executor's ticks of the last motion, and when its clock comes to rest.
+
+One subscriber per key on the test's session (closing the session ends them); their callbacks
+run on Zenoh's threads and only store, under one condition that the test's thread waits on.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+from typing import TypeVar
+
+import zenoh
+
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.schemas import Decoder, State, Tick
+from motocell.testkit.following import moving
+
+T = TypeVar("T")
+
+
+class CellObserver:
+    """The cell ``keys`` names, from the moment it is made."""
+
+    def __init__(self, session: zenoh.Session, keys: CellKeys) -> None:
+        self._changed = threading.Condition()
+        self._state: State | None = None
+        self._rests = 0
+        """Resting ticks received: the executor sends one when its clock comes to rest and
+        again every second while it rests."""
+        self._motion: list[Tick] = []
+        self._rested = True
+        """The clock rested since the last moving tick: the next moving tick starts a motion."""
+        state, tick = Decoder(State), Decoder(Tick)
+        self._subscribers = [
+            session.declare_subscriber(keys.state, self._store(state, self._take_state)),
+            session.declare_subscriber(keys.executor_tick, self._store(tick, self._take_tick)),
+        ]
+
+    def _store(self, decoder: Decoder[T], take: Callable[[T], None]) -> Callable[..., None]:
+        def callback(sample: zenoh.Sample) -> None:
+            item = decoder.decode(sample.payload.to_bytes())
+            with self._changed:
+                take(item)
+                self._changed.notify_all()
+
+        return callback
+
+    def _take_state(self, state: State) -> None:
+        self._state = state
+
+    def _take_tick(self, tick: Tick) -> None:
+        if moving([tick]):
+            if self._rested:
+                self._motion = []
+                self._rested = False
+            self._motion.append(tick)
+        elif tick.resting:
+            self._rested = True
+            self._rests += 1
+
+    def state(self, timeout: float) -> State:
+        """The newest snapshot; the first one, waited for, if none came yet."""
+        with self._changed:
+            self._wait(lambda: self._state is not None, timeout, "a state snapshot")
+            assert self._state is not None
+            return self._state
+
+    def wait_at_rest(self, timeout: float) -> None:
+        """Until a resting tick arrives after this call."""
+        with self._changed:
+            seen = self._rests
+            self._wait(lambda: self._rests > seen, timeout, "the executor's clock to rest")
+
+    def last_motion(self) -> list[Tick]:
+        """The moving ticks since the clock last rested before a motion (empty: none yet)."""
+        with self._changed:
+            return list(self._motion)
+
+    def _wait(self, predicate: Callable[[], bool], timeout: float, what: str) -> None:
+        deadline = time.monotonic() + timeout
+        while not predicate():
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise TimeoutError(f"timed out after {timeout} s waiting for {what}")
+            self._changed.wait(remaining)
