@@ -144,7 +144,7 @@ def _create(directory: Path, args: argparse.Namespace) -> list[str]:
     cell = load_cell(args.config, args.cell)
     identities = cell_identities(len(cell.groups))
     write_passwords(directory, cell.name, identities)
-    add_passwords(directory, args.identity)
+    extra = add_passwords(directory, args.identity)  # an --identity of the cell's is no extra
     hosts = args.host or list(DEFAULT_HOSTS)
     if args.tls:
         # cryptography only for --tls: 20-30 ms every other motocell command would pay.
@@ -154,9 +154,9 @@ def _create(directory: Path, args: argparse.Namespace) -> list[str]:
         )
 
         authority = write_certificates(directory, cell.name, identities, hosts)
-        for user in args.identity:
+        for user in extra:
             issue_client_certificate(directory, user, authority)
-    users = [identity.username(cell.name) for identity in identities] + args.identity
+    users = [identity.username(cell.name) for identity in identities] + extra
     return report(directory, cell.name, users, hosts if args.tls else None)
 
 

@@ -417,3 +417,13 @@ def test_what_cannot_be_done_to_a_directory_leaves_it_alone(
     assert motocell("credentials", str(tmp_path / "c"), *argv) == 2
     assert problem in capsys.readouterr().err
     assert contents(tmp_path / "c") == before
+
+
+def test_a_new_directory_takes_identities_of_no_cell_too(tmp_path: Path) -> None:
+    directory = tmp_path / "c"
+    argv = ["--identity", "site.observer", "--identity", "lab.observer"]
+    assert motocell("credentials", str(directory), "--cell", "lab", "--tls", *argv) == 0
+    users = [line.split(":")[0] for line in (directory / "users").read_text().splitlines()]
+    assert users.count("lab.observer") == 1 and users[-1] == "site.observer"
+    assert verifies(directory / "site.observer.pem", directory / "ca.pem")
+    assert (directory / "bundles" / "site.observer" / "site.observer.key").is_file()
