@@ -1,0 +1,139 @@
+"""A user's own tests, run as a user runs them: motocell built into a wheel and installed with
+pytest into a fresh venv, the test files in a directory outside the repository, ``python -m
+pytest`` there. The plugin comes from the installed entry point alone; every cell it started
+is gone afterwards, after a test that fails on purpose and after Ctrl-C too.
+
+The build and the install are tests/test_packaging.py's (a copy of the source tree, pip with
+this machine's configuration). The user's files are ``tests/testing/user``'s, typed and
+checked with the project's code."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from motocell.testkit.processes import cmdline, wait_until
+from tests.installed import clean_env, run
+from tests.test_packaging import BUILD_TIMEOUT_S, INSTALL_TIMEOUT_S, source_copy
+
+pytestmark = [pytest.mark.cell, pytest.mark.timeout(1800)]
+
+USER_FILES = Path(__file__).parent / "user"
+RUN_TIMEOUT_S = 300.0
+"""For a user's run of three tests and four cells; generous for a loaded machine, where a
+cold venv also compiles what it imports first."""
+READY_TIMEOUT_S = 180.0
+EXIT_TIMEOUT_S = 60.0
+
+
+@pytest.fixture(scope="module")
+def venv(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
+    """A fresh venv with motocell's wheel and pytest, nothing else of ours."""
+    work = tmp_path_factory.mktemp("plugin")
+    dist = work / "dist"
+    source = source_copy(work / "source")
+    run(
+        [sys.executable, "-m", "build", "--wheel", "--outdir", dist, source],
+        BUILD_TIMEOUT_S,
+        work,
+        clean_env(),
+    )
+    (wheel,) = dist.glob("motocell-*.whl")
+    home = work / "venv"
+    run([sys.executable, "-m", "venv", home], INSTALL_TIMEOUT_S, work, clean_env())
+    pip: list[str | Path] = [home / "bin" / "python", "-m", "pip", "install", "--quiet"]
+    run([*pip, wheel, "pytest"], INSTALL_TIMEOUT_S, work, clean_env())
+    shutil.rmtree(source)
+    yield home
+    shutil.rmtree(work, ignore_errors=True)
+
+
+@pytest.fixture
+def project(tmp_path: Path) -> Path:
+    """The user's project: a directory of test files, and a TMPDIR of its own, where each
+    cell keeps its registry, credentials and cell file while it runs."""
+    (tmp_path / "tmp").mkdir()
+    shutil.copy(USER_FILES / "client.py", tmp_path / "test_client.py")
+    shutil.copy(USER_FILES / "interrupted.py", tmp_path / "test_interrupted.py")
+    return tmp_path
+
+
+def user_env(project: Path) -> dict[str, str]:
+    return {**clean_env(), "TMPDIR": str(project / "tmp"), "READY_FILE": str(project / "ready")}
+
+
+def pytest_command(venv: Path, test_file: str) -> list[str]:
+    return [str(venv / "bin" / "python"), "-m", "pytest", "-p", "no:cacheprovider", test_file]
+
+
+def processes_of(venv: Path) -> list[str]:
+    """Every running process of the venv's Python: a cell the plugin started runs only those."""
+    pids = (int(entry.name) for entry in Path("/proc").iterdir() if entry.name.isdigit())
+    argvs = ((pid, cmdline(pid)) for pid in pids)
+    return [
+        f"{pid}: {' '.join(argv)}"
+        for pid, argv in argvs
+        if argv[:1] and argv[0].startswith(str(venv))
+    ]
+
+
+def assert_nothing_left(venv: Path, project: Path, output: str) -> None:
+    assert processes_of(venv) == [], output
+    assert list((project / "tmp").iterdir()) == [], output
+
+
+def test_a_passing_and_a_failing_test_leave_no_cell_behind(venv: Path, project: Path) -> None:
+    done = subprocess.run(
+        pytest_command(venv, "test_client.py"),
+        cwd=project,
+        env=user_env(project),
+        capture_output=True,
+        text=True,
+        timeout=RUN_TIMEOUT_S,
+        check=False,
+    )
+    output = done.stdout + done.stderr
+    assert done.returncode == 1, output
+    assert re.search(r"\b1 failed, 2 passed\b", output), output
+    assert "FAILED test_client.py::test_trajectory_mode_under_an_estop_fails_on_purpose" in output
+    assert "fails on purpose: the E-stop is on" in output
+    assert_nothing_left(venv, project, output)
+
+
+def test_ctrl_c_stops_the_cell_of_the_test_it_interrupts(venv: Path, project: Path) -> None:
+    log = project / "pytest.log"
+    with log.open("w") as out:
+        user = subprocess.Popen(
+            pytest_command(venv, "test_interrupted.py"),
+            cwd=project,
+            env=user_env(project),
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+        )
+    try:
+        wait_until(
+            lambda: (project / "ready").exists() or user.poll() is not None,
+            READY_TIMEOUT_S,
+            "the test to run",
+        )
+        assert user.poll() is None, log.read_text()
+        # The cell runs the venv's Python: what is left of it afterwards cannot hide.
+        assert len(processes_of(venv)) > len(("pytest", "launcher", "services")), log.read_text()
+        os.killpg(user.pid, signal.SIGINT)  # what Ctrl-C at a terminal sends
+        assert user.wait(EXIT_TIMEOUT_S) == pytest.ExitCode.INTERRUPTED, log.read_text()
+    finally:
+        if user.poll() is None:
+            os.killpg(user.pid, signal.SIGKILL)
+            user.wait()
+    output = log.read_text()
+    assert "KeyboardInterrupt" in output, output
+    assert_nothing_left(venv, project, output)
