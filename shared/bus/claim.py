@@ -46,6 +46,9 @@ REJOIN_S = 1.0
 while it was apart (rule 4): the router sends the claims it holds when the subscription is
 declared again, within milliseconds."""
 HELD = ".held"
+ZENOH_TIMEOUT = "Timeout"
+"""The error reply Zenoh gives a query that ran out of time (whatever came before it is not
+all there is)."""
 
 log = logging.getLogger(__name__)
 _info_decoder = Decoder(ServiceInfo)
@@ -59,8 +62,8 @@ class NameTakenError(ClaimError):
     """Another process holds, or is claiming, this service name on the cell's bus."""
 
 
-class UnansweredLookupError(ClaimError):
-    """The router did not answer the look-up for claims within LOOKUP_DEADLINE_S."""
+class ClaimLookupError(ClaimError):
+    """The look-up for claims failed, or the router left it unanswered for LOOKUP_DEADLINE_S."""
 
 
 @dataclass(frozen=True)
@@ -230,17 +233,21 @@ def _name(service: str, instance: str) -> str:
 
 def _claims(session: zenoh.Session, keys: CellKeys, service: str, instance: str) -> list[Claim]:
     """Every claim on the name, from a look-up the router answered in full (rule 1)."""
+    name = _name(service, instance)
     deadline = time.monotonic() + LOOKUP_DEADLINE_S
     while True:
         key = keys.claims(service, instance)
         replies = list(session.liveliness().get(key, timeout=QUERY_TIMEOUT_S))
-        if all(reply.ok for reply in replies):
+        errors = [reply.err.payload.to_string() for reply in replies if reply.err]
+        if not errors:
             return [Claim.from_key(str(reply.ok.key_expr)) for reply in replies if reply.ok]
+        if any(error != ZENOH_TIMEOUT for error in errors):
+            raise ClaimLookupError(f"cannot look up the claims on {name}: {errors[0]}")
         if time.monotonic() >= deadline:
-            raise UnansweredLookupError(
-                f"cannot tell whether another {_name(service, instance)} of cell {keys.cell} "
-                f"runs: its router left the look-up unanswered for {LOOKUP_DEADLINE_S:.0f} s; "
-                "start it again once the router's host is less busy"
+            raise ClaimLookupError(
+                f"cannot tell whether another {name} of cell {keys.cell} runs: its router left "
+                f"the look-up unanswered for {LOOKUP_DEADLINE_S:.0f} s; start it again once "
+                "the router's host is less busy"
             )
 
 
