@@ -116,7 +116,10 @@ class Feedback:
         self.maps = [AxisMap(group) for group in cell.groups]
         self.per_second = 1e9 / cell.period_ns
 
-    def groups(self, tick: Tick) -> list[GroupState]:
+    def groups(self, tick: Tick, commanded: bool = True) -> list[GroupState]:
+        """``commanded``: also the commanded joints, which only observers get; the state
+        port's frames carry the feedback alone, and leaving the rest out halves the
+        conversion every state period (``command_positions`` then stays empty)."""
         result = []
         for index, (axis_map, group) in enumerate(zip(self.maps, tick.groups, strict=True)):
             # What an axis moved this period, pulses per period to rad/s: the servo's feedback
@@ -124,11 +127,16 @@ class Feedback:
             # of an executor older than the servo model carries no feedback_moved: then the
             # feedback was the command.
             moved = group.feedback_moved or group.increment
+            positions = axis_map.ros_values(group.feedback_pulses)
+            velocities = axis_map.ros_values(moved, self.per_second)
+            if not commanded:
+                result.append(GroupState(index, positions, velocities, command_positions=[]))
+                continue
             result.append(
                 GroupState(
                     group_no=index,
-                    positions=axis_map.ros_values(group.feedback_pulses),
-                    velocities=axis_map.ros_values(moved, self.per_second),
+                    positions=positions,
+                    velocities=velocities,
                     command_positions=axis_map.ros_values(group.command_pulses),
                     command_velocities=axis_map.ros_values(group.increment, self.per_second),
                 )
@@ -298,10 +306,15 @@ class Broadcaster:
         """Whether the newest tick had motion data queued (no tick yet: nothing is)."""
         return self.last is not None and queued(self.last)
 
-    def with_poses(self, state: State) -> State:
-        """``state`` with its arms' poses, for observers: computed after the TCP clients have
-        their frames, which carry joints only."""
-        return self.poses.add(state, self.tools)
+    def for_observers(self, state: State) -> State:
+        """``state``, the newest snapshot, with its commanded joints and its arms' poses, for
+        observers: computed after the TCP clients have their frames, which carry the feedback
+        joints only."""
+        tick = self._groups_of[0]
+        if tick is None:
+            return state
+        groups = self.feedback.groups(tick)
+        return self.poses.add(msgspec.structs.replace(state, groups=groups), self.tools)
 
     def _snapshot(self, tick: Tick) -> State:
         self.seq += 1
@@ -310,7 +323,7 @@ class Broadcaster:
             self.tools = status.tools
         if tick is not self._groups_of[0]:
             # A beat without ticks repeats the last tick: its feedback is converted once.
-            self._groups_of = (tick, self.feedback.groups(tick))
+            self._groups_of = (tick, self.feedback.groups(tick, commanded=False))
         return State(
             seq=self.seq,
             tick=tick.tick,

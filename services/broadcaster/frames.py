@@ -2,9 +2,10 @@
 (motoros1 §6). Pure: a ``State`` in, its messages' bytes out, built once per cycle for every
 client.
 
-The frames go out 250 times a second to up to four clients, so each is packed by one
-precompiled ``struct`` from the protocol's own layouts (``shared.protocol.layouts``) instead of
-through the generic codec: the bytes are the codec's (tests/services/broadcaster/test_frames.py
+The frames go out 250 times a second to up to four clients, so they are packed by precompiled
+``struct``s from the protocol's own layouts (``shared.protocol.layouts``) instead of through the
+generic codec, each group's block once for its JOINT_FEEDBACK and JOINT_FEEDBACK_EX, behind
+heads packed once: the bytes are the codec's (tests/services/broadcaster/test_frames.py
 compares them), the work a fraction.
 """
 
@@ -36,19 +37,31 @@ _STATUS_BODY = "7i"
 
 
 class _Layouts:
-    """The three frame formats of one byte order, head (prefix and header) and body together."""
+    """The pieces of one byte order's frames: each frame's head (prefix and header) is the same
+    every cycle, so it is packed once; a group's JOINT_FEEDBACK block is packed once per cycle
+    and goes both into its own frame and into JOINT_FEEDBACK_EX. The pieces have no padding
+    between them (``<`` and ``>`` formats), so joined they are the frame packed whole."""
 
     def __init__(self, order: ByteOrder) -> None:
-        head = FRAME_HEAD[order].format[1:]  # without the byte-order character
+        head = struct.Struct(FRAME_HEAD[order].format)
         prefix = order.struct_prefix
-        self.feedback = struct.Struct(prefix + head + JOINT_BLOCK)
-        self.feedback_ex = struct.Struct(prefix + head + "i" + JOINT_BLOCK * MAX_GROUPS)
-        self.status = struct.Struct(prefix + head + _STATUS_BODY)
+        self.block = struct.Struct(prefix + JOINT_BLOCK)
+        self.count = struct.Struct(prefix + "i")
+        self.status_body = struct.Struct(prefix + _STATUS_BODY)
+        self.feedback_head = self._head(head, MsgType.JOINT_FEEDBACK, self.block.size)
+        self.feedback_ex_head = self._head(
+            head, MsgType.MOTO_JOINT_FEEDBACK_EX, self.count.size + self.block.size * MAX_GROUPS
+        )
+        self.status_head = self._head(head, MsgType.ROBOT_STATUS, self.status_body.size)
+        self.empty_blocks = [self.block.pack(*_EMPTY_BLOCK) * (MAX_GROUPS - n) for n in range(5)]
+        """The unused slots of JOINT_FEEDBACK_EX after ``n`` groups: all zero."""
 
     @staticmethod
-    def length(layout: struct.Struct) -> int:
-        """The prefix's value: the frame's size after the prefix."""
-        return layout.size - _LENGTH_PREFIX_SIZE
+    def _head(head: struct.Struct, msg_type: MsgType, body_size: int) -> bytes:
+        """Prefix and header of a frame whose body is ``body_size`` bytes; the prefix counts
+        what follows it."""
+        length = head.size - _LENGTH_PREFIX_SIZE + body_size
+        return head.pack(length, int(msg_type), *_TOPIC)
 
 
 @cache
@@ -81,21 +94,24 @@ def state_frames(state: State, byte_order: ByteOrder) -> tuple[bytes, ...]:
     slots), then ROBOT_STATUS, which ends the cycle for a client: one frame per message,
     since each is written on its own (``backlog``)."""
     layouts = _layouts(byte_order)
-    feedback, feedback_ex, status = layouts.feedback, layouts.feedback_ex, layouts.status
-    blocks = [_block(group) for group in state.groups]
-    head = (_Layouts.length(feedback), int(MsgType.JOINT_FEEDBACK), *_TOPIC)
-    frames = [feedback.pack(*head, *block) for block in blocks]
+    pack_block, feedback_head = layouts.block.pack, layouts.feedback_head
+    blocks = [pack_block(*_block(group)) for group in state.groups]
+    frames = [feedback_head + block for block in blocks]
     if len(blocks) >= 2:
-        slots = [value for block in blocks for value in block]
-        slots += _EMPTY_BLOCK * (MAX_GROUPS - len(blocks))
-        ex_head = (_Layouts.length(feedback_ex), int(MsgType.MOTO_JOINT_FEEDBACK_EX), *_TOPIC)
-        frames.append(feedback_ex.pack(*ex_head, len(blocks), *slots))
+        frames.append(
+            b"".join(
+                (
+                    layouts.feedback_ex_head,
+                    layouts.count.pack(len(blocks)),
+                    *blocks,
+                    layouts.empty_blocks[len(blocks)],
+                )
+            )
+        )
     s = state.status
     frames.append(
-        status.pack(
-            _Layouts.length(status),
-            int(MsgType.ROBOT_STATUS),
-            *_TOPIC,
+        layouts.status_head
+        + layouts.status_body.pack(
             s.drives_powered,
             s.e_stopped,
             s.error_code,

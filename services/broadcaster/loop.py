@@ -2,15 +2,17 @@
 
 Every cycle, in this order: the newest tick (or a wake-up without one), the snapshot if one is
 due, waiting connections taken, the frames encoded once and written to every client, then the
-``state`` sample for observers with the arms' poses (after the sockets: the TCP clients are the
-ones a late frame hurts, and their frames carry no poses), then the reports, and last when to
-wake if no tick comes (``core.Broadcaster.next_wake``). Nothing here blocks except the wait for
-the next tick, or for the next beat while the executor's clock rests.
+``state`` sample for observers with the commanded joints and the arms' poses (after the
+sockets: the TCP clients are the ones a late frame hurts, and their frames carry the feedback
+joints only), then the reports, and last when to wake if no tick comes
+(``core.Broadcaster.next_wake``). Nothing here blocks except the wait for the next tick, or for
+the next beat while the executor's clock rests.
 
-The ``state`` sample, and the poses only it carries, are made only while a subscriber on the
-bus matches the key (Zenoh's matching status, well under a microsecond to read): with nobody
-observing, the kinematics would take CPU from the cell's own processes for nothing (figure 5's
-slot turnaround p99 measured about 0.4 ms worse on this 2-core machine with them).
+The ``state`` sample, and the commanded joints and poses only it carries, are made only while a
+subscriber on the bus matches the key (Zenoh's matching status, well under a microsecond to
+read): with nobody observing, the kinematics would take CPU from the cell's own processes for
+nothing (figure 5's slot turnaround p99 measured about 0.4 ms worse on this 2-core machine with
+them).
 """
 
 from __future__ import annotations
@@ -83,7 +85,7 @@ class StateLoop:
         else:
             port.flush(now)
         if state is not None and self.observed():
-            self.publish_state(encode(broadcaster.with_poses(state)))
+            self.publish_state(encode(broadcaster.for_observers(state)))
         self.reports.report(now, len(port.clients), port.replaced_total(), port.closed_stuck)
         beat = broadcaster.next_wake(now, bool(port.clients))
         self._wake = self.reports.next_due if beat is None else min(beat, self.reports.next_due)

@@ -511,7 +511,7 @@ ARM6_HOME_ORIENTATION = [math.sqrt(0.5), 0.0, math.sqrt(0.5), 0.0]
 def posed(broadcaster: Broadcaster, *groups: GroupTick) -> State:
     state = broadcaster.on_tick(tick(1, 0, *groups), 0.0)
     assert state is not None
-    return broadcaster.with_poses(state)
+    return broadcaster.for_observers(state)
 
 
 def test_arms_get_flange_and_tcp_poses_and_positioners_none() -> None:
@@ -568,7 +568,7 @@ def test_a_moment_without_a_status_keeps_the_selected_tool() -> None:
     controller.current = None
     state = broadcaster.on_wake(10.0, clients=True)  # ticks stopped: a silent beat
     assert state is not None
-    (arm,) = broadcaster.with_poses(state).groups
+    (arm,) = broadcaster.for_observers(state).groups
     assert arm.tool == 1
     assert arm.tcp is not None
     assert arm.tcp.position == pytest.approx([0.660, 0.0, 0.815], abs=2e-5)
@@ -579,6 +579,24 @@ def test_the_snapshot_for_the_state_port_has_no_poses() -> None:
     state = Broadcaster(cell(), FakeController()).on_tick(tick(), 0.0)
     assert state is not None
     assert state.groups[0].flange is None
+
+
+def test_the_commanded_joints_are_converted_for_observers_only() -> None:
+    """The frames carry the feedback; the commanded joints are the ``state`` sample's, added
+    with the poses, the same as the whole conversion gives."""
+    lagging = group_tick(command=[58670] + [0] * 7, feedback=[0] * 8, increment=[5] + [0] * 7)
+    broadcaster = Broadcaster(cell(), FakeController())
+    state = broadcaster.on_tick(tick(1, 0, lagging), 0.0)
+    assert state is not None
+    (frames_only,) = state.groups
+    assert frames_only.command_positions == frames_only.command_velocities == []
+    (observed,) = broadcaster.for_observers(state).groups
+    (whole,) = Feedback(cell()).groups(tick(1, 0, lagging))
+    assert observed.command_positions == whole.command_positions
+    assert observed.command_positions[0] == pytest.approx(1.0)
+    assert observed.command_velocities == whole.command_velocities
+    assert (observed.positions, observed.velocities) == (whole.positions, whole.velocities)
+    assert (frames_only.positions, frames_only.velocities) == (whole.positions, whole.velocities)
 
 
 def test_a_restarted_executor_resumes_where_the_newest_tick_left_the_robot() -> None:
