@@ -69,6 +69,7 @@ def test_the_sdist_holds_the_package_and_no_tests(artifacts: dict[str, Path]) ->
         names = {name.split("/", 1)[1] for name in sdist.getnames() if "/" in name}
     assert {*PROJECT_FILES, "motocell/__init__.py", "motocell/shared/models.toml"} <= names
     assert "motocell/services/gateway/__main__.py" in names
+    assert "motocell/tools/layouts/motocell-layout.json" in names
     assert not [name for name in names if name.startswith("tests")], "tests in the sdist"
     assert not [name for name in names if "__pycache__" in name]
 
@@ -80,6 +81,7 @@ def test_the_wheel_holds_one_package_and_the_license(artifacts: dict[str, Path])
     assert {top for top in tops if not top.endswith(".dist-info")} == {"motocell"}
     assert any(re.search(r"\.dist-info/licenses/LICENSE$", name) for name in names)
     assert "motocell/shared/cells/four-group.toml" in names
+    assert "motocell/tools/layouts/motocell-layout.json" in names  # Foxglove's, for the view
 
 
 @pytest.fixture(scope="module", params=["wheel", "sdist"])

@@ -3,7 +3,8 @@
 Serves the Foxglove WebSocket protocol (the official ``foxglove-sdk``) on HOST:PORT, loopback
 port 8765 by default, the port Foxglove proposes. In Foxglove: Open connection, Foxglove
 WebSocket, ws://HOST:PORT; then import the layout (``--layout FILE`` writes one for the cells
-viewed, ``deploy/foxglove/motocell-layout.json`` is the one for the default cell).
+viewed; the default cell's ships in the package, ``tools.view_layout.SHIPPED``). The server
+speaks the WebSocket subprotocol ``foxglove.sdk.v1`` only (docs/observing.md: which viewers).
 
 Per cell, under ``/<cell>/``: each group's joints (feedback and commanded), the controller's
 status, the state's ROBOT_STATUS fields, the executor's lateness and queue depths, and a 3D scene

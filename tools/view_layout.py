@@ -8,8 +8,9 @@ of those ids), ``globalVariables``, ``userNodes``, ``playbackConfig``. The panel
 built with ``foxglove.layouts``, the schema of each panel's configuration that ``foxglove-sdk``
 ships, so their field names are Foxglove's own.
 
-``python -m motocell.tools.view_layout`` rewrites ``deploy/foxglove/motocell-layout.json`` (the
-default cell's); ``motocell view --layout FILE`` writes one for the cells it views.
+``motocell view --layout FILE`` writes one for the cells it views. The default cell's ships in
+the package (``SHIPPED``, package data), for an install with no source tree;
+``python -m motocell.tools.view_layout`` rewrites it.
 """
 
 from __future__ import annotations
@@ -25,8 +26,8 @@ import foxglove.layouts as fl
 from motocell.shared.config import Cell, Group, load_cell
 from motocell.tools.view_scene import cell_frame
 
-REPO = Path(__file__).resolve().parent.parent
-SHIPPED = "deploy/foxglove/motocell-layout.json"
+SHIPPED = Path(__file__).resolve().parent / "layouts" / "motocell-layout.json"
+"""The default cell's layout, in the installed package too."""
 COLOURS = (
     "#1f77b4",
     "#ff7f0e",
@@ -245,8 +246,7 @@ def _stack(nodes: Sequence[Node], direction: str) -> Node:
 
 
 def main() -> None:
-    (REPO / SHIPPED).parent.mkdir(parents=True, exist_ok=True)
-    (REPO / SHIPPED).write_text(layout_text([load_cell(None)]))
+    SHIPPED.write_text(layout_text([load_cell(None)]))
     print(f"wrote {SHIPPED}")
 
 

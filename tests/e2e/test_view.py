@@ -18,6 +18,9 @@ from typing import Any
 
 import numpy as np
 import pytest
+from websockets.exceptions import InvalidStatus
+from websockets.sync.client import connect
+from websockets.typing import Subprotocol
 
 from motocell.shared.motion.forward_kinematics import Chain, tool_transform
 from motocell.shared.ports import free_port
@@ -27,7 +30,7 @@ from motocell.testkit.cell import RunningCell, moving
 from motocell.testkit.client import Feedback, smooth_move, stream
 from motocell.testkit.processes import wait_until
 from motocell.tools.view_layout import layout_text
-from tests.foxglove_ws import FoxgloveClient, Received
+from tests.foxglove_ws import SUBPROTOCOL, FoxgloveClient, Received
 from tests.frames import foxglove_steps, in_root, pose_matrix, rotation, vector
 
 pytestmark = pytest.mark.cell
@@ -110,6 +113,18 @@ def test_it_writes_the_layout_of_the_cell_it_views(
 ) -> None:
     assert layout_file.read_text() == layout_text([cell.cell])
     assert f"wrote the Foxglove layout {layout_file}" in view.lines
+
+
+def test_it_speaks_foxglove_sdk_v1_and_refuses_a_client_offering_only_the_older_name(
+    view: View,
+) -> None:
+    # What docs/observing.md tells Lichtblick and old Foxglove Studio users.
+    assert view.url is not None
+    with pytest.raises(InvalidStatus) as refused:
+        connect(view.url, subprotocols=[Subprotocol("foxglove.websocket.v1")], open_timeout=10)
+    assert refused.value.response.status_code == 400
+    with connect(view.url, subprotocols=[Subprotocol(SUBPROTOCOL)], open_timeout=10) as client:
+        assert client.subprotocol == "foxglove.sdk.v1"
 
 
 def test_a_second_view_on_its_port_is_one_line_and_status_2(view: View) -> None:

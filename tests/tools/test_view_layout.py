@@ -6,7 +6,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import re
-from pathlib import Path
 from typing import Any
 
 import msgspec
@@ -17,7 +16,6 @@ from motocell.tools.json_schema import json_schema
 from motocell.tools.view_channels import ExecutorTick
 from motocell.tools.view_layout import SHIPPED, layout, layout_text
 
-REPO = Path(__file__).resolve().parents[2]
 FIELDS: dict[str, type[msgspec.Struct]] = {
     "joints": GroupState,
     "status": ControllerStatus,
@@ -27,7 +25,7 @@ FIELDS: dict[str, type[msgspec.Struct]] = {
 
 
 def test_the_shipped_layout_is_the_generated_one() -> None:
-    assert (REPO / SHIPPED).read_text() == layout_text([load_cell()]), (
+    assert SHIPPED.read_text() == layout_text([load_cell()]), (
         "run `python -m motocell.tools.view_layout`"
     )
 
@@ -96,5 +94,5 @@ def test_every_path_names_a_field_the_view_publishes() -> None:
 
 
 def test_the_file_is_json_foxglove_can_import() -> None:
-    text = (REPO / SHIPPED).read_text()
+    text = SHIPPED.read_text()
     assert json.loads(text)["layout"]["first"] == "3D!scene"
