@@ -27,10 +27,11 @@ the executor ran SCHED_FIFO (``ExecutorMetrics.realtime``) and the 1-minute load
 start and end, with a warning (also in the JSON) when either exceeds 0.7 x the CPUs, which makes
 that figure's numbers unreliable.
 
-The full suite takes about 13 minutes here (figures 3 and 7: 3 x 60 s windows each),
-``--quick`` about 2. Results: ``<UTC timestamp>.json`` and ``latest.json`` in ``--out``, by
-default ``bench/results`` under the current directory: in a checkout's root that is the
-repository's ``bench/results``, and an installed motocell never writes into its own package.
+The full suite takes a quarter of an hour or more (figures 1-9 alone took 15 minutes on an idle
+2-vCPU VM; figures 3 and 7: 3 x 60 s windows each), ``--quick`` a few minutes. Results:
+``<UTC timestamp>.json`` and ``latest.json`` in ``--out``, by default ``bench/results`` under the
+current directory: in a checkout's root that is the repository's ``bench/results``, and an
+installed motocell never writes into its own package.
 """
 
 from __future__ import annotations
@@ -252,7 +253,9 @@ def write(report: dict[str, Any], stamp: str, directory: Path) -> list[Path]:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--quick", action="store_true", help="every benchmark briefly (1-2 min)")
+    parser.add_argument(
+        "--quick", action="store_true", help="every benchmark briefly (a few minutes)"
+    )
     parser.add_argument("--only", metavar="N,N", help="only these figures, e.g. 3,6")
     parser.add_argument(
         "--out",

@@ -8,9 +8,9 @@ import argparse
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The options of ``motocell bench`` (``tools.cli`` names the command)."""
     parser.description = (
-        "Run the benchmark suite (figures 1-9): median and [min-max] of at least 3 runs each, "
+        "Run the benchmark suite (figures 1-11): median and [min-max] of at least 3 runs each, "
         "printed as a table and written to <timestamp>.json and latest.json in --out. The full "
-        "suite takes about 15 minutes, --quick 1-2."
+        "suite takes a quarter of an hour or more, --quick a few minutes."
     )
     # The suite imports numpy and every benchmark: only for `motocell bench` (tools.cli fills
     # a command's parser only when that command runs).
