@@ -10,6 +10,7 @@ test runs at once, are never confused.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import os
 import tempfile
@@ -58,37 +59,36 @@ class CellUnderTest:
         self.bus = session
         """A Zenoh session on the cell's bus as its operator: it sees every key, and may
         inject faults. Closed when the cell stops."""
+        self.config: Cell = dataclasses.replace(
+            running.cell, host=running.host, port_base=running.port_base
+        )
+        """The cell as its services run it: groups, models, periods, byte order, ports."""
         self._observer = CellObserver(session, running.keys)
 
     @property
-    def config(self) -> Cell:
-        """The cell as its services run it: groups, models, periods, byte order."""
-        return self.running.cell
-
-    @property
     def name(self) -> str:
-        return self.running.cell.name
+        return self.config.name
 
     @property
     def host(self) -> str:
-        return self.running.host
+        return self.config.host
 
     @property
     def motion_port(self) -> int:
-        return self.running.port_base
+        return self.config.motion_port
 
     @property
     def state_port(self) -> int:
-        return self.running.port_base + 1
+        return self.config.state_port
 
     @property
     def io_port(self) -> int:
-        return self.running.port_base + 2
+        return self.config.io_port
 
     @property
     def byte_order(self) -> str:
         """``little``, or ``big`` (an FS100, or asked for)."""
-        return self.running.cell.byte_order
+        return self.config.byte_order
 
     @property
     def zenoh_endpoint(self) -> str:
