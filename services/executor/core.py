@@ -24,9 +24,9 @@ from motocell.shared.bus.schemas import (
     Tick,
 )
 from motocell.shared.config import DEFAULT_MAX_LATENESS_PERIODS, Cell, IdealServo
-from motocell.shared.motion.kinematics import AxisMap, IntArray
+from motocell.shared.motion.kinematics import AxisMap
 from motocell.shared.motion.servo import Servos
-from motocell.shared.protocol.constants import MAX_AXES, Result
+from motocell.shared.protocol.constants import Result
 
 log = logging.getLogger("executor")
 
@@ -67,13 +67,6 @@ def stalled(lateness_ns: int, period_ns: int, max_lateness_periods: int) -> bool
     """Whether a tick this late is a stall: its increments, and all queued behind them, would
     move the robot later than the cell file allows (``max_lateness_periods``)."""
     return lateness_ns > max_lateness_periods * period_ns
-
-
-def _bounds(ranges: list[tuple[list[int], list[int]]]) -> tuple[IntArray, IntArray]:
-    """(lower, upper) pulses as arrays, one row per group."""
-    lower = np.array([low for low, _ in ranges], dtype=np.int64)
-    upper = np.array([high for _, high in ranges], dtype=np.int64)
-    return lower, upper
 
 
 def next_on_grid(origin_ns: int, period_ns: int, now_ns: int) -> int:
@@ -136,18 +129,19 @@ class ExecutorCore:
         command, resting at ``command_pulses`` (None: ideal, feedback = command).
         ``max_lateness_periods``: how late a tick may be, and how long a ring may stay empty
         while its interpolator owes it increments (``starved``)."""
-        self.command: IntArray = np.array(command_pulses, dtype=np.int64).reshape(-1, MAX_AXES)
-        """The commanded pulses, one row per group, Motoman order."""
+        self.command: list[list[int]] = [[int(p) for p in row] for row in command_pulses]
+        """The commanded pulses, one row per group, Motoman order (``MAX_AXES`` each). Plain
+        ints, as everything the tick computes per axis: numpy's call overhead on rows of 8
+        costs more than the arithmetic (docs/realtime.md, "The tick's cost"). A row is replaced,
+        never changed in place, so ``queue_updates`` may keep it to compare with."""
         self.servos = servos or Servos([IdealServo()] * len(command_pulses), 1.0, command_pulses)
         self.servo_powered = True
         """The controller's last status had the servo on (and not in eco mode); assumed until
         the first status, which changes nothing at rest."""
         self.period_ns = period_ns
         self.max_lateness_periods = max_lateness_periods
-        self._max_increments = None if max_increments is None else np.array(max_increments)
-        bounds = None if ranges is None else _bounds(ranges)
-        self._lower: IntArray | None = None if bounds is None else bounds[0]
-        self._upper: IntArray | None = None if bounds is None else bounds[1]
+        self._max_increments = max_increments
+        self._ranges = ranges
         self.readiness = ReadinessMachine()
         self.rings = [GroupRing(first_epoch + g) for g in range(len(command_pulses))]
         self._next_epoch = first_epoch + len(command_pulses)
@@ -317,15 +311,16 @@ class ExecutorCore:
             ring.pop_period() if ready and group not in held else ZERO
             for group, ring in enumerate(self.rings)
         ]
-        increments = np.array(rows, dtype=np.int64)
-        broken += [g for g in self._over_limits(increments) if g not in broken]
-        self.beyond_range = self._beyond_range(increments)
+        broken += [g for g in self._over_limits(rows) if g not in broken]
+        self.beyond_range = self._beyond_range(rows)
         broken += [g for g in self.beyond_range if g not in broken]
         if broken:
-            increments.fill(0)
             rows = [ZERO] * len(self.rings)
         self.last_increment = rows
-        self.command += increments
+        self.command = [
+            command if row == ZERO else [c + i for c, i in zip(command, row, strict=True)]
+            for command, row in zip(self.command, rows, strict=True)
+        ]
         self._drive()
         return broken
 
@@ -352,32 +347,36 @@ class ExecutorCore:
         else:
             self.command = self.servos.brake()
 
-    def _over_limits(self, increments: IntArray) -> list[int]:
+    def _over_limits(self, rows: list[tuple[int, ...]]) -> list[int]:
         """The groups whose increment exceeds an axis's maximum per period (the motion
         system's speed limit)."""
         if self._max_increments is None:
             return []
-        over = (np.abs(increments) > self._max_increments).any(axis=1)
-        return np.flatnonzero(over).tolist()
+        return [
+            group
+            for group, (row, most) in enumerate(zip(rows, self._max_increments, strict=True))
+            if row != ZERO and any(abs(i) > m for i, m in zip(row, most, strict=True))
+        ]
 
-    def _beyond_range(self, increments: IntArray) -> dict[int, str]:
+    def _beyond_range(self, rows: list[tuple[int, ...]]) -> dict[int, str]:
         """The groups whose increment would take an axis past its range, as a controller's
         motion-range check refuses them: an axis may end exactly on a limit, and one already
         outside (a range narrowed since) may still move back towards it."""
-        if self._lower is None or self._upper is None:
+        if self._ranges is None:
             return {}
-        target = self.command + increments
-        beyond = ((target > self._upper) & (increments > 0)) | (
-            (target < self._lower) & (increments < 0)
-        )
         found = {}
-        for group in np.flatnonzero(beyond.any(axis=1)).tolist():
-            axis = int(np.flatnonzero(beyond[group])[0])
-            low, high = int(self._lower[group, axis]), int(self._upper[group, axis])
-            found[group] = (
-                f"axis {axis} would reach {int(target[group, axis])} pulses, "
-                f"past its range [{low}, {high}]"
-            )
+        for group, row in enumerate(rows):
+            if row == ZERO:
+                continue
+            low, high = self._ranges[group]
+            for axis, (c, i) in enumerate(zip(self.command[group], row, strict=True)):
+                target = c + i
+                if (i > 0 and target > high[axis]) or (i < 0 and target < low[axis]):
+                    found[group] = (
+                        f"axis {axis} would reach {target} pulses, "
+                        f"past its range [{low[axis]}, {high[axis]}]"
+                    )
+                    break
         return found
 
     def _waiting_for_partners(self) -> set[int]:
@@ -447,7 +446,7 @@ class ExecutorCore:
             received=ring.received,
             depth=len(ring.entries),
             capacity=RING_CAPACITY,
-            command_pulses=self.command[group].tolist(),
+            command_pulses=list(self.command[group]),  # a snapshot, never the row itself
             tick=self.tick,
             ready=self.ready,
             heartbeat_ms=self.queue_heartbeat_ms(),
@@ -460,21 +459,22 @@ class ExecutorCore:
         heartbeat = force or now_ns >= self._next_queue_heartbeat_ns
         if heartbeat:
             self._next_queue_heartbeat_ns = now_ns + self.queue_heartbeat_ms() * 1_000_000
+        ready, heartbeat_ms = self.ready, self.queue_heartbeat_ms()
         updates = []
-        for group in range(len(self.rings)):
-            state = self.queue_state(group)
+        for group, ring in enumerate(self.rings):
+            # What a queue state says, compared before one is built (most ticks build none).
             content = (
-                state.epoch,
-                state.received,
-                state.depth,
-                tuple(state.command_pulses),
-                state.ready,
-                state.heartbeat_ms,
+                ring.epoch,
+                ring.received,
+                len(ring.entries),
+                self.command[group],
+                ready,
+                heartbeat_ms,
             )
             if heartbeat or self._queue_due(group, content):
                 self._published_queues[group] = content
                 self._published_at[group] = self.tick
-                updates.append((group, state))
+                updates.append((group, self.queue_state(group)))
         return updates
 
     def _queue_due(self, group: int, content: tuple[object, ...]) -> bool:
@@ -489,16 +489,16 @@ class ExecutorCore:
         return not draining or self.tick - self._published_at[group] >= DRAINING_EVERY_TICKS
 
     def group_ticks(self) -> list[GroupTick]:
-        feedback = self.servos.feedback_pulses().tolist()
-        moved = self.servos.moved.tolist()
-        command = self.command.tolist()
+        feedback = self.servos.feedback_pulses()
+        moved = self.servos.moved
+        command = self.command
         return [
             GroupTick(
-                command_pulses=command[g],
+                command_pulses=list(command[g]),
                 feedback_pulses=feedback[g],
                 increment=list(self.last_increment[g]),
                 depth=len(ring.entries),
-                feedback_moved=moved[g],
+                feedback_moved=list(moved[g]),  # the servo changes its rows in place
             )
             for g, ring in enumerate(self.rings)
         ]

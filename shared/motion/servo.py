@@ -1,4 +1,4 @@
-"""How each axis's feedback follows its commanded position: a servo model per axis, pure numpy.
+"""How each axis's feedback follows its commanded position: a servo model per axis, pure Python.
 
 The executor applies one increment per axis per period to the commanded position (what MotoROS
 reads with ``mpGetPulsePos``); the motion system's servo drives the motor after it, and the
@@ -30,13 +30,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-import numpy as np
-import numpy.typing as npt
-
 from motocell.shared.config import IdealServo, ServoSettings
-
-FloatArray = npt.NDArray[np.float64]
-IntArray = npt.NDArray[np.int64]
 
 SNAP_PULSES = 0.5
 """An axis at rest whose stages are all closer than this to the command reads the command: the
@@ -67,7 +61,12 @@ class Servos:
     """The servos of a cell: row g is group g, column i its Motoman axis i (unused axes are
     commanded 0 and stay there). ``step`` once per period with the commanded pulses; read
     ``feedback_pulses`` (what the encoder shows) and ``moved`` (what the feedback moved in the
-    last period, in pulses: its velocity times the period)."""
+    last period, in pulses: its velocity times the period).
+
+    Plain Python floats, one list per group: a cell has at most 4 x 8 axes, and numpy's call
+    overhead on arrays that small cost more than the arithmetic, which is the same IEEE double
+    arithmetic in the same order (docs/realtime.md, "The tick's cost"). An axis settled on an
+    unchanged command is skipped."""
 
     def __init__(
         self,
@@ -76,62 +75,71 @@ class Servos:
         command: Sequence[Sequence[int]],
     ) -> None:
         """``settings`` per group; ``command``: the commanded pulses the axes rest at."""
-        rows = np.array([coefficients(s, period_s) for s in settings], dtype=np.float64)
-        self._a_filter = rows[:, 0:1]
-        self._b_filter = 1.0 - self._a_filter
-        self._a_loop = rows[:, 1:2]
-        self._b_loop = 1.0 - self._a_loop
-        self._feed_forward = rows[:, 2:3]
-        self._feed_back = 1.0 - self._feed_forward
-        self.command: FloatArray = np.array(command, dtype=np.float64)
-        self.filtered = self.command.copy()
-        self.lagged = self.command.copy()
-        self.position = self.command.copy()
+        self._coefficients = [coefficients(s, period_s) for s in settings]
+        self.command: list[list[float]] = [[float(c) for c in row] for row in command]
+        self.filtered = [list(row) for row in self.command]
+        self.lagged = [list(row) for row in self.command]
+        self.position = [list(row) for row in self.command]
         """The feedback, to a fraction of a pulse."""
-        self.moved: FloatArray = np.zeros_like(self.command)
+        self.moved: list[list[float]] = [[0.0] * len(row) for row in self.command]
         self._at_rest = True
 
-    def step(self, command: Sequence[Sequence[int]] | IntArray) -> None:
+    def step(self, command: Sequence[Sequence[int]]) -> None:
         """One period: the feedback moves toward ``command`` (the commanded pulses after this
         period's increments)."""
-        target = np.array(command, dtype=np.float64)
-        still = target == self.command
-        if self._at_rest and still.all():
-            self.moved.fill(0.0)
-            return
-        self.command = target
-        self.filtered *= self._a_filter
-        self.filtered += self._b_filter * target
-        self.lagged *= self._a_loop
-        self.lagged += self._b_loop * self.filtered
-        position = self._feed_forward * self.filtered + self._feed_back * self.lagged
-        settled = (
-            still
-            & (np.abs(self.filtered - target) < SNAP_PULSES)
-            & (np.abs(self.lagged - target) < SNAP_PULSES)
-        )
-        for stage in (self.filtered, self.lagged, position):
-            np.copyto(stage, target, where=settled)
-        self.moved = position - self.position
-        self.position = position
-        self._at_rest = bool(settled.all())
+        at_rest = True
+        for group, row in enumerate(command):
+            if not self._step_group(group, row):
+                at_rest = False
+        self._at_rest = at_rest
 
-    def brake(self) -> IntArray:
+    def _step_group(self, group: int, row: Sequence[int]) -> bool:
+        """One period of ``group``'s axes; whether every one is settled on its command."""
+        a_filter, a_loop, feed_forward = self._coefficients[group]
+        b_filter, b_loop, feed_back = 1.0 - a_filter, 1.0 - a_loop, 1.0 - feed_forward
+        commanded, filtered = self.command[group], self.filtered[group]
+        lagged, position, moved = self.lagged[group], self.position[group], self.moved[group]
+        settled_all = True
+        for axis, pulses in enumerate(row):
+            target = float(pulses)
+            still = target == commanded[axis]
+            if still and filtered[axis] == lagged[axis] == position[axis] == target:
+                moved[axis] = 0.0  # settled: stepping changes nothing
+                continue
+            commanded[axis] = target
+            stage_filter = filtered[axis] * a_filter + b_filter * target
+            stage_loop = lagged[axis] * a_loop + b_loop * stage_filter
+            feedback = feed_forward * stage_filter + feed_back * stage_loop
+            if (
+                still
+                and abs(stage_filter - target) < SNAP_PULSES
+                and abs(stage_loop - target) < SNAP_PULSES
+            ):
+                stage_filter = stage_loop = feedback = target
+            else:
+                settled_all = False
+            filtered[axis], lagged[axis] = stage_filter, stage_loop
+            moved[axis] = feedback - position[axis]
+            position[axis] = feedback
+        return settled_all
+
+    def brake(self) -> list[list[int]]:
         """Servo off (E-stop, STOP_SERVOS, eco): every axis stops where its feedback is, and the
         commanded position becomes the feedback, so switching the servo on again moves
         nothing. Returns the commanded pulses now."""
-        held = np.rint(self.position)
+        held = self.feedback_pulses()
         for stage in (self.command, self.filtered, self.lagged, self.position):
-            stage[...] = held
-        self.moved.fill(0.0)
+            stage[:] = [[float(p) for p in row] for row in held]
+        self.moved = [[0.0] * len(row) for row in held]
         self._at_rest = True
-        return held.astype(np.int64)
+        return held
 
     @property
     def at_rest(self) -> bool:
         """Every axis settled exactly on its command: stepping again would change nothing."""
         return self._at_rest
 
-    def feedback_pulses(self) -> IntArray:
-        """The encoder's whole pulses."""
-        return np.rint(self.position).astype(np.int64)
+    def feedback_pulses(self) -> list[list[int]]:
+        """The encoder's whole pulses (rounded half to even, as the encoder model always
+        was)."""
+        return [[round(p) for p in row] for row in self.position]

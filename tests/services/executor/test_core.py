@@ -260,14 +260,14 @@ def test_step_applies_one_entry_per_group_per_tick() -> None:
     core.accept(1, batch(101, 0, [[-1, 1, 0, 0, 0, 0, 0, 0]]))
     core.step()
     assert core.last_increment == [(1, 2, 3, 4, 5, 6, 0, 0), (-1, 1, 0, 0, 0, 0, 0, 0)]
-    assert core.command.tolist() == [[11, 22, 33, 44, 55, 66, 0, 0], [-6, 6, 0, 0, 0, 0, 0, 0]]
+    assert core.command == [[11, 22, 33, 44, 55, 66, 0, 0], [-6, 6, 0, 0, 0, 0, 0, 0]]
     core.step()
     # Group 1's ring is empty: it gets zeros while group 0 keeps moving.
     assert core.last_increment == [(10, 20, 30, 40, 50, 60, 0, 0), (0,) * 8]
-    assert core.command.tolist() == [[21, 42, 63, 84, 105, 126, 0, 0], [-6, 6, 0, 0, 0, 0, 0, 0]]
+    assert core.command == [[21, 42, 63, 84, 105, 126, 0, 0], [-6, 6, 0, 0, 0, 0, 0, 0]]
     core.step()
     assert core.last_increment == [(0,) * 8, (0,) * 8]
-    assert core.command[0].tolist() == [21, 42, 63, 84, 105, 126, 0, 0]
+    assert core.command[0] == [21, 42, 63, 84, 105, 126, 0, 0]
     assert core.group_ticks() == [
         GroupTick(
             [21, 42, 63, 84, 105, 126, 0, 0],
@@ -284,7 +284,7 @@ def test_all_eight_axes_are_applied() -> None:
     core = ready_core()
     core.accept(0, batch(100, 0, [[1, -2, 3, -4, 5, -6, 7, -8]]))
     core.step()
-    assert core.command[0].tolist() == [11, 18, 33, 36, 55, 54, 7, -8]
+    assert core.command[0] == [11, 18, 33, 36, 55, 54, 7, -8]
 
 
 def test_partial_entry_is_merged_with_the_next_one() -> None:
@@ -336,7 +336,7 @@ def test_nothing_is_applied_while_not_ready() -> None:
     core = ExecutorCore(START, FIRST_EPOCH)
     for _ in range(3):
         core.step()
-    assert core.command.tolist() == START
+    assert core.command == START
     assert core.last_increment == [(0,) * 8, (0,) * 8]
     set_ready(core, True)
     core.accept(0, batch(100, 0, [unit(5)] * 3))
@@ -360,7 +360,7 @@ def test_every_accepted_pulse_is_applied_exactly_once(rows: int) -> None:
         core.step()
         ticks += 1
     assert ticks == rows - sum(1 for i in partial if i < rows - 1)
-    assert core.command[0].tolist() == [
+    assert core.command[0] == [
         START[0][axis] + sum(row[axis] for row in increments) for axis in range(8)
     ]
 
@@ -409,7 +409,7 @@ def test_an_increment_past_a_limit_is_refused_and_nothing_moves(past: list[int])
     assert core.step() == [0]
     assert "axis 0" in core.beyond_range[0]
     assert "past its range [0, 100]" in core.beyond_range[0]
-    assert core.command.tolist() == START
+    assert core.command == START
     assert core.last_increment == [(0,) * 8, (0,) * 8]
 
 
@@ -608,7 +608,7 @@ def test_a_late_tick_clears_every_ring_applies_nothing_and_tells_the_controller(
     core = stalled_core()
     assert all(not ring.entries for ring in core.rings)
     assert core.rings[0].epoch != FIRST_EPOCH
-    assert core.command.tolist() == START
+    assert core.command == START
     assert core.readiness.state is Readiness.STALLED
     assert [(n.result, n.value) for n in core.take_notices()] == [(Result.FAILURE, STALL_ALARM)]
 
@@ -664,7 +664,7 @@ def test_a_silent_controller_stops_a_ready_executor() -> None:
     core.accept(0, batch(FIRST_EPOCH, 0, [unit(1)] * 5))
     core.on_tick(bound + PERIOD_NS, 0)
     assert core.readiness.state is Readiness.STALLED
-    assert core.command.tolist() == START
+    assert core.command == START
 
 
 def test_silence_counts_in_the_heartbeats_the_controller_announced() -> None:

@@ -387,7 +387,7 @@ def test_streamed_trajectory_never_overflows_and_ends_exactly(
     )
     assert all(b.count <= MAX_BATCH for b in sent)
     final = pulses(points[-1].positions)
-    assert core.command[0].tolist() == final
+    assert core.command[0] == final
     assert total(sent) == [f - s for f, s in zip(final, start, strict=True)]
 
 
