@@ -79,7 +79,9 @@ class RunningCell:
     name never clashes with a cell running elsewhere on this machine."""
     expected_children: int
     joined_router: bool = False
-    """It joined a router started elsewhere (open), instead of running its own."""
+    """It joined a router started elsewhere, instead of running its own."""
+    joined_credentials: Path | None = None
+    """The credentials it joined that router with (None: the router is open)."""
     _seen: set[int] = field(default_factory=set, init=False, repr=False)
 
     @property
@@ -93,11 +95,9 @@ class RunningCell:
     @property
     def credentials(self) -> Path | None:
         """The cell's credentials directory; None when it joined an open router."""
-        return (
-            None
-            if self.joined_router
-            else registry.credentials_dir(self.cell.name, self.runtime_dir)
-        )
+        if self.joined_router:
+            return self.joined_credentials
+        return registry.credentials_dir(self.cell.name, self.runtime_dir)
 
     def session(self, role: Role = Role.OBSERVER) -> zenoh.Session:
         """A Zenoh client of the cell's bus as ``role`` (observer: read-only; operator: may
@@ -176,13 +176,15 @@ def start_cell(
     config: str | Path | None = None,
     *,
     router: str | None = None,
+    credentials: Path | None = None,
     skip: Sequence[str] = (),
     log: Path | None = None,
     log_level: str = LOG_LEVEL,
 ) -> RunningCell:
     """Spawn the launcher on free ports and return at once. It runs its own router, or joins
-    ``router``; ``skip``ped services are the caller's to run. ``log``: the launcher's and its
-    services' output goes there (appended) instead of this process's."""
+    ``router`` (secured: with ``credentials``); ``skip``ped services are the caller's to run.
+    ``log``: the launcher's and its services' output goes there (appended) instead of this
+    process's."""
     cell_file = None if config is None else str(config)
     cell = load_cell(cell_file)
     port_base = free_port_block(3, HOST)
@@ -191,6 +193,8 @@ def start_cell(
     command = [*LAUNCHER, "--port-base", str(port_base), zenoh_option, endpoint]
     for service in skip:
         command += ["--skip", service]
+    if credentials is not None:
+        command += ["--credentials", str(credentials)]
     if cell_file is not None:
         command += ["--config", cell_file]
     # Named after this process: if it dies without stopping the cell, the next test run can
@@ -207,6 +211,7 @@ def start_cell(
     return RunningCell(
         *(cell, cell_file, HOST, port_base, endpoint, process, spawned_ns, runtime_dir, expected),
         joined_router=router is not None,
+        joined_credentials=credentials,
     )
 
 
@@ -223,6 +228,7 @@ def running_cell(
     config: str | Path | None = None,
     *,
     router: str | None = None,
+    credentials: Path | None = None,
     skip: Sequence[str] = (),
     log: Path | None = None,
     log_level: str = LOG_LEVEL,
@@ -234,7 +240,9 @@ def running_cell(
     new ports (another process may take one between choosing and binding it)."""
     attempt = 1
     while True:
-        running = start_cell(config, router=router, skip=skip, log=log, log_level=log_level)
+        running = start_cell(
+            config, router=router, credentials=credentials, skip=skip, log=log, log_level=log_level
+        )
         try:
             running.wait_started(timeout)
             if not skip:

@@ -19,8 +19,8 @@ from pathlib import Path
 import zenoh
 
 from motocell.shared import registry
-from motocell.shared.bus.access import Identity
-from motocell.shared.bus.credentials import CredentialsError, load
+from motocell.shared.bus.access import SITE_OBSERVER, Identity
+from motocell.shared.bus.credentials import CredentialsError, load, load_user, password_path
 from motocell.shared.bus.keys import ALIVE_ROOT
 from motocell.shared.bus.session import NoRouterError as NothingListens
 from motocell.shared.bus.session import open_session
@@ -151,9 +151,13 @@ def targets(args: argparse.Namespace) -> list[Target]:
         ]
     if args.credentials is None:
         return [Target(args.zenoh_connect, tuple(cells))]
-    if len(cells) != 1:
-        raise TargetError("--credentials needs one --cell: credentials belong to one cell")
-    return [Target(args.zenoh_connect, tuple(cells), Path(args.credentials))]
+    credentials = Path(args.credentials)
+    if len(cells) != 1 and not password_path(credentials, SITE_OBSERVER).is_file():
+        raise TargetError(
+            "--credentials needs one --cell: credentials belong to one cell (a site's, with "
+            f"its {SITE_OBSERVER}, watch every cell: docs/site.md)"
+        )
+    return [Target(args.zenoh_connect, tuple(cells), credentials)]
 
 
 def _did_you_mean(names: list[str]) -> str:
@@ -186,7 +190,11 @@ def join(target: Target, identity: Identity) -> zenoh.Session:
     credentials = None
     if target.credentials is not None:
         try:
-            credentials = load(target.credentials, target.cells[0], identity)
+            credentials = (
+                load(target.credentials, target.cells[0], identity)
+                if len(target.cells) == 1
+                else load_user(target.credentials, SITE_OBSERVER)
+            )
         except CredentialsError as exc:
             raise JoinError(target.explain(exc)) from None
     try:

@@ -22,6 +22,7 @@ COMMANDS = (
     ("plot", "plot a recording (motocell record) as a PNG"),
     ("bench", "run the benchmark suite: print a table, write JSON results"),
     ("credentials", "write a cell's passwords (and TLS certificates) into a private directory"),
+    ("site", "write one Zenoh router's configuration for several secured cells (a site)"),
     (
         "service",
         "run one service of a cell in the foreground (one that `motocell up --skip` leaves out)",

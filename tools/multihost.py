@@ -3,6 +3,9 @@
 - ``router-config`` writes the router configuration of a secured multi-host cell: compose's
   (``tools.deploy.secured_router_settings``: TLS only, mutual TLS, passwords, the access
   control of the key map) for this cell and endpoint.
+- ``failover`` measures a router's death on one machine: a site's two meshed routers
+  (``tools.site``), a cell whose services and observer may use either, and the fault run below
+  with the router the services use killed and never restarted (docs/site.md).
 - ``drive`` is host C: the demo trajectory (``tools.demo.drive``, the same report as
   ``scripts/demo``, with the following error from the observer's bus) while that observer
   records ticks, states and the gateway's metrics; then the reply latency this host sees, the
@@ -22,11 +25,14 @@ import argparse
 import contextlib
 import itertools
 import json
+import os
+import subprocess
 import sys
+import tempfile
 import threading
 import time
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -36,15 +42,17 @@ import zenoh
 from motocell.bench.bench_streaming import empty_periods
 from motocell.shared.bus.access import Identity
 from motocell.shared.bus.catalog import Role
-from motocell.shared.bus.credentials import load
+from motocell.shared.bus.credentials import load, write_private
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import ControllerStatus, Decoder, GatewayMetrics, State, Tick
 from motocell.shared.bus.session import open_session
 from motocell.shared.config import Cell, load_cell
 from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.ports import free_port, free_port_block
 from motocell.shared.protocol.codec import ByteOrder
 from motocell.shared.protocol.constants import Command, MsgType, Result, describe_reply
 from motocell.shared.protocol.messages import Message
+from motocell.testkit.cell import HOST, LAUNCHER, wait_for_whole_cell
 from motocell.testkit.client import (
     BUSY_RETRY_S,
     Feedback,
@@ -54,9 +62,13 @@ from motocell.testkit.client import (
     ex_messages,
     smooth_move,
 )
-from motocell.testkit.processes import wait_until
+from motocell.testkit.processes import descendants, wait_until
 from motocell.tools.demo import drive, goal_within
 from motocell.tools.deploy import secured_router_settings
+from motocell.tools.site import SiteCell, site_router_settings
+
+MOTOCELL = (sys.executable, "-m", "motocell.tools.cli")
+"""``motocell`` run by this interpreter."""
 
 RECORDED = 65_536
 """Samples the observer keeps per key, the newest: over four minutes of ticks at 250/s, more
@@ -75,8 +87,10 @@ FAULT_AT_S = 1.5
 SETTLE_S = 3.0
 """How long the robot must stay still after the fault before the report: a TCP connection
 whose link was cut retransmits with back-off, seen 1.4 s after a 2 s cut."""
-RETRY_S = 0.5
-"""Between START_TRAJ_MODE tries after the fault."""
+RETRY_S = 0.1
+"""Between START_TRAJ_MODE tries after the fault: the recovery's time is known to this."""
+WHOLE_WITHIN_S = 3.0
+"""``failover``'s goal: the cell whole again this soon after a router of its mesh died."""
 FAULT_WAIT_S = 30.0
 """How long the client waits for the script to end the fault, and then for the cell to be
 whole again."""
@@ -424,6 +438,127 @@ def _ms_after(origin_ns: int) -> Callable[[int], str]:
     return lambda at_ns: f"{(at_ns - origin_ns) / 1e6:+.0f} ms"
 
 
+def run_failover(args: argparse.Namespace) -> int:
+    """``failover``: ``--runs`` fault runs, each on a fresh site; 0 when every one was safe
+    and recovered with no service restarted."""
+    cell = load_cell(args.config)
+    results = []
+    for run in range(1, args.runs + 1):
+        print(f"--- run {run} of {args.runs}", flush=True)
+        with tempfile.TemporaryDirectory(prefix="motocell-failover-") as directory:
+            results.append(_failover_run(cell, args.config, Path(directory)))
+    print(f"failover: {sum(results)} of {len(results)} runs safe and recovered")
+    return 0 if all(results) else 1
+
+
+def _failover_run(cell: Cell, config: str, directory: Path) -> bool:
+    credentials = directory / "credentials"
+    made = subprocess.run(
+        [*MOTOCELL, "credentials", str(credentials), "--config", config, "--tls"],
+        capture_output=True,
+        check=False,
+    )
+    if made.returncode != 0:
+        raise OSError(made.stderr.decode().strip())
+    endpoints = [f"tls/{HOST}:{free_port(HOST)}" for _ in range(2)]
+    site = [SiteCell(cell.name, len(cell.groups))]
+    with contextlib.ExitStack() as stack:
+        routers = []
+        for index, endpoint in enumerate(endpoints):
+            # The second router connects to the first, which the services use until it dies.
+            settings = site_router_settings(credentials, site, [endpoint], endpoints[:index])
+            config_file = directory / f"router-{index}.json5"
+            write_private(config_file, json.dumps(settings))
+            routers.append(
+                stack.enter_context(_process([*MOTOCELL, "router", "--config", str(config_file)]))
+            )
+        port_base = free_port_block(3, HOST)
+        joined = [option for endpoint in endpoints for option in ("--zenoh-connect", endpoint)]
+        launcher = stack.enter_context(
+            _process(
+                [
+                    *LAUNCHER,
+                    "--config",
+                    config,
+                    "--port-base",
+                    str(port_base),
+                    *joined,
+                    "--credentials",
+                    str(credentials),
+                ]
+            )
+        )
+        wait_for_whole_cell(HOST, port_base, ByteOrder(cell.byte_order), FAULT_WAIT_S)
+        services = descendants(launcher.pid)
+        observer = load(credentials, cell.name, Identity(Role.OBSERVER))
+        session = open_session("client", endpoints[::-1], credentials=observer)
+        stack.callback(session.close)
+        recorder = Recorder(session, CellKeys(cell.name))
+        stack.callback(recorder.close)
+        signals = directory / "signals"
+        signals.mkdir()
+        killed: list[int] = []
+        agent = threading.Thread(target=_kill_on_request, args=(routers[0], signals, killed))
+        agent.start()
+        try:
+            safe = fault_run(cell, HOST, port_base, recorder, signals)
+        finally:
+            agent.join()
+        restarted = services - descendants(launcher.pid)
+        whole_s = _whole_again_s(recorder, killed[0]) if killed else None
+        said = "never" if whole_s is None else f"{whole_s:.2f} s after the router's death"
+        print(f"whole again:      {said} (the controller's status: no service missing)")
+        print(f"services restarted: {len(restarted)}")
+        return safe and not restarted and whole_s is not None and whole_s <= WHOLE_WITHIN_S
+
+
+def _kill_on_request(router: subprocess.Popen[bytes], signals: Path, killed: list[int]) -> None:
+    """The fault: the first router killed (SIGKILL, when) when the client asks, and nothing
+    to wait for after: the other router already serves."""
+    deadline = time.monotonic() + FAULT_WAIT_S
+    while not (signals / "begin").exists():
+        if time.monotonic() > deadline:
+            return
+        time.sleep(0.005)
+    router.kill()
+    killed.append(time.monotonic_ns())
+    (signals / "end").touch()
+
+
+def _whole_again_s(recorder: Recorder, killed_ns: int) -> float | None:
+    """Seconds from ``killed_ns`` to the first controller status, after the last one that
+    missed a service, that misses none (as the observer received it); None if none did."""
+    decoder = Decoder(ControllerStatus)
+    statuses = [
+        (at, decoder.decode(raw)) for at, raw in recorder.statuses.between(killed_ns, 2**63)
+    ]
+    missing = [index for index, (_, status) in enumerate(statuses) if status.missing_services]
+    if missing:
+        first, last = statuses[missing[0]], statuses[missing[-1]]
+        print(
+            f"services missing: {len(missing)} statuses, from {(first[0] - killed_ns) / 1e6:+.0f}"
+            f" to {(last[0] - killed_ns) / 1e6:+.0f} ms ({', '.join(first[1].missing_services)})"
+        )
+    after = statuses[missing[-1] + 1 :] if missing else statuses
+    return (after[0][0] - killed_ns) / 1e9 if after else None
+
+
+@contextlib.contextmanager
+def _process(command: list[str]) -> Iterator[subprocess.Popen[bytes]]:
+    """``command`` running, quiet, and stopped (SIGTERM, then SIGKILL) at the end."""
+    env = {**os.environ, "MOTOCELL_LOG": "WARNING"}
+    process = subprocess.Popen(command, env=env)
+    try:
+        yield process
+    finally:
+        process.terminate()
+        try:
+            process.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+
+
 def run_drive(args: argparse.Namespace) -> int:
     """``drive``, with what stopped it (the bus, a port, a deadline) said in one line."""
     try:
@@ -476,7 +611,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     client.add_argument(
         "--signals", type=Path, metavar="DIR", help="with --fault: begin and end files"
     )
+    failover = commands.add_parser("failover", help="a router of a mesh killed, measured")
+    failover.add_argument("--config", default="single-arm", help="the cell file")
+    failover.add_argument("--runs", type=int, default=3)
     args = parser.parse_args(argv)
+    if args.command == "failover":
+        return run_failover(args)
     if args.command == "router-config":
         write_router_config(args.config, args.listen, args.credentials, args.out)
         return 0

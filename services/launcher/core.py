@@ -67,11 +67,15 @@ def services_here(cell: Cell, skip: Sequence[str]) -> list[ServiceName]:
 
 
 def child_specs(
-    services: Sequence[ServiceName], options: UpOptions, endpoint: str, python: Sequence[str]
+    services: Sequence[ServiceName],
+    options: UpOptions,
+    endpoints: Sequence[str],
+    python: Sequence[str],
 ) -> list[ChildSpec]:
-    """The command lines of ``services``, each connecting to Zenoh at ``endpoint``.
-    ``python`` runs a module (``[sys.executable, "-m"]``)."""
-    common = ["--zenoh-connect", endpoint]
+    """The command lines of ``services``, each connecting to Zenoh at ``endpoints`` (several:
+    the routers of a site's mesh, any one of which serves). ``python`` runs a module
+    (``[sys.executable, "-m"]``)."""
+    common = [option for endpoint in endpoints for option in ("--zenoh-connect", endpoint)]
     if options.config:
         common += ["--config", options.config]
     if options.name:

@@ -126,7 +126,8 @@ def _hint(exc: Exception, args: argparse.Namespace) -> str:
 
 @dataclass(frozen=True)
 class CellBus:
-    endpoint: str
+    endpoints: list[str]
+    """Where its services connect: its router, or every router it was told to join."""
     credentials: Path | None
     session: zenoh.Session
     """The launcher's own: its router, or an observer's session on the router it joined."""
@@ -175,7 +176,7 @@ def _cell_bus(
                 write_passwords(credentials, cell.name, cell_identities(len(cell.groups)))
             session = open_cell_router(cell, listen, connect, credentials)
         try:
-            yield CellBus(listen[0], credentials, session)
+            yield CellBus(listen, credentials, session)
         finally:
             session.close()
     finally:
@@ -210,7 +211,7 @@ def run_children(
         port_base=None if args.port_base is None else this_host.port_base,
         byte_order=args.byte_order,
     )
-    specs = child_specs(this_host.services, options, bus.endpoint, [sys.executable, "-m"])
+    specs = child_specs(this_host.services, options, bus.endpoints, [sys.executable, "-m"])
     children = [Child(spec) for spec in specs]
     skipped = set(map(str, cell_services(cell))) - {spec.name for spec in specs}
     if skipped:
@@ -228,7 +229,7 @@ def run_children(
         keys,
         this_host.host,
         this_host.ports,
-        f"cell {cell.name} ready: {this_host.describe()}; Zenoh {bus.endpoint} ({security})",
+        f"cell {cell.name} ready: {this_host.describe()}; Zenoh {bus.endpoints[0]} ({security})",
     )
     notice = RealtimeNotice(
         bus.session,

@@ -47,6 +47,10 @@ RECEIVING: dict[Op, tuple[tuple[str, tuple[str, ...]], ...]] = {
 }
 ANY_CELL = "*"
 """The cell level of a key expression that matches every cell."""
+SITE_OBSERVER = "site.observer"
+"""The site observer's username and certificate common name: it watches every cell."""
+SITE_ROUTER = "site.router"
+"""What a router of a site's mesh logs in as to the others."""
 MESSAGES = (
     ("put", "delete", "declare_subscriber"),
     ("query", "reply", "declare_queryable"),
@@ -149,6 +153,9 @@ class Party:
 
     name: str
     rules: tuple[Rule, ...]
+    certificate_only: bool = False
+    """Known by its certificate alone: a router this one connected to, whose server
+    certificate is all it shows (it logs in to no one)."""
 
 
 def cell_parties(cell: str, identities: Iterable[Identity]) -> list[Party]:
@@ -164,19 +171,19 @@ def site_observer(name: str) -> Party:
     return Party(name, tuple(_rules_for(ANY_CELL, Identity(Role.OBSERVER))))
 
 
-def router_link(name: str) -> Party:
+def router_links(name: str, router_certificate: str) -> list[Party]:
     """Another router of the site's mesh: every message both ways on every cell's keys. Each
     router filters its own clients by the same rules, so what a router passes on was allowed
-    where it came in."""
+    where it came in. A router that connected here logs in as ``name`` with its client
+    certificate; one this router connected to shows only its server certificate, whose common
+    name is ``router_certificate`` (a server certificate cannot log in as a client)."""
     everything = tuple(kind for kinds in MESSAGES for kind in kinds)
-    return Party(
-        name,
-        tuple(
-            (flow, everything, f"{root}/**")
-            for flow in (INGRESS, EGRESS)
-            for root in (ROOT, ALIVE_ROOT)
-        ),
+    rules = tuple(
+        (flow, everything, f"{root}/**")
+        for flow in (INGRESS, EGRESS)
+        for root in (ROOT, ALIVE_ROOT)
     )
+    return [Party(name, rules), Party(router_certificate, rules, certificate_only=True)]
 
 
 def access_control(parties: Iterable[Party], *, certificates: bool) -> dict[str, Any]:
@@ -186,7 +193,9 @@ def access_control(parties: Iterable[Party], *, certificates: bool) -> dict[str,
     subjects: list[dict[str, Any]] = []
     policies: list[dict[str, Any]] = []
     for party in parties:
-        subject: dict[str, Any] = {"id": party.name, "usernames": [party.name]}
+        subject: dict[str, Any] = {"id": party.name}
+        if not party.certificate_only:
+            subject["usernames"] = [party.name]
         if certificates:
             subject["cert_common_names"] = [party.name]
         subjects.append(subject)

@@ -20,9 +20,9 @@ import pytest
 import zenoh
 
 from motocell.shared import registry
-from motocell.shared.bus.access import Identity, cell_identities
+from motocell.shared.bus.access import SITE_OBSERVER, Identity, cell_identities
 from motocell.shared.bus.catalog import Role
-from motocell.shared.bus.credentials import load, write_passwords
+from motocell.shared.bus.credentials import add_passwords, load, write_passwords
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.router import router_settings, zenoh_config
 from motocell.shared.bus.schemas import CommandReply, ServiceInfo, encode
@@ -155,6 +155,13 @@ def test_with_nothing_running_ps_says_so_and_the_others_fail(
 def test_arguments_that_cannot_name_one_bus_are_refused(argv: list[str], problem: str) -> None:
     with pytest.raises(TargetError, match=re.escape(problem)):
         cells.targets(build_parser().parse_args(["ps", *argv]))
+
+
+def test_a_sites_credentials_watch_every_cell_of_its_router(tmp_path: Path) -> None:
+    """With the site observer's password there, --credentials needs no --cell (docs/site.md)."""
+    add_passwords(tmp_path, [SITE_OBSERVER])
+    argv = ["ps", "--zenoh-connect", "tcp/h:1", "--credentials", str(tmp_path)]
+    assert cells.targets(build_parser().parse_args(argv)) == [Target("tcp/h:1", (), tmp_path)]
 
 
 def test_an_explicit_router_is_joined_as_told() -> None:

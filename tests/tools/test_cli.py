@@ -191,7 +191,7 @@ def test_abbreviated_options_are_refused(capsys: pytest.CaptureFixture[str]) -> 
 
 
 EVERY_COMMAND = ["up", "fault", "ps", "watch", "echo", "hz", "record", "view", "plot", "bench"]
-EVERY_COMMAND += ["credentials", "service", "router", "demo"]
+EVERY_COMMAND += ["credentials", "site", "service", "router", "demo"]
 
 
 @pytest.mark.parametrize("command", [[], *([c] for c in EVERY_COMMAND)])

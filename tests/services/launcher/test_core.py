@@ -3,6 +3,8 @@ and the restart policy. No process is started; time is passed in."""
 
 from __future__ import annotations
 
+import itertools
+
 import pytest
 
 from motocell.services.launcher.core import (
@@ -39,12 +41,21 @@ DUAL = parse_cell(
 def specs(
     cell: Cell = ONE_ARM, options: UpOptions | None = None, skip: tuple[str, ...] = ()
 ) -> dict[str, ChildSpec]:
-    chosen = child_specs(services_here(cell, skip), options or UpOptions(), ENDPOINT, PYTHON)
+    chosen = child_specs(services_here(cell, skip), options or UpOptions(), [ENDPOINT], PYTHON)
     return {spec.name: spec for spec in chosen}
 
 
 def argv(cell: Cell = ONE_ARM, name: str = "controller/0") -> list[str]:
     return list(specs(cell)[name].argv)
+
+
+def test_every_router_joined_is_given_to_every_service() -> None:
+    """A site's mesh: a service fails over to another router of it (docs/site.md)."""
+    routers = ["tls/a:7447", "tls/b:7447"]
+    chosen = child_specs(services_here(ONE_ARM, ()), UpOptions(), routers, PYTHON)
+    for spec in chosen:
+        joined = [b for a, b in itertools.pairwise(spec.argv) if a == "--zenoh-connect"]
+        assert joined == routers, spec.name
 
 
 # -- which children -----------------------------------------------------------------------

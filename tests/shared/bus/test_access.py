@@ -20,7 +20,7 @@ from motocell.shared.bus.access import (
     access_control,
     cell_identities,
     cell_parties,
-    router_link,
+    router_links,
     site_observer,
 )
 from motocell.shared.bus.catalog import Role
@@ -74,10 +74,15 @@ def test_a_site_observer_watches_every_cell_and_acts_on_nothing() -> None:
 
 
 def test_a_router_of_the_mesh_passes_everything_on_every_cell() -> None:
-    config = access_control([router_link("site.router")], certificates=True)
-    for flow in ("ingress", "egress"):
-        for message in ("put", "query", "reply", "liveliness_token", "declare_subscriber"):
-            assert allowed(config, "site.router", flow, message) == {"motocell/**", "@motocell/**"}
+    config = access_control(router_links("site.router", "lab.router"), certificates=True)
+    for name in ("site.router", "lab.router"):
+        for flow in ("ingress", "egress"):
+            for message in ("put", "query", "reply", "liveliness_token", "declare_subscriber"):
+                assert allowed(config, name, flow, message) == {"motocell/**", "@motocell/**"}
+    subjects = {subject["id"]: subject for subject in config["subjects"]}
+    assert subjects["site.router"]["usernames"] == ["site.router"]
+    # A router this one connected to shows its server certificate and logs in as no one.
+    assert subjects["lab.router"] == {"id": "lab.router", "cert_common_names": ["lab.router"]}
 
 
 def test_an_interpolator_sends_only_on_its_own_group() -> None:

@@ -188,5 +188,6 @@ def test_a_certificate_or_a_password_alone_is_refused(bus: Bus, alone: str) -> N
         only = Credentials("", "", gateway.ca, gateway.certificate, gateway.key)
     else:
         only = Credentials(gateway.user, gateway.password, gateway.ca)
-    with pytest.raises(ConnectionError, match="refused"):
+    # What the refusal says is the session's (shared/bus/session.py); that it is refused is ours.
+    with pytest.raises(ConnectionError):
         join(bus.endpoint, only)

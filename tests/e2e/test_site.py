@@ -1,0 +1,179 @@
+"""One router for a site's cells (issue 24, item 5): three secured cells on one TLS router
+that `motocell site` configured, each cell's services joined with the site's credentials.
+
+Each cell moves its robot exactly; every identity of one cell is refused on every key of
+another (its puts change nothing there, its subscription, queries and liveliness get nothing);
+the site observer sees all three cells with `motocell ps` and `motocell watch`. The cells are
+shared by the module's tests: each test checks its own effect on a cell the others leave at
+rest.
+"""
+
+from __future__ import annotations
+
+import subprocess
+from collections.abc import Callable, Iterator
+from contextlib import ExitStack
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+import zenoh
+
+from motocell.shared.bus.access import SITE_OBSERVER, Identity, cell_identities
+from motocell.shared.bus.credentials import load, load_user
+from motocell.shared.bus.schemas import ControllerStatus
+from motocell.shared.bus.session import open_session
+from motocell.shared.ports import free_port
+from motocell.shared.protocol.constants import Command, Result
+from motocell.testkit.cell import RunningCell, SampleLog, TickLog, running_cell, zenoh_router
+from motocell.testkit.processes import wait_until
+from motocell.tools.demo import drive
+from tests.e2e.conftest import START_DEADLINE_S, TEST_CELLS
+from tests.e2e.test_bus_security import assert_untouched, attack
+
+pytestmark = pytest.mark.cell
+
+Motocell = Callable[..., subprocess.CompletedProcess[str]]
+CELL_FILES = ("single-arm", "fs100", str(TEST_CELLS / "ideal-servo.toml"))
+"""Three one-group cells (cell1, fs100, ideal): the lightest the machine can run at once."""
+DEADLINE_S = 60.0
+"""For what an idle machine does at once: a bound for a hang, not a speed."""
+SAMPLES_SEEN = 2
+"""Statuses the site observer must see after a foreign subscription was declared: the foreign
+subscriber had as long to receive them."""
+
+
+@dataclass
+class Site:
+    credentials: Path
+    endpoint: str
+    cells: list[RunningCell]
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory: pytest.TempPathFactory, motocell: Motocell) -> Iterator[Site]:
+    """Credentials for the three cells under one CA, the router `motocell site` writes for
+    them, and the three cells joined to it."""
+    directory = tmp_path_factory.mktemp("site") / "credentials"
+    for index, config in enumerate(CELL_FILES):
+        tls = ["--tls", "--host", "127.0.0.1"] if index == 0 else []
+        made = motocell("credentials", str(directory), "--config", config, *tls)
+        assert made.returncode == 0, made.stderr
+    endpoint = f"tls/127.0.0.1:{free_port()}"
+    config_file = directory.parent / "router.json5"
+    options = [arg for config in CELL_FILES for arg in ("--config", config)]
+    written = motocell(
+        "site", str(directory), *options, "--listen", endpoint, "--out", str(config_file)
+    )
+    assert written.returncode == 0, written.stderr
+    with ExitStack() as stack:
+        stack.enter_context(zenoh_router(config_file=config_file))
+        cells = [
+            stack.enter_context(
+                running_cell(
+                    config,
+                    router=endpoint,
+                    credentials=directory,
+                    timeout=START_DEADLINE_S,
+                    attempts=2,
+                )
+            )
+            for config in CELL_FILES
+        ]
+        yield Site(directory, endpoint, cells)
+
+
+def test_each_cell_of_the_site_moves_its_robot_exactly(site: Site) -> None:
+    for cell in site.cells:
+        status = drive(
+            cell.cell, cell.host, cell.port_base, byte_order=cell.byte_order, points=8, duration=1.0
+        )
+        assert status == 0, f"cell {cell.cell.name} did not arrive exactly"
+
+
+def test_every_identity_of_one_cell_gets_nothing_of_another(site: Site) -> None:
+    one, other = site.cells[0], site.cells[1]
+    watcher = open_session(
+        "client",
+        [site.endpoint],
+        wait=False,
+        credentials=load_user(site.credentials, SITE_OBSERVER),
+    )
+    ticks = TickLog(watcher, other.keys)
+    try:
+        with other.motion() as motion:
+            # Motion-ready, as a driver leaves it: an attack that dropped it would show.
+            assert motion.command(Command.START_TRAJ_MODE).result == Result.SUCCESS
+        for identity in cell_identities(len(one.cell.groups)):
+            foreign = open_session(
+                "client",
+                [site.endpoint],
+                wait=False,
+                credentials=load(site.credentials, one.cell.name, identity),
+            )
+            try:
+                _refused_everything(foreign, other, watcher, identity)
+                mark = len(ticks)
+                attack(foreign, other)
+                assert_untouched(other, ticks, watcher, mark)
+            finally:
+                foreign.close()
+    finally:
+        ticks.subscriber.undeclare()
+        watcher.close()
+
+
+def _refused_everything(
+    foreign: zenoh.Session, other: RunningCell, watcher: zenoh.Session, identity: Identity
+) -> None:
+    """``foreign`` subscribes to all of ``other``'s keys and tokens, declares a token among
+    them and asks every service there who it is: nothing comes, while the site observer, doing
+    the same alongside, gets each."""
+    keys = other.keys
+    samples: list[str] = []
+    subscriber = foreign.declare_subscriber(
+        f"{keys.prefix}/**", lambda sample: samples.append(str(sample.key_expr))
+    )
+    tokens: list[str] = []
+    token_subscriber = foreign.liveliness().declare_subscriber(
+        f"@motocell/{other.cell.name}/**",
+        lambda sample: tokens.append(str(sample.key_expr)),
+        history=True,
+    )
+    planted_key = keys.alive("gateway", "9")
+    planted = foreign.liveliness().declare_token(planted_key)
+    seen = SampleLog(watcher, keys.controller_status, ControllerStatus)
+    try:
+        wait_until(lambda: len(seen) >= SAMPLES_SEEN, DEADLINE_S, "the site observer's statuses")
+        who = f"{identity.name} of the other cell"
+        assert not samples, f"{who} received {other.cell.name}'s samples"
+        # Its own token reaches its own subscriber inside the session, never the router.
+        assert not [key for key in tokens if key != planted_key], (
+            f"{who} saw {other.cell.name}'s liveliness tokens"
+        )
+        info = keys.service_info("controller", "0")
+        assert not [r for r in foreign.get(info, timeout=2.0) if r.ok], f"{who} was answered"
+        assert [r for r in watcher.get(info, timeout=DEADLINE_S) if r.ok], "no answer at all"
+        alive = watcher.liveliness().get(keys.alive_all, timeout=DEADLINE_S)
+        names = {str(reply.ok.key_expr) for reply in alive if reply.ok}
+        assert keys.alive("controller", "0") in names, names
+        assert planted_key not in names, f"{who} planted a token"
+    finally:
+        seen.subscriber.undeclare()
+        subscriber.undeclare()
+        token_subscriber.undeclare()
+        planted.undeclare()
+
+
+def test_the_site_observer_sees_every_cell_with_ps_and_watch(
+    site: Site, motocell: Motocell
+) -> None:
+    where = ["--zenoh-connect", site.endpoint, "--credentials", str(site.credentials)]
+    listed = motocell("ps", *where)
+    assert listed.returncode == 0, listed.stderr
+    watched = motocell("watch", "--count", "1", *where, timeout=60.0)
+    assert watched.returncode == 0, watched.stderr
+    for cell in site.cells:
+        name = cell.cell.name
+        assert f"{name} " in listed.stdout or f" {name}" in listed.stdout, listed.stdout
+        assert f"cell {name}" in watched.stdout, watched.stdout
