@@ -8,6 +8,7 @@ every 10 ms, the simulated controller only when something can have changed.
 
 from __future__ import annotations
 
+import threading
 import time
 
 import msgspec
@@ -62,6 +63,23 @@ class ControllerService:
         ]
 
     def run(self) -> None:
+        # The loop sleeps in the inbox up to a heartbeat (1 s at rest), and a signal handler
+        # must not touch the inbox's lock (shared.service.StopFlag), so a thread of its own
+        # turns the stop into an inbox item: the controller stops at once, not a second later,
+        # which the launcher waits for before it stops the others.
+        stop_watch = threading.Thread(target=self._wake_on_stop, name="stop-watch")
+        stop_watch.start()
+        try:
+            self._loop()
+        finally:
+            self.ctx.stop.set()  # on an error too: it ends the stop watch
+            stop_watch.join()
+
+    def _wake_on_stop(self) -> None:
+        self.ctx.stop.wait()
+        self.inbox.put("stop", None)
+
+    def _loop(self) -> None:
         dispatcher = self.dispatcher
         dispatcher.services_present(self.alive.present())
         while not self.ctx.stop.is_set():
@@ -96,6 +114,8 @@ class ControllerService:
         dispatcher = self.dispatcher
         now = time.monotonic()
         try:
+            if tag == "stop":
+                return
             if tag == "alive":
                 dispatcher.services_present(self.alive.present())
             elif tag == "connections":
