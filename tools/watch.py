@@ -505,13 +505,39 @@ class Buses:
 def add_arguments(watch: argparse.ArgumentParser) -> None:
     """The options of ``motocell watch`` (``tools.cli`` names the command)."""
     cells.add_arguments(watch, several=True)
-    watch.add_argument("--interval", type=float, default=0.5, help="seconds between refreshes")
+    watch.add_argument(
+        "--interval", type=_interval, default=0.5, help="seconds between refreshes (>= 0.05)"
+    )
     watch.add_argument(
         "--count",
-        type=int,
+        type=_count,
         help="stop after this many refreshes (--count 1: one complete snapshot)",
     )
     watch.set_defaults(run=run_watch)
+
+
+MIN_INTERVAL_S = 0.05
+"""Faster than a terminal is read; --interval 0 would redraw in a busy loop."""
+
+
+def _interval(text: str) -> float:
+    try:
+        seconds = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not seconds >= MIN_INTERVAL_S:  # NaN too
+        raise argparse.ArgumentTypeError(f"{text} s is too short: at least {MIN_INTERVAL_S}")
+    return seconds
+
+
+def _count(text: str) -> int:
+    try:
+        count = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if count < 1:
+        raise argparse.ArgumentTypeError(f"{text}: at least 1 refresh (1: one snapshot)")
+    return count
 
 
 def run_watch(args: argparse.Namespace) -> int:

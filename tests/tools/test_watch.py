@@ -6,6 +6,7 @@ a router instead of exiting (as processes, ended with Ctrl-C)."""
 
 from __future__ import annotations
 
+import argparse
 import os
 import signal
 import subprocess
@@ -32,7 +33,7 @@ from motocell.shared.ports import free_port
 from motocell.shared.protocol.constants import NotReadySubcode
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
 from motocell.shared.service import StopFlag
-from motocell.tools.watch import STALE_S, Watcher, render
+from motocell.tools.watch import STALE_S, Watcher, add_arguments, render
 from tests.statuses import ready_status
 
 KEYS = CellKeys("arm")
@@ -256,3 +257,22 @@ def test_watch_refuses_a_cell_name_not_running_at_once(tmp_path: Path) -> None:
     )
     assert result.returncode == 2
     assert result.stderr.startswith("motocell watch: no cell named arm is running here")
+
+
+@pytest.mark.parametrize("option", [["--interval", "0"], ["--interval", "nan"], ["--count", "0"]])
+def test_an_interval_or_count_that_would_spin_or_show_nothing_is_refused(
+    option: list[str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    parser = argparse.ArgumentParser(prog="motocell watch")
+    add_arguments(parser)
+    with pytest.raises(SystemExit) as exit_:
+        parser.parse_args(option)
+    assert exit_.value.code == 2
+    assert option[1] in capsys.readouterr().err
+
+
+def test_a_sensible_interval_and_count_are_taken() -> None:
+    parser = argparse.ArgumentParser(prog="motocell watch")
+    add_arguments(parser)
+    args = parser.parse_args(["--interval", "0.2", "--count", "1"])
+    assert (args.interval, args.count) == (0.2, 1)
