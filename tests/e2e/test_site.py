@@ -10,9 +10,11 @@ rest.
 
 from __future__ import annotations
 
+import os
 import subprocess
+import tempfile
 from collections.abc import Callable, Iterator
-from contextlib import ExitStack
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -23,13 +25,27 @@ from motocell.shared.bus.access import SITE_OBSERVER, Identity, cell_identities
 from motocell.shared.bus.credentials import load, load_user
 from motocell.shared.bus.schemas import ControllerStatus
 from motocell.shared.bus.session import open_session
+from motocell.shared.config import load_cell
 from motocell.shared.ports import free_port
+from motocell.shared.protocol.codec import ByteOrder
 from motocell.shared.protocol.constants import Command, Result
-from motocell.testkit.cell import RunningCell, SampleLog, TickLog, running_cell, zenoh_router
+from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
+from motocell.testkit.cell import (
+    LAUNCHER,
+    ROUTER,
+    STOP_TIMEOUT_S,
+    RunningCell,
+    SampleLog,
+    TickLog,
+    running_cell,
+    wait_for_whole_cell,
+    zenoh_router,
+)
 from motocell.testkit.processes import wait_until
 from motocell.tools.demo import drive
 from tests.e2e.conftest import START_DEADLINE_S, TEST_CELLS
 from tests.e2e.test_bus_security import assert_untouched, attack
+from tests.e2e.test_scaling import other_host
 
 pytestmark = pytest.mark.cell
 
@@ -38,6 +54,10 @@ CELL_FILES = ("single-arm", "fs100", str(TEST_CELLS / "ideal-servo.toml"))
 """Three one-group cells (cell1, fs100, ideal): the lightest the machine can run at once."""
 DEADLINE_S = 60.0
 """For what an idle machine does at once: a bound for a hang, not a speed."""
+IN_NAMESPACE = ("ip", "netns", "exec")
+ROUTER_PORT = 7447
+PORT_BASE = 50240
+"""Host B is a namespace of the test's own: nothing else listens there."""
 SAMPLES_SEEN = 2
 """Statuses the site observer must see after a foreign subscription was declared: the foreign
 subscriber had as long to receive them."""
@@ -177,3 +197,85 @@ def test_the_site_observer_sees_every_cell_with_ps_and_watch(
         name = cell.cell.name
         assert f"{name} " in listed.stdout or f" {name}" in listed.stdout, listed.stdout
         assert f"cell {name}" in watched.stdout, watched.stdout
+
+
+def test_two_cells_on_a_two_router_mesh_across_hosts_each_move_exactly(
+    tmp_path: Path, motocell: Motocell, network_namespaces: None
+) -> None:
+    """Host A (this namespace) runs router A and cell1; host B (a network namespace) runs
+    router B, linked to A, and the ideal cell. Each cell moves exactly, and the site observer
+    on router A sees both: cell ideal's traffic crosses the mesh."""
+    config_a, config_b = CELL_FILES[0], CELL_FILES[2]
+    with ExitStack() as stack:
+        namespace, ours, theirs = stack.enter_context(other_host())
+        directory = tmp_path / "credentials"
+        for config, tls in (
+            (config_a, ["--tls", "--host", ours, "--host", theirs]),
+            (config_b, []),
+        ):
+            made = motocell("credentials", str(directory), "--config", config, *tls)
+            assert made.returncode == 0, made.stderr
+        router_a, router_b = f"tls/{ours}:{free_port()}", f"tls/{theirs}:{ROUTER_PORT}"
+        both = ["--config", config_a, "--config", config_b]
+        for name, listen, connect in (
+            ("a", router_a, []),
+            ("b", router_b, ["--connect", router_a]),
+        ):
+            out = tmp_path / f"router-{name}.json5"
+            written = motocell(
+                "site", str(directory), *both, "--listen", listen, *connect, "--out", str(out)
+            )
+            assert written.returncode == 0, written.stderr
+        stack.enter_context(zenoh_router(config_file=tmp_path / "router-a.json5"))
+        there = [*IN_NAMESPACE, namespace]
+        stack.enter_context(
+            _running([*there, *ROUTER, "--config", str(tmp_path / "router-b.json5")])
+        )
+        here = stack.enter_context(
+            running_cell(config_a, router=router_a, credentials=directory, timeout=START_DEADLINE_S)
+        )
+        runtime = stack.enter_context(
+            tempfile.TemporaryDirectory(prefix=f"motocell-cell-{os.getpid()}-")
+        )
+        launcher = [
+            *LAUNCHER,
+            "--config",
+            config_b,
+            "--host",
+            theirs,
+            "--port-base",
+            str(PORT_BASE),
+        ]
+        launcher += ["--zenoh-connect", router_b, "--credentials", str(directory)]
+        stack.enter_context(_running([*there, *launcher], {RUNTIME_DIR_ENV: runtime}))
+        ideal = load_cell(config_b)
+        wait_for_whole_cell(theirs, PORT_BASE, ByteOrder(ideal.byte_order), START_DEADLINE_S)
+        for cell, host, port_base in (
+            (here.cell, here.host, here.port_base),
+            (ideal, theirs, PORT_BASE),
+        ):
+            status = drive(
+                cell, host, port_base, byte_order=ByteOrder(cell.byte_order), points=8, duration=1.0
+            )
+            assert status == 0, f"cell {cell.name} did not arrive exactly"
+        listed = motocell("ps", "--zenoh-connect", router_a, "--credentials", str(directory))
+        assert listed.returncode == 0, listed.stderr
+        for name in (here.cell.name, ideal.name):
+            assert name in listed.stdout, listed.stdout
+
+
+@contextmanager
+def _running(command: list[str], env: dict[str, str] | None = None) -> Iterator[None]:
+    """``command`` running, quiet; stopped (SIGTERM, then SIGKILL) and reaped at the end."""
+    process = subprocess.Popen(
+        command, env={**os.environ, "MOTOCELL_LOG": "WARNING", **(env or {})}
+    )
+    try:
+        yield
+    finally:
+        process.terminate()
+        try:
+            process.wait(timeout=STOP_TIMEOUT_S)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
