@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import os
 import subprocess
+import sys
 import tempfile
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
@@ -58,6 +59,7 @@ IN_NAMESPACE = ("ip", "netns", "exec")
 ROUTER_PORT = 7447
 PORT_BASE = 50240
 """Host B is a namespace of the test's own: nothing else listens there."""
+FAILOVER = (sys.executable, "-m", "motocell.tools.multihost", "failover")
 SAMPLES_SEEN = 2
 """Statuses the site observer must see after a foreign subscription was declared: the foreign
 subscriber had as long to receive them."""
@@ -279,3 +281,23 @@ def _running(command: list[str], env: dict[str, str] | None = None) -> Iterator[
         except subprocess.TimeoutExpired:
             process.kill()
             process.wait()
+
+
+def test_a_mesh_router_dying_stops_motion_safely_and_no_service_restarts() -> None:
+    """``multihost failover`` (docs/site.md, where its timings are measured): services given
+    both routers of a mesh, the one they use killed mid-trajectory and never restarted. Checked
+    here: the client is told, nothing moves after, no service restarts, and the cell moves
+    exactly again after START_TRAJ_MODE. How soon is the measurement's, not this test's."""
+    run = subprocess.run(
+        [*FAILOVER, "--runs", "1"], capture_output=True, text=True, timeout=120, check=False
+    )
+    report = {
+        name.strip(): value.strip()
+        for name, _, value in (line.partition(":") for line in run.stdout.splitlines())
+        if value
+    }
+    assert report.get("NOT_READY told", "never") != "never", run.stdout + run.stderr
+    assert report.get("moved after told", "").startswith("0 ticks"), run.stdout
+    assert report.get("services restarted") == "0", run.stdout
+    assert report.get("recovery", "").startswith("START_TRAJ_MODE -> SUCCESS"), run.stdout
+    assert report.get("new trajectory", "").startswith("20 of 20 points; 0 pulse(s)"), run.stdout
