@@ -26,7 +26,10 @@ The cases, each a cell of its own, started for the case:
    swinging 0.2 rad, points 0.2 s apart streamed like motoman_driver, as figure 7's cells),
    the state period at one tick (4 ms) and 4 state clients connected. The benchmark's observer
    of the ticks is closed before the windows (its subscription would be measured too); the
-   stream's record shows the robot still took points in every window.
+   stream's record shows the robot still took points in every window. As a diagnosis, the
+   executor's CPU per tick: all its threads, and its clock thread alone (the main thread, which
+   runs ``Clock.run``); the rest is Zenoh's threads, mostly the transmit thread each tick's put
+   wakes (docs/realtime.md, "The tick's cost").
 
 Goals, all processes of the cell together, median of the windows: (1) <= 3 % of one core,
 (2) <= 6 %, (3) <= 5 %, (4) <= 25 %. The measuring clients are processes of their own and not
@@ -37,7 +40,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -52,6 +55,7 @@ from motocell.bench.harness import (
     cost_by_kind,
     figure_result,
     process_kinds,
+    thread_usage,
     total,
     workdir,
     write_cell_file,
@@ -127,6 +131,9 @@ class Measured:
     client: list[Window]
     client_deviation: list[float]
     client_rate: list[float]
+    moving_period_ns: int = 0
+    clock_share: list[float] = field(default_factory=list)
+    """Per moving window: the executor's clock thread's CPU time over the window's length."""
 
 
 def single_arm(directory: Path, count: int, seconds: float, settle: float, found: Measured) -> None:
@@ -178,8 +185,15 @@ def moving(directory: Path, count: int, seconds: float, settle: float, found: Me
     )
     try:
         kinds = process_kinds(cell.cell)
+        executor = next(pid for pid, kind in kinds.items() if kind == "executor")
         time.sleep(settle)
-        windows = [window(kinds, seconds) for _ in range(count)]
+        windows = []
+        for _ in range(count):
+            before = main_thread_ns(executor)
+            windows.append(window(kinds, seconds))
+            used = main_thread_ns(executor) - before
+            found.clock_share.append(used / (windows[-1].end_ns - windows[-1].start_ns))
+        found.moving_period_ns = cell.cell.cell.period_ns
     finally:
         record = cell.close()
     if record is None:
@@ -188,6 +202,12 @@ def moving(directory: Path, count: int, seconds: float, settle: float, found: Me
     if not all(took_points(record, windows)):
         raise RuntimeError(f"the moving cell stopped taking points: {took_points(record, windows)}")
     found.windows[MOVING.label] = windows
+
+
+def main_thread_ns(pid: int) -> int:
+    """CPU time of ``pid``'s main thread so far (0 once it is gone)."""
+    usage = thread_usage(pid).get(pid)
+    return 0 if usage is None else usage.cpu_ns
 
 
 def measure(quick: bool) -> Measured:
@@ -271,4 +291,26 @@ def run(quick: bool) -> list[dict[str, Any]]:
     ]
     results += case_results(IDLE_FOUR, found.windows[IDLE_FOUR.label])
     results += case_results(MOVING, found.windows[MOVING.label])
+    results += per_tick_results(found)
     return results
+
+
+def per_tick_results(found: Measured) -> list[dict[str, Any]]:
+    """The moving executor's CPU per tick (µs): all its threads, and its clock thread."""
+    period_us = found.moving_period_ns / 1000
+    executors = [cost_by_kind(w.rows)["executor"] for w in found.windows[MOVING.label]]
+    tag = f"[{MOVING.label}]"
+    return [
+        figure_result(
+            FIGURE,
+            f"{tag}   diagnosis: executor CPU per tick, all its threads",
+            "us",
+            [e.cpu_percent / 100 * period_us for e in executors],
+        ),
+        figure_result(
+            FIGURE,
+            f"{tag}   diagnosis: executor CPU per tick, its clock thread",
+            "us",
+            [share * period_us for share in found.clock_share],
+        ),
+    ]

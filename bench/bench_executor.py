@@ -19,7 +19,9 @@ The same runs give figure 6 (``bench.bench_state``).
 The servo model's share of a tick is measured apart, in this process with no cell: ``Servos.step``
 for the same 4 groups all moving, plus the feedback the tick report takes from it, timed per
 tick (``perf_counter_ns``); the figure-3 lateness above already includes it, since the cell runs
-the catalogue's position loops.
+the catalogue's position loops. So is the executor's whole tick path, after a sleep to each
+deadline as in the clock (``bench.tick_path``: the real core and outputs on a Zenoh session):
+CPU time per tick, in this process with no cell.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ import numpy as np
 
 from motocell.bench.harness import GROUP_MODELS, figure_result, percentiles
 from motocell.bench.loaded import loaded_runs
+from motocell.bench.tick_path import tick_path_us
 from motocell.shared.config import load_catalogue
 from motocell.shared.motion.servo import Servos
 from motocell.shared.protocol.constants import MAX_AXES
@@ -43,6 +46,8 @@ QUICK_SECONDS = 2.0
 P99_GOAL_US = 200.0
 SERVO_TICKS = 50_000
 QUICK_SERVO_TICKS = 10_000
+TICK_PATH_TICKS = 2_000
+QUICK_TICK_PATH_TICKS = 500
 SERVO_STEP_PULSES = 5
 """Every used axis moves this much a tick: the servo never rests, so no tick takes the shortcut
 of an axis at rest."""
@@ -85,6 +90,18 @@ def servo_results(quick: bool) -> list[dict[str, Any]]:
     ]
 
 
+def tick_path_results(quick: bool) -> list[dict[str, Any]]:
+    ticks = QUICK_TICK_PATH_TICKS if quick else TICK_PATH_TICKS
+    per_run = [percentiles(tick_path_us(ticks), (50, 99)) for _ in range(RUNS)]
+    where = f"{RUNS} x {ticks:,} ticks in-process, each after a sleep to its deadline"
+    return [
+        figure_result(
+            FIGURE, "executor tick path CPU per tick p50", "us", [p[0] for p in per_run], note=where
+        ),
+        figure_result(FIGURE, "executor tick path CPU per tick p99", "us", [p[1] for p in per_run]),
+    ]
+
+
 def run(quick: bool) -> list[dict[str, Any]]:
     runs = loaded_runs(*settings(quick))
     per_run: dict[str, list[float]] = {k: [] for k in ("p50", "p99", "p99.9", "max")}
@@ -111,4 +128,5 @@ def run(quick: bool) -> list[dict[str, Any]]:
         figure_result(FIGURE, "executor ticks observed", "ticks/s", ticks),
         figure_result(FIGURE, "executor tick samples lost (observer)", "gaps", gaps),
         *servo_results(quick),
+        *tick_path_results(quick),
     ]

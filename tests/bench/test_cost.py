@@ -7,7 +7,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from motocell.bench.bench_cost import Window, deviation_percent, rate_hz, took_points
+from motocell.bench.bench_cost import (
+    MOVING,
+    Measured,
+    Window,
+    deviation_percent,
+    per_tick_results,
+    rate_hz,
+    took_points,
+)
 from motocell.bench.clients import StreamRecord
 from motocell.bench.harness import (
     LogTail,
@@ -100,6 +108,15 @@ def record(accepted_ns: list[int]) -> StreamRecord:
 def test_a_moving_cell_took_points_in_every_window_it_moved() -> None:
     windows = [Window([], 0, 100), Window([], 100, 200), Window([], 200, 300)]
     assert took_points(record([50, 150, 0]), windows) == [True, True, False]
+
+
+def test_the_moving_executor_s_cpu_per_tick_counts_every_thread_and_its_clock_apart() -> None:
+    windows = [Window([cost("executor", 10.0), cost("gateway", 3.0)], 0, 1)]
+    found = Measured({MOVING.label: windows}, [], [], [], 4_000_000, [0.075])
+    every_thread, clock = per_tick_results(found)
+    assert every_thread["median"] == pytest.approx(400.0)  # 10 % of 4 ms
+    assert clock["median"] == pytest.approx(300.0)  # 7.5 % of 4 ms
+    assert "all its threads" in every_thread["name"] and "clock thread" in clock["name"]
 
 
 # -- the cell's log ------------------------------------------------------------------------------
