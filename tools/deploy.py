@@ -4,8 +4,8 @@ the cell ``compose.yaml`` runs, and a test fails when the file and the code disa
 
 The router listens on TLS only; services and observers present a password and their
 certificate (mutual TLS) from the credentials directory that ``motocell credentials --tls``
-writes and compose mounts. ``scripts/multihost`` runs its cell's router from the same settings
-(``secured_router_settings``), so the deployment is the one that test runs.
+writes and compose mounts. ``scripts/multihost`` runs its cell's router from ``motocell site``,
+whose settings come from the same ``shared.bus.router.secured_settings`` (docs/site.md).
 """
 
 from __future__ import annotations

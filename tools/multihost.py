@@ -1,8 +1,5 @@
 """The Python half of ``scripts/multihost``: what runs inside its hosts.
 
-- ``router-config`` writes the router configuration of a secured multi-host cell: compose's
-  (``tools.deploy.secured_router_settings``: TLS only, mutual TLS, passwords, the access
-  control of the key map) for this cell and endpoint.
 - ``failover`` measures a router's death on one machine: a site's two meshed routers
   (``tools.site``), a cell whose services and observer may use either, and the fault run below
   with the router the services use killed and never restarted (docs/site.md).
@@ -64,7 +61,6 @@ from motocell.testkit.client import (
 )
 from motocell.testkit.processes import descendants, wait_until
 from motocell.tools.demo import drive, goal_within
-from motocell.tools.deploy import secured_router_settings
 from motocell.tools.site import SiteCell, site_router_settings
 
 MOTOCELL = (sys.executable, "-m", "motocell.tools.cli")
@@ -94,11 +90,6 @@ WHOLE_WITHIN_S = 3.0
 FAULT_WAIT_S = 30.0
 """How long the client waits for the script to end the fault, and then for the cell to be
 whole again."""
-
-
-def write_router_config(config: str, listen: str, credentials: Path, out: Path) -> None:
-    settings = secured_router_settings(load_cell(config), listen, credentials)
-    out.write_text(json.dumps(settings, indent=2) + "\n")
 
 
 class Samples:
@@ -594,11 +585,6 @@ def _drive(args: argparse.Namespace) -> int:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m motocell.tools.multihost")
     commands = parser.add_subparsers(dest="command", required=True)
-    router = commands.add_parser("router-config", help="write a secured router's config")
-    router.add_argument("--config", required=True, help="the cell file (or a sample's name)")
-    router.add_argument("--listen", required=True, metavar="ENDPOINT", help="tls/HOST:PORT")
-    router.add_argument("--credentials", required=True, type=Path, metavar="DIR")
-    router.add_argument("--out", required=True, type=Path, metavar="FILE")
     client = commands.add_parser("drive", help="host C: the demo trajectory, measured")
     client.add_argument("--config", required=True)
     client.add_argument("--host", required=True, help="host A's address")
@@ -617,9 +603,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.command == "failover":
         return run_failover(args)
-    if args.command == "router-config":
-        write_router_config(args.config, args.listen, args.credentials, args.out)
-        return 0
     return run_drive(args)
 
 

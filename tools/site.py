@@ -137,7 +137,7 @@ def site_router_settings(
 def _router_common_name(directory: Path) -> str:
     """The common name of the site's router certificate: what a router of the mesh shows the
     routers that connect to it."""
-    from cryptography import x509  # noqa: PLC0415 (a mesh is a TLS site: see below)
+    from cryptography import x509  # noqa: PLC0415 (only a TLS site loads it)
     from cryptography.x509.oid import NameOID  # noqa: PLC0415
 
     certificate = x509.load_pem_x509_certificate((directory / ROUTER_CERTIFICATE).read_bytes())
