@@ -413,10 +413,11 @@ def _report_fault(
     refused = f"{streamed.refusal}, {after(streamed.refused_ns)}" if streamed.refusal else "no"
     print(f"refused:          {refused}")
     print(f"NOT_READY told:   {'never' if told is None else after(told)}")
-    if moving:
+    if len(moving) > 1:  # an observer that joined late may have seen a single moving tick
         pause = max(itertools.pairwise(moving), key=lambda pair: pair[1] - pair[0])
-        late = moving[-1] - (moving[0] + round(FAULT_DURATION_S * 1e9))
         print(f"longest pause:    from {after(pause[0])} to {after(pause[1])}")
+    if moving:
+        late = moving[-1] - (moving[0] + round(FAULT_DURATION_S * 1e9))
         print(f"motion ended:     {after(moving[-1])}, {late / 1e6:+.0f} ms against the plan")
     numbers = [tick.tick for tick in ticks]
     unseen = sum(b - a - 1 for a, b in itertools.pairwise(numbers))

@@ -28,10 +28,13 @@ from motocell.shared.bus.access import (
     router_links,
     site_observer,
 )
+from motocell.shared.bus.bundles import write_bundles
 from motocell.shared.bus.credentials import (
     CA_FILE,
+    Credentials,
     CredentialsError,
     add_passwords,
+    certificate_paths,
     load_user,
     password_path,
     write_private,
@@ -76,6 +79,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--out", required=True, type=Path, metavar="FILE", help="the router configuration"
     )
+    parser.add_argument(
+        "--files-at",
+        type=Path,
+        metavar="PATH",
+        help="where the router finds its files, if not in DIR: its bundle (DIR/bundles/router), "
+        f"merged with DIR/bundles/{SITE_ROUTER} for a router that --connects",
+    )
     parser.set_defaults(run=run)
 
 
@@ -95,7 +105,9 @@ def parse_cell(text: str) -> SiteCell:
 def run(args: argparse.Namespace) -> int:
     try:
         cells = [parse_cell(text) for text in args.config]
-        settings = site_router_settings(Path(args.credentials), cells, args.listen, args.connect)
+        settings = site_router_settings(
+            Path(args.credentials), cells, args.listen, args.connect, files_at=args.files_at
+        )
     except (ConfigError, CredentialsError, ValueError) as exc:
         print(f"motocell site: {exc}", file=sys.stderr)
         return 2
@@ -106,11 +118,17 @@ def run(args: argparse.Namespace) -> int:
 
 
 def site_router_settings(
-    directory: Path, cells: Sequence[SiteCell], listen: Sequence[str], connect: Sequence[str]
+    directory: Path,
+    cells: Sequence[SiteCell],
+    listen: Sequence[str],
+    connect: Sequence[str],
+    *,
+    files_at: Path | None = None,
 ) -> dict[str, Any]:
     """The router of ``cells`` with every identity in ``directory``; on a TLS listener mutual
-    TLS, each identity its password and certificate together. ValueError or CredentialsError
-    for what cannot be served."""
+    TLS, each identity its password and certificate together. The configuration names the
+    router's files in ``files_at`` (default ``directory``). ValueError or CredentialsError for
+    what cannot be served."""
     _check_cells(directory, cells)
     tls = any(endpoint.startswith("tls/") for endpoint in [*listen, *connect])
     if tls and not (directory / CA_FILE).is_file():
@@ -130,8 +148,13 @@ def site_router_settings(
     if tls:
         # Any TLS router of the site may be one a mesh's other routers connect to.
         parties += router_links(SITE_ROUTER, _router_common_name(directory))
-    link = load_user(directory, SITE_ROUTER) if connect else None
-    return secured_settings(listen, connect, parties, directory, mutual_tls=tls, link=link)
+    files = files_at or directory
+    link = None
+    if connect:
+        own = load_user(directory, SITE_ROUTER)
+        certificate, key = certificate_paths(files, SITE_ROUTER)
+        link = Credentials(own.user, own.password, certificate=certificate, key=key)
+    return secured_settings(listen, connect, parties, files, mutual_tls=tls, link=link)
 
 
 def _router_common_name(directory: Path) -> str:
@@ -176,10 +199,13 @@ def _add_site_identities(directory: Path, users: Sequence[str], tls: bool) -> No
         )
 
         authority = load_authority(directory)
-        for user in add_passwords(directory, users):
+        added = add_passwords(directory, users)
+        for user in added:
             issue_client_certificate(directory, user, authority)
     else:
-        add_passwords(directory, users)
+        added = add_passwords(directory, users)
+    if added:
+        write_bundles(directory)  # the new identities', and the router's with their passwords
 
 
 def report(args: argparse.Namespace, cells: Sequence[SiteCell]) -> str:

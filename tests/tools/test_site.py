@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 from motocell.shared.bus.access import SITE_OBSERVER, SITE_ROUTER, cell_identities
+from motocell.shared.bus.bundles import ROUTER_BUNDLE, bundle_path
 from motocell.shared.bus.certificates import issue_client_certificate, write_certificates
 from motocell.shared.bus.credentials import add_passwords, password_path, write_passwords
 from motocell.shared.bus.router import zenoh_config
@@ -99,3 +100,22 @@ def test_a_mesh_without_tls_is_refused(tmp_path: Path) -> None:
         site_router_settings(
             credentials(tmp_path, tls=False), CELLS, ["tcp/127.0.0.1:0"], ["tcp/127.0.0.1:1"]
         )
+
+
+def test_the_router_may_find_its_files_elsewhere_and_new_identities_get_bundles(
+    tmp_path: Path,
+) -> None:
+    """A router host has only its bundles (merged), at a path of its own."""
+    directory = credentials(tmp_path / "c", tls=True)
+    there = Path("/etc/motocell/credentials")
+    settings = site_router_settings(
+        directory, CELLS, ["tls/0.0.0.0:7447"], ["tls/b:7447"], files_at=there
+    )
+    assert settings["transport"]["auth"]["usrpwd"]["dictionary_file"] == str(there / "users")
+    tls = settings["transport"]["link"]["tls"]
+    assert tls["listen_certificate"] == str(there / "router.pem")
+    assert tls["connect_certificate"] == str(there / f"{SITE_ROUTER}.pem")
+    for user in (SITE_OBSERVER, SITE_ROUTER):
+        assert (bundle_path(directory, user) / f"{user}.pem").is_file()
+    router_users = (bundle_path(directory, ROUTER_BUNDLE) / "users").read_text()
+    assert f"{SITE_OBSERVER}:" in router_users and f"{SITE_ROUTER}:" in router_users
