@@ -189,6 +189,26 @@ def _refused_everything(
         planted.undeclare()
 
 
+def test_the_site_observer_acts_on_no_cell(site: Site) -> None:
+    """Every put, command and fault the bus-security test tries, by the site observer, on
+    each cell: nothing moves, no fault appears, motion-ready holds."""
+    observer = load_user(site.credentials, SITE_OBSERVER)
+    watcher = open_session("client", [site.endpoint], wait=False, credentials=observer)
+    try:
+        for cell in site.cells:
+            ticks = TickLog(watcher, cell.keys)
+            try:
+                with cell.motion() as motion:
+                    assert motion.command(Command.START_TRAJ_MODE).result == Result.SUCCESS
+                mark = len(ticks)
+                attack(watcher, cell)
+                assert_untouched(cell, ticks, watcher, mark)
+            finally:
+                ticks.subscriber.undeclare()
+    finally:
+        watcher.close()
+
+
 def test_the_site_observer_sees_every_cell_with_ps_and_watch(
     site: Site, motocell: Motocell
 ) -> None:
@@ -292,8 +312,9 @@ def _running(command: list[str], env: dict[str, str] | None = None) -> Iterator[
 def test_a_mesh_router_dying_stops_motion_safely_and_no_service_restarts() -> None:
     """``multihost failover`` (docs/site.md, where its timings are measured): services given
     both routers of a mesh, the one they use killed mid-trajectory and never restarted. Checked
-    here: the client is told, nothing moves after, no service restarts, and the cell moves
-    exactly again after START_TRAJ_MODE. How soon is the measurement's, not this test's."""
+    here: no service restarts; the client is told, nothing moves after, and the cell moves
+    exactly again after START_TRAJ_MODE; or, when the services were back before anything in
+    flight was lost, the trajectory goes on whole. How soon is the measurement's."""
     run = subprocess.run(
         [*FAILOVER, "--runs", "1"], capture_output=True, text=True, timeout=120, check=False
     )
@@ -303,7 +324,10 @@ def test_a_mesh_router_dying_stops_motion_safely_and_no_service_restarts() -> No
         if value
     }
     said = run.stdout + run.stderr[-3000:]
-    assert report.get("NOT_READY told", "never") != "never", said
+    if report.get("NOT_READY told", "never") == "never":
+        # The services were back before anything in flight was lost (the executor stops on
+        # any gap, docs/motion-safety.md): the trajectory went on, every point taken.
+        assert report.get("interrupted", "").startswith("no (every point taken"), said
     assert report.get("moved after told", "").startswith("0 ticks"), said
     assert report.get("services restarted") == "0", said
     assert report.get("recovery", "").startswith("START_TRAJ_MODE -> SUCCESS"), said
