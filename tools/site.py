@@ -108,11 +108,14 @@ def run(args: argparse.Namespace) -> int:
         settings = site_router_settings(
             Path(args.credentials), cells, args.listen, args.connect, files_at=args.files_at
         )
+        # Private: with a mesh it holds this router's password towards the others.
+        write_private(args.out, json.dumps(settings, indent=2) + "\n")
     except (ConfigError, CredentialsError, ValueError) as exc:
         print(f"motocell site: {exc}", file=sys.stderr)
         return 2
-    # Private: with a mesh it holds this router's password towards the others.
-    write_private(args.out, json.dumps(settings, indent=2) + "\n")
+    except OSError as exc:
+        print(f"motocell site: cannot write {args.out}: {exc.strerror}", file=sys.stderr)
+        return 2
     print(report(args, cells))
     return 0
 

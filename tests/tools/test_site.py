@@ -88,6 +88,10 @@ def test_the_command_writes_a_private_config_or_says_what_is_wrong(
         main([*command, "--config", "missing=single-arm", "--out", str(out)])
     assert refused.value.code == 2
     assert "lacks missing.controller" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as unwritable:
+        main([*command, "--out", str(tmp_path / "missing" / "router.json5")])
+    assert unwritable.value.code == 2
+    assert "cannot write" in capsys.readouterr().err
     with pytest.raises(SystemExit) as done:
         main([*command, "--out", str(out)])
     assert done.value.code == 0
