@@ -26,6 +26,7 @@ import zenoh
 from motocell.shared.bus.access import SITE_OBSERVER, SITE_ROUTER, Identity, cell_identities
 from motocell.shared.bus.bundles import ROUTER_BUNDLE, bundle_path
 from motocell.shared.bus.credentials import load, load_user
+from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import ControllerStatus
 from motocell.shared.bus.session import open_session
 from motocell.shared.config import load_cell
@@ -151,8 +152,8 @@ def _refused_everything(
     foreign: zenoh.Session, other: RunningCell, watcher: zenoh.Session, identity: Identity
 ) -> None:
     """``foreign`` subscribes to all of ``other``'s keys and tokens, declares a token among
-    them and asks every service there who it is: nothing comes, while the site observer, doing
-    the same alongside, gets each."""
+    them and asks on a key of every query route there: nothing comes and no token appears,
+    while the site observer receives the statuses, the answer and the tokens alongside."""
     keys = other.keys
     samples: list[str] = []
     subscriber = foreign.declare_subscriber(
@@ -175,8 +176,10 @@ def _refused_everything(
         assert not [key for key in tokens if key != planted_key], (
             f"{who} saw {other.cell.name}'s liveliness tokens"
         )
+        for asked in _queries(keys):
+            answered = [r for r in foreign.get(asked, timeout=2.0) if r.ok]
+            assert not answered, f"{who} was answered on {asked}"
         info = keys.service_info("controller", "0")
-        assert not [r for r in foreign.get(info, timeout=2.0) if r.ok], f"{who} was answered"
         assert [r for r in watcher.get(info, timeout=DEADLINE_S) if r.ok], "no answer at all"
         alive = watcher.liveliness().get(keys.alive_all, timeout=DEADLINE_S)
         names = {str(reply.ok.key_expr) for reply in alive if reply.ok}
@@ -187,6 +190,18 @@ def _refused_everything(
         subscriber.undeclare()
         token_subscriber.undeclare()
         planted.undeclare()
+
+
+def _queries(keys: CellKeys) -> list[str]:
+    """A key of every query route of the catalogue that its servers answer."""
+    return [
+        keys.controller_cmd("read_bit"),
+        keys.controller_fault("hold"),
+        keys.group_slot(0),
+        keys.executor_cmd("stop"),
+        keys.broadcaster_cmd("positions"),
+        keys.service_info("controller", "0"),
+    ]
 
 
 def test_the_site_observer_acts_on_no_cell(site: Site) -> None:
