@@ -21,6 +21,7 @@ def test_every_tick_is_a_snapshot_of_four_moving_groups() -> None:
 
 
 def test_measure_gives_one_positive_value_per_repeat() -> None:
-    values = measure(cycles=20, repeats=3)
-    assert len(values) == 3
-    assert all(value > 0 for value in values)
+    for period_s in (0.0, 0.001):
+        values = measure(cycles=20, repeats=3, period_s=period_s)
+        assert len(values) == 3
+        assert all(value > 0 for value in values)
