@@ -16,7 +16,8 @@ increment):
 The last two lines are the exact solution of a position loop with velocity feed-forward,
 ``y' = ff * s' + gain * (s - y)``, for a command that steps at the start of each period. Every
 stage is a weighted average of earlier inputs with non-negative weights that sum to 1, so the
-feedback is always within the range of the commanded positions so far: it never overshoots a
+feedback is always within the range of the commanded positions so far (to the rounding of
+doubles, about 1e-12 pulses, which the encoder's whole pulses never show): it never overshoots a
 command, never passes a joint limit the command respects, and after a stop it comes to rest on
 the frozen command from behind. Once every stage of an axis whose command did not move is
 within half a pulse of it, the axis snaps onto the command, so a robot at rest reads exactly
