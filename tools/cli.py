@@ -21,7 +21,7 @@ COMMANDS = (
     ("view", "serve the running cells live to Foxglove (3D scene, joints, status)"),
     ("plot", "plot a recording (motocell record) as a PNG"),
     ("bench", "run the benchmark suite: print a table, write JSON results"),
-    ("credentials", "write a cell's passwords (and TLS certificates) into a private directory"),
+    ("credentials", "make, add to or renew a deployment's passwords and TLS certificates"),
     ("site", "write one Zenoh router's configuration for several secured cells (a site)"),
     (
         "service",
