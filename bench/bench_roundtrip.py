@@ -122,8 +122,35 @@ def _one_run(
 
 def run(quick: bool) -> list[dict[str, Any]]:
     counts = (QUICK_COMMANDS, QUICK_POINTS) if quick else (COMMANDS, POINTS)
-    series, gateway_metrics = measure(counts, [""] * RUNS)
-    return _results(series[""]) + _internal_results(gateway_internal(gateway_metrics))
+    series, gateway_metrics = measure(counts, [""] * RUNS, ordinary_runs=RUNS)
+    return (
+        _results(series[""])
+        + _internal_results(gateway_internal(gateway_metrics))
+        + _ordinary_results(series[ORDINARY])
+    )
+
+
+ORDINARY = "client at ordinary priority"
+"""The label of the diagnosis runs whose motion client stays at ordinary priority."""
+
+
+def _ordinary_results(series: Series) -> list[dict[str, Any]]:
+    """A driver beside the cell on one machine, at ordinary priority, waits for a CPU while the
+    cell's threads handle the point it just sent (``bench.recording.take_the_cells_priority``)."""
+    name = "point 2016 x4 groups, SUCCESS"
+    runs = series[name]
+    return [
+        figure_result(
+            FIGURE,
+            f"  diagnosis: {name}, {ORDINARY}, p{q}",
+            "ms",
+            [percentiles(r, (q,))[0] for r in runs],
+            note="a driver on the cell's machine: its wait for a CPU the cell's threads hold"
+            if q == 50
+            else "",
+        )
+        for q in (50, 99)
+    ]
 
 
 def series_names() -> list[str]:
@@ -138,6 +165,7 @@ def measure(
     conditions: Sequence[str],
     before_run: Callable[[int], None] | None = None,
     refusals: list[tuple[int, str]] | None = None,
+    ordinary_runs: int = 0,
 ) -> tuple[dict[str, Series], list[tuple[int, bytes]]]:
     """One run per entry of ``conditions`` (its label), on one cell, ``before_run(index)``
     called before each (figure 11 starts or stops a neighbour cell there); the round trips per
@@ -146,8 +174,12 @@ def measure(
 
     A stream the cell refuses ends the figure, unless ``refusals`` is given: the refusal is
     noted there (the run's index, why), the cell recovered (START_TRAJ_MODE) and the run measured
-    again, at most ``RETRIES`` times."""
-    series: dict[str, Series] = {c: {name: [] for name in series_names()} for c in conditions}
+    again, at most ``RETRIES`` times.
+
+    Then ``ordinary_runs`` runs of 2016 points by a motion client at ordinary priority, under
+    the label ``ORDINARY``."""
+    labels = [*conditions, *([ORDINARY] if ordinary_runs else [])]
+    series: dict[str, Series] = {c: {name: [] for name in series_names()} for c in labels}
     with contextlib.ExitStack() as stack:
         directory = stack.enter_context(workdir())
         cell = stack.enter_context(bench_cell(directory, "bench4"))
@@ -156,7 +188,8 @@ def measure(
         gateway_metrics = observer.record(cell.keys.metrics("gateway"))
         state = StateClientProcess(cell, directory / "state.npz", RECORDING_S)
         stack.callback(state.kill)
-        streamer = stack.enter_context(StreamClientProcess(cell, directory))
+        streamer = StreamClientProcess(cell, directory)
+        stack.push(streamer.__exit__)
         stack.enter_context(gc_paused())
         streamer.start_traj_mode()
         log = LogTail(directory / "bench4.log")
@@ -180,6 +213,18 @@ def measure(
                     series[condition][name] += runs
                 log.skip()  # a refusal's alarms: those logged since the last good run
                 break
+        if ordinary_runs:
+            streamer.child.close()  # one motion client at a time, as MotoROS allows
+            streamer = StreamClientProcess(cell, directory, ordinary=True)
+            stack.push(streamer.__exit__)
+            streamer.start_traj_mode()
+            kind, points = "2016 x4 groups", counts[1]
+            for index in range(ordinary_runs):
+                messages = _points(cell, observer, kind, points, 1.0 if index % 2 == 0 else -1.0)
+                record = streamer.stream(messages, stream_bound_s(points * POINT_INTERVAL_S))
+                series[ORDINARY][f"point {kind}, SUCCESS"].append(
+                    record.check().rtts_ms(Result.SUCCESS)
+                )
         observer.wait_still()
         time.sleep(1.2)  # the last second's gateway/metrics
     return series, gateway_metrics

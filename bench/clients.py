@@ -195,7 +195,8 @@ class StreamRefusedError(RuntimeError):
 class StreamClientProcess:
     """``python -m motocell.bench.stream_client``: the cell's motion client, one job at a time."""
 
-    def __init__(self, cell: RunningCell, directory: Path) -> None:
+    def __init__(self, cell: RunningCell, directory: Path, *, ordinary: bool = False) -> None:
+        """``ordinary``: the client stays at ordinary priority (``take_the_cells_priority``)."""
         self.directory = directory
         self.codec = SimpleMessageCodec(Role.CLIENT, cell.byte_order)
         self.jobs = 0
@@ -204,6 +205,7 @@ class StreamClientProcess:
         arguments = [
             *("--host", cell.host, "--port", str(cell.port_base)),
             *("--byte-order", cell.byte_order.value),
+            *(["--ordinary-priority"] if ordinary else []),
         ]
         self.child = ChildProcess("motocell.bench.stream_client", arguments)
 

@@ -26,7 +26,7 @@ import time
 
 import numpy as np
 
-from motocell.bench.recording import freeze_gc, report
+from motocell.bench.recording import freeze_gc, report, take_the_cells_priority
 from motocell.shared.config import Cell, load_cell
 from motocell.shared.motion.kinematics import AxisMap
 from motocell.shared.protocol.codec import CLOSED, NEED_DATA, ByteOrder, Role, SimpleMessageCodec
@@ -119,6 +119,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--seconds", type=float, required=True, help="the longest recording")
     parser.add_argument("--out", required=True)
     args = parser.parse_args(argv)
+    take_the_cells_priority()
     cell = load_cell(args.config)
     recorder = StateRecorder(cell, capacity(args.seconds, cell.state_period_ns))
     with connect(args.host, args.port) as sock:

@@ -28,7 +28,13 @@ from collections.abc import Mapping
 import msgspec
 import numpy as np
 
-from motocell.bench.recording import Columns, StdinControl, freeze_gc, report
+from motocell.bench.recording import (
+    Columns,
+    StdinControl,
+    freeze_gc,
+    report,
+    take_the_cells_priority,
+)
 from motocell.shared.protocol.codec import ByteOrder
 from motocell.shared.protocol.constants import Command, Result, describe_reply
 from motocell.shared.protocol.messages import Message, MotoMotionReply
@@ -197,7 +203,14 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--host", default="127.0.0.1")
     parser.add_argument("--port", type=int, required=True)
     parser.add_argument("--byte-order", choices=[o.value for o in ByteOrder], default="little")
+    parser.add_argument(
+        "--ordinary-priority",
+        action="store_true",
+        help="stay at ordinary priority, as a driver beside the cell on one machine would",
+    )
     args = parser.parse_args(argv)
+    if not args.ordinary_priority:
+        take_the_cells_priority()
     with MotionClient(args.host, args.port, ByteOrder(args.byte_order)) as client:
         control = StdinControl()
         freeze_gc()
