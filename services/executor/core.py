@@ -69,6 +69,15 @@ def stalled(lateness_ns: int, period_ns: int, max_lateness_periods: int) -> bool
     return lateness_ns > max_lateness_periods * period_ns
 
 
+def _too_fast(row: tuple[int, ...], most: list[int]) -> bool:
+    """Whether an axis's increment exceeds its maximum per period. A loop rather than
+    ``any()`` over a generator, which costs a generator per group and tick."""
+    for increment, limit in zip(row, most, strict=True):
+        if increment > limit or -increment > limit:
+            return True
+    return False
+
+
 def next_on_grid(origin_ns: int, period_ns: int, now_ns: int) -> int:
     """The first deadline at or after ``now_ns`` on the clock's grid (``origin_ns`` plus whole
     periods): a clock that rested resumes in the phase it had, so the first increment of a
@@ -355,7 +364,7 @@ class ExecutorCore:
         return [
             group
             for group, (row, most) in enumerate(zip(rows, self._max_increments, strict=True))
-            if row != ZERO and any(abs(i) > m for i, m in zip(row, most, strict=True))
+            if row != ZERO and _too_fast(row, most)
         ]
 
     def _beyond_range(self, rows: list[tuple[int, ...]]) -> dict[int, str]:
