@@ -85,6 +85,19 @@ def enter_service_priority(log: logging.Logger, *, quiet: bool = False) -> bool:
     return True
 
 
+def leave_service_priority() -> None:
+    """The calling thread back to ordinary scheduling; the threads it already started keep
+    theirs. For the launcher's main thread once its router runs: the processes it starts then
+    begin at ordinary priority, and a service takes its own only once its imports are done
+    (``shared.service``). Imports at SCHED_RR 10, a starting cell's eight interpreters loading
+    numpy and Zenoh, held the CPUs in 100 ms round-robin slices against the running cells'
+    threads of the same priority: a moving neighbour's controller went unheard for 400 ms and
+    its trajectory stopped with alarm 4200 (3 of 3 half-minute runs beside cells starting one
+    after another, docs/realtime.md)."""
+    if sys.platform.startswith("linux"):
+        os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+
+
 def fix_command(pid: int | str = "self") -> str:
     """The one command that lets process ``pid`` of this machine (an executor, a service, the
     launcher) take the priorities above, the clock's SCHED_FIFO and the others' SCHED_RR alike;

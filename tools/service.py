@@ -5,13 +5,11 @@ on another host than the rest of the cell (``motocell up --skip NAME`` there).""
 from __future__ import annotations
 
 import argparse
-import logging
 import os
 import signal
 import sys
 
 from motocell.shared.config import EXIT_CONFIG
-from motocell.shared.realtime import enter_service_priority
 from motocell.shared.service_names import PER_GROUP, SERVICES, UnknownServiceError, service_kind
 
 EXAMPLE = (
@@ -52,11 +50,10 @@ def run(args: argparse.Namespace) -> int:
     # Held until the service's handlers are in place (shared.service.stop_on_signals): a
     # Ctrl-C while it loads then stops it cleanly, not with a traceback from its imports.
     signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
-    # The service asks for its priority once its imports are done; asked here, it holds across
-    # exec for those imports too: at ordinary priority beside 8-24 busy loops they took 2-5 s
-    # before the service could even look for a claim on its name (docs/realtime.md). Refused,
-    # the service says so itself.
-    enter_service_priority(logging.getLogger("motocell service"), quiet=True)
+    # No priority here: the service takes its own once its imports are done. Imports at the
+    # services' priority refused a second service sooner beside busy loops (0.95 s instead of
+    # 1.97 beside 8), but starved the cells already running (shared.realtime
+    # leave_service_priority), whose motion matters more than a refusal's speed.
     os.execv(command[0], command)
 
 

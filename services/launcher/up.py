@@ -55,7 +55,7 @@ from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.session import StoppedWaiting, open_session
 from motocell.shared.config import EXIT_CONFIG, Cell, ConfigError, load_cell
 from motocell.shared.ports import free_port_block
-from motocell.shared.realtime import enter_service_priority
+from motocell.shared.realtime import enter_service_priority, leave_service_priority
 from motocell.shared.registry import CellEntry, CellNameTakenError
 from motocell.shared.service import StopFlag, stop_on_signals
 from motocell.shared.service_names import UnknownServiceError, cell_services
@@ -70,9 +70,12 @@ def run(args: argparse.Namespace) -> int:
     try:
         cell = load_cell(args.config, args.name)
         this_host = ThisHost(cell, args)
-        # Before the router opens, so that its threads inherit it, and so do the services.
+        # Before the router opens, so that its threads inherit it; then this thread, which
+        # starts the services, leaves it, so that their imports do not run at it.
         realtime = enter_service_priority(log, quiet=True)
         with stop_on_signals() as stop, _cell_bus(cell, args, this_host, stop) as bus:
+            if realtime:
+                leave_service_priority()
             return run_children(cell, args, this_host, bus, stop, realtime=realtime)
     except StoppedWaiting:
         return 0  # stopped before the router it joins came

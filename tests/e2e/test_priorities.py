@@ -1,0 +1,58 @@
+"""Who runs at which priority in a running cell (docs/realtime.md): every service's threads at
+the services' SCHED_RR, the executor's clock at SCHED_FIFO, the launcher's router threads at
+SCHED_RR, and the launcher's main thread, which starts the services, at ordinary priority, so
+that a starting (or restarting) service's imports never run at the priority of the running
+cells' threads."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from motocell.shared.realtime import RT_PRIORITY, SERVICE_PRIORITY
+from motocell.testkit.cell import RunningCell, running_cell
+
+pytestmark = [
+    pytest.mark.cell,
+    pytest.mark.skipif(os.geteuid() != 0, reason="needs the privilege to take SCHED_RR"),
+]
+
+
+@pytest.fixture(scope="module")
+def cell() -> Iterator[RunningCell]:
+    with running_cell() as running:
+        yield running
+
+
+def policies(pid: int) -> dict[int, tuple[int, int]]:
+    """Per thread of ``pid``: its scheduling policy and priority."""
+    found = {}
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        tid = int(task.name)
+        found[tid] = (os.sched_getscheduler(tid), os.sched_getparam(tid).sched_priority)
+    return found
+
+
+def test_the_launchers_main_thread_is_ordinary_and_its_router_threads_are_not(
+    cell: RunningCell,
+) -> None:
+    launcher = policies(cell.process.pid)
+    assert launcher.pop(cell.process.pid) == (os.SCHED_OTHER, 0)
+    assert launcher, "the router's threads"
+    assert set(launcher.values()) == {(os.SCHED_RR, SERVICE_PRIORITY)}
+
+
+def test_every_service_thread_runs_at_the_services_priority_but_the_clock(
+    cell: RunningCell,
+) -> None:
+    clocks = 0
+    for pid in cell.children():
+        for policy in policies(pid).values():
+            if policy == (os.SCHED_FIFO, RT_PRIORITY):
+                clocks += 1
+            else:
+                assert policy == (os.SCHED_RR, SERVICE_PRIORITY), pid
+    assert clocks == 1
