@@ -6,8 +6,9 @@ a loaded machine (issue 24, item 3; the numbers are in docs/realtime.md)
 Not part of ``motocell bench``. It starts the default cell, then ``--hogs`` busy loops at
 ordinary priority (in this session), and starts a second gateway against the cell ``--trials``
 times by each entry: ``motocell service gateway`` and ``python -m motocell.services.gateway``
-(both ask for the services' priority after their imports, docs/realtime.md). Each must be refused with exit status 2; the wall time from spawn to exit is
-reported, median and largest, per entry.
+(both ask for the services' priority after their imports, docs/realtime.md). Each must be
+refused with exit status 2; the wall time from spawn to exit is reported, median and largest,
+per entry.
 """
 
 from __future__ import annotations
