@@ -28,6 +28,7 @@ from motocell.services.broadcaster.frames import state_frames
 from motocell.shared.bus.schemas import ControllerStatus, Decoder, GroupTick, Tick, encode
 from motocell.shared.config import Cell, parse_cell
 from motocell.shared.protocol.codec import ByteOrder
+from motocell.testkit.statuses import ready_status
 
 PERIOD_MS = 4.0
 AXES = 8
@@ -37,25 +38,7 @@ class ReadyController:
     """A controller that is there and ready, as while a cell moves."""
 
     def __init__(self) -> None:
-        self._status = ControllerStatus(
-            seq=1,
-            servo_on=True,
-            estop=False,
-            hold=False,
-            alarms=[],
-            error=0,
-            play=False,
-            remote=True,
-            operating=True,
-            job_ready=True,
-            pfl_active=False,
-            incmove_error=False,
-            eco=False,
-            missing_services=[],
-            motion_ready=True,
-            not_ready_subcode=0,
-            tools=[0] * len(GROUP_MODELS),
-        )
+        self._status = ready_status(play=False, tools=[0] * len(GROUP_MODELS))
 
     def status(self) -> ControllerStatus:
         return self._status

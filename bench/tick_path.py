@@ -32,13 +32,14 @@ import zenoh
 from motocell.services.executor.core import ExecutorCore, pulse_ranges, starting_pulses
 from motocell.services.executor.outputs import Outputs
 from motocell.shared.bus.keys import CellKeys
-from motocell.shared.bus.schemas import ControllerStatus, Decoder, IncrementBatch, encode
+from motocell.shared.bus.schemas import Decoder, IncrementBatch, encode
 from motocell.shared.bus.session import bus_config
 from motocell.shared.config import Cell, load_cell
 from motocell.shared.motion.kinematics import AxisMap
 from motocell.shared.motion.servo import Servos
 from motocell.shared.ports import free_port
 from motocell.shared.protocol.constants import MAX_AXES
+from motocell.testkit.statuses import ready_status
 
 MODELS = ("arm6", "arm6", "arm7", "positioner2")
 BATCH = 50
@@ -56,28 +57,6 @@ def four_groups(directory: Path) -> Cell:
     path = directory / "tick.toml"
     path.write_text("\n".join(lines))
     return load_cell(path)
-
-
-def ready(groups: int) -> ControllerStatus:
-    return ControllerStatus(
-        seq=1,
-        servo_on=True,
-        estop=False,
-        hold=False,
-        alarms=[],
-        error=0,
-        play=True,
-        remote=True,
-        operating=True,
-        job_ready=True,
-        pfl_active=False,
-        incmove_error=False,
-        eco=False,
-        missing_services=[],
-        motion_ready=True,
-        not_ready_subcode=0,
-        tools=[0] * groups,
-    )
 
 
 def build_core(cell: Cell) -> ExecutorCore:
@@ -144,7 +123,7 @@ def measure_ticks(cell: Cell, outputs: Outputs, ticks: int) -> np.ndarray:
     core = build_core(cell)
     feed = Feed(core, cell)
     decoder = Decoder(IncrementBatch)
-    status = ready(len(cell.groups))
+    status = ready_status(tools=[0] * len(cell.groups))
     deadline = time.monotonic_ns()
     core.on_status(status, deadline)
     core.on_controller(True, deadline)

@@ -1,4 +1,4 @@
-"""Controller statuses for unit tests: one ready status, changed field by field."""
+"""Controller statuses for tests and benchmarks: one ready status, changed field by field."""
 
 from __future__ import annotations
 
