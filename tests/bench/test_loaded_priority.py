@@ -20,6 +20,7 @@ from motocell.bench.loaded_priority import (
 )
 from motocell.shared.bus.schemas import Alarm, ControllerStatus
 from motocell.shared.realtime import RT_PRIORITY, SERVICE_PRIORITY
+from motocell.testkit.statuses import ready_status
 
 
 def test_variants_are_named_in_a_list() -> None:
@@ -56,21 +57,9 @@ def test_each_variant_takes_each_place_in_turn() -> None:
 
 
 def status(*alarms: int, subcode: int = 0) -> ControllerStatus:
-    return ControllerStatus(
+    return ready_status(
         seq=0,
-        servo_on=True,
-        estop=False,
-        hold=False,
         alarms=[Alarm(code) for code in alarms],
-        error=0,
-        play=True,
-        remote=True,
-        operating=True,
-        job_ready=True,
-        pfl_active=False,
-        incmove_error=False,
-        eco=False,
-        missing_services=[],
         motion_ready=not alarms and not subcode,
         not_ready_subcode=subcode,
         tools=[],
