@@ -9,7 +9,6 @@ is published in the same pass that took the point (``inputs`` for how the pass i
 
 from __future__ import annotations
 
-import os
 import time
 from collections import deque
 from collections.abc import Sequence
@@ -20,14 +19,6 @@ from motocell.services.interpolator.reports import Reports
 from motocell.shared.bus.schemas import Point, encode
 from motocell.shared.bus.session import publisher
 from motocell.shared.service import ServiceContext, argument_parser, running_service
-
-ZENOH_RUNTIME = "(rx: (handover: app))"
-"""Zenoh's receive work runs on its one application thread instead of two receive workers of
-its own. While its group moves an interpolator receives about 70 small samples a second, and
-each woke both receive workers and the application thread besides its own; handed over, half
-the wake-ups and about a fifth less CPU, with no slower replies (docs/realtime.md, "The
-tick's cost"). Zenoh reads it from the environment when the session opens; a value already
-there (someone's own tuning) is kept."""
 
 
 def run(ctx: ServiceContext, group_index: int) -> None:
@@ -70,7 +61,6 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser = argument_parser("interpolator", "Trajectory interpolation for one control group.")
     parser.add_argument("--group", type=int, default=0, help="control group index (0-3)")
     args = parser.parse_args(argv)
-    os.environ.setdefault("ZENOH_RUNTIME", ZENOH_RUNTIME)
     # running_service refuses a group the cell lacks before it joins Zenoh.
     with running_service("interpolator", str(args.group), args) as ctx:
         run(ctx, args.group)

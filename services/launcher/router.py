@@ -16,6 +16,7 @@ import zenoh
 from motocell.services.launcher.core import WELL_KNOWN_ENDPOINT, WELL_KNOWN_PORT, router_endpoints
 from motocell.shared.bus.access import cell_identities
 from motocell.shared.bus.router import router_settings, zenoh_config
+from motocell.shared.bus.runtime import ROUTER_RUNTIME, zenoh_runtime
 from motocell.shared.bus.session import zenoh_problem
 from motocell.shared.config import Cell
 from motocell.shared.ports import free_port, port_free
@@ -41,7 +42,8 @@ def open_cell_router(
         credentials=credentials,
     )
     try:
-        return zenoh.open(zenoh_config(settings))
+        with zenoh_runtime(ROUTER_RUNTIME):
+            return zenoh.open(zenoh_config(settings))
     except zenoh.ZError as exc:
         raise ConnectionError(
             f"the cell's Zenoh router cannot listen on {', '.join(listen)}: "
@@ -59,7 +61,8 @@ def serve_router(
     where = config_file or ", ".join(listen)
     try:
         config = zenoh.Config.from_file(config_file) if config_file else zenoh_config(settings)
-        session = zenoh.open(config)
+        with zenoh_runtime(ROUTER_RUNTIME):
+            session = zenoh.open(config)
     except zenoh.ZError as exc:
         raise ConnectionError(
             f"cannot run a Zenoh router from {where}: {zenoh_problem(exc)}"

@@ -257,6 +257,21 @@ def test_a_malformed_zenoh_endpoint_is_said_without_zenohs_source_paths(tmp_path
     assert output.splitlines() == [output.strip()], output
 
 
+def test_a_zenoh_runtime_zenoh_cannot_read_ends_in_one_line_and_status_2(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Zenoh's own panic message comes first (printed by Rust, not ours to silence); the
+    launcher's last line says what to do, with no Python traceback."""
+    monkeypatch.setenv("ZENOH_RUNTIME", "(rx: handover)")
+    status, output = run_to_the_end(tmp_path, "up", *up_options())
+    assert status == EXIT_CONFIG, output
+    assert output.splitlines()[-1].startswith(
+        "motocell up: ZENOH_RUNTIME='(rx: handover)' is not a runtime Zenoh can read"
+    ), output
+    assert "fix it or unset it" in output
+    assert "Traceback" not in output
+
+
 # -- Ctrl-C at any moment --------------------------------------------------------------------
 
 

@@ -1,6 +1,6 @@
-"""Zenoh's threads in a running cell: an interpolator receives on Zenoh's application thread
-(``services/interpolator/__main__.py`` ``ZENOH_RUNTIME``), a service with Zenoh's defaults on
-two receive workers of its own."""
+"""Zenoh's threads in a running cell (``shared/bus/runtime.py``): every service receives on
+Zenoh's application thread and keeps its transmit thread; the launcher's router does all its
+work on the application thread. The launcher's choice does not reach its services."""
 
 from __future__ import annotations
 
@@ -13,18 +13,26 @@ from motocell.testkit.cell import RunningCell
 
 pytestmark = pytest.mark.cell
 
+RECEIVING = "rx-"
+
 
 def thread_names(pid: int) -> set[str]:
     return {(task / "comm").read_text().strip() for task in Path(f"/proc/{pid}/task").iterdir()}
 
 
-def test_an_interpolator_receives_on_zenoh_s_application_thread(cell: RunningCell) -> None:
-    kinds = process_kinds(cell)
-    interpolators = [pid for pid, kind in kinds.items() if kind == "interpolator"]
-    assert interpolators
-    for pid in interpolators:
+def test_services_receive_on_zenoh_s_application_thread(cell: RunningCell) -> None:
+    services = {pid: kind for pid, kind in process_kinds(cell).items() if kind != "launcher+router"}
+    assert {"controller", "executor", "broadcaster", "gateway", "interpolator"} <= set(
+        services.values()
+    )
+    for pid, kind in services.items():
         names = thread_names(pid)
-        assert "app-0" in names
-        assert not any(name.startswith("rx-") for name in names), names
-    executor = next(pid for pid, kind in kinds.items() if kind == "executor")
-    assert {"rx-0", "rx-1"} <= thread_names(executor)
+        assert "app-0" in names, (kind, names)
+        assert "tx-0" in names, (kind, names)
+        assert not any(name.startswith(RECEIVING) for name in names), (kind, names)
+
+
+def test_the_router_works_on_the_application_thread_alone(cell: RunningCell) -> None:
+    names = thread_names(cell.process.pid)
+    assert "app-0" in names
+    assert not any(name.startswith((RECEIVING, "tx-", "acc-")) for name in names), names
