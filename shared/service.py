@@ -31,7 +31,7 @@ from motocell.shared.bus.claim import ClaimError, claim_name, watch_claims
 from motocell.shared.bus.credentials import CredentialsError
 from motocell.shared.bus.credentials import load as load_credentials
 from motocell.shared.bus.keys import CellKeys
-from motocell.shared.bus.runtime import SERVICE_RUNTIME, zenoh_runtime
+from motocell.shared.bus.runtime import zenoh_runtime
 from motocell.shared.bus.schemas import Listening, ServiceInfo, encode
 from motocell.shared.bus.session import ENCODING, StoppedWaiting, open_session
 from motocell.shared.config import EXIT_CONFIG, Cell, ConfigError, load_cell
@@ -349,7 +349,7 @@ def _service_session(
     if args.credentials:
         identity = Identity(Role(service), instance)
         credentials = load_credentials(Path(args.credentials), cell.name, identity)
-    with zenoh_runtime(SERVICE_RUNTIME):
+    with zenoh_runtime():
         session = open_session("client", connect, credentials=credentials, stop=stop.wait)
     keys = CellKeys(cell.name)
     # Made here, not when first asked: looking up the version on a Zenoh thread would hold the

@@ -16,7 +16,7 @@ import zenoh
 from motocell.services.launcher.core import WELL_KNOWN_ENDPOINT, WELL_KNOWN_PORT, router_endpoints
 from motocell.shared.bus.access import cell_identities
 from motocell.shared.bus.router import router_settings, zenoh_config
-from motocell.shared.bus.runtime import ROUTER_RUNTIME, zenoh_runtime
+from motocell.shared.bus.runtime import zenoh_runtime
 from motocell.shared.bus.session import zenoh_problem
 from motocell.shared.config import Cell
 from motocell.shared.ports import free_port, port_free
@@ -42,7 +42,7 @@ def open_cell_router(
         credentials=credentials,
     )
     try:
-        with zenoh_runtime(ROUTER_RUNTIME):
+        with zenoh_runtime():
             return zenoh.open(zenoh_config(settings))
     except zenoh.ZError as exc:
         raise ConnectionError(
@@ -61,7 +61,7 @@ def serve_router(
     where = config_file or ", ".join(listen)
     try:
         config = zenoh.Config.from_file(config_file) if config_file else zenoh_config(settings)
-        with zenoh_runtime(ROUTER_RUNTIME):
+        with zenoh_runtime():
             session = zenoh.open(config)
     except zenoh.ZError as exc:
         raise ConnectionError(

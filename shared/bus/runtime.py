@@ -2,15 +2,15 @@
 
 Zenoh runs its work on a few runtimes (application, accept, transmit, receive), each with
 threads of its own unless its work is handed over to another's (``ZENOH_RUNTIME``, read once,
-when a process opens its first session). With its defaults every sample a process receives
+when a process opens its first session). With its defaults every sample a service receives
 wakes two receive workers and the application thread that fills the channel, and a router
-wakes its accept, receive and transmit threads for every sample it passes on. A cell's samples
-are small and few (a few hundred a second), so the hand-overs cost more than the work:
-
-- a service receives on the application thread (two wake-ups per sample instead of four) and
-  keeps its transmit thread, so the executor's tick leaves without waiting for received work;
-- a router does everything on the application thread: a sample in, routed and out, on one
-  thread.
+wakes its accept thread (whose poller owns the sockets it accepted), a receive worker and its
+transmit thread for every sample it passes on. A cell's samples are small and a few hundred a
+second, so the hand-overs cost more than the work. Every process of a cell, service or router,
+receives on the application thread, which also polls the sockets a router accepted, and keeps
+its transmit thread: the executor's tick and a router's forwarding leave without waiting
+behind received work (a router doing its transmitting on the same thread too was cheaper
+still, but figure 5's slot turnaround p99 grew past its goal).
 
 Measured on figure 10's moving four-group cell (docs/realtime.md, "Zenoh's threads"). A
 ``ZENOH_RUNTIME`` already in the environment is someone's own tuning and is kept.
@@ -23,15 +23,14 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 
 ENV = "ZENOH_RUNTIME"
-SERVICE_RUNTIME = "(rx: (handover: app))"
-ROUTER_RUNTIME = "(rx: (handover: app), acc: (handover: app), tx: (handover: app))"
+CELL_RUNTIME = "(rx: (handover: app), acc: (handover: app))"
 
 
 @contextmanager
-def zenoh_runtime(runtime: str) -> Iterator[None]:
-    """Open the process's first session inside this: Zenoh takes ``runtime`` then. The
+def zenoh_runtime() -> Iterator[None]:
+    """Open the process's first session inside this: Zenoh takes ``CELL_RUNTIME`` then. The
     environment is left as it was, so processes started later (the launcher's services) choose
-    their own."""
+    for themselves, and a user's own value reaches them."""
     if ENV in os.environ:
         try:
             yield
@@ -44,7 +43,7 @@ def zenoh_runtime(runtime: str) -> Iterator[None]:
                 f"fix it or unset it"
             ) from None
         return
-    os.environ[ENV] = runtime
+    os.environ[ENV] = CELL_RUNTIME
     try:
         yield
     finally:

@@ -521,16 +521,16 @@ def test_a_changed_queue_is_published_at_once() -> None:
 
 def test_a_draining_ring_is_published_every_few_ticks_and_at_once_when_dry() -> None:
     core = ready_core()
-    core.accept(0, batch(FIRST_EPOCH, 0, [unit(1)] * 12))
+    core.accept(0, batch(FIRST_EPOCH, 0, [unit(1)] * 25))
     core.queue_updates(0)
     published = []
-    for tick in range(1, 14):
+    for tick in range(1, 28):
         core.on_tick(tick * PERIOD_NS, 0)
         depths = [
             state.depth for group, state in core.queue_updates(tick * PERIOD_NS) if group == 0
         ]
         published += [(tick, depth) for depth in depths]
-    assert published == [(5, 7), (10, 2), (12, 0)]
+    assert published == [(10, 15), (20, 5), (25, 0)]
 
 
 def test_forced_queue_updates_include_unchanged_queues() -> None:
