@@ -57,7 +57,7 @@ for a batch of entries (the interpolator, which fills the ring in batches of up 
 count entries a fifth of a second deep (the gateway), and a few entries' staleness only errs
 towards waiting; epochs, arrivals, readiness and a ring that ran dry still go out at once.
 Every 10 rather than 5 ticks: a moving interpolator wakes about a third less (figure 10's
-moving case: the four 4.2 -> 3.2 % of a core), figures 4 and 5 no worse (docs/timing.md)."""
+moving case: the four 4.2 -> 3.2 % of a core), figures 4 and 5 no worse (docs/realtime.md)."""
 
 REST_AFTER_NS = 1_000_000_000
 """How long the clock keeps ticking with nothing to do before it rests: a client between two
