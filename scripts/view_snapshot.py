@@ -28,8 +28,8 @@ from mcap.reader import make_reader
 
 from motocell.shared.protocol.constants import Command
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
-from motocell.testkit.cell import running_cell
-from motocell.testkit.client import smooth_move, stream_ex
+from motocell.testing.client import smooth_move, stream_ex
+from motocell.testing.running_cell import running_cell
 from tests.foxglove_ws import protobuf_class
 from tests.frames import foxglove_steps, in_root, pose_matrix, rotation, vector
 

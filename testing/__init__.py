@@ -12,7 +12,7 @@ import importlib
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from motocell.testing.harness import CellUnderTest, FaultError, StartCell, cell, cells
+    from motocell.testing.under_test import CellUnderTest, FaultError, StartCell, cell, cells
 
 __all__ = ["CellUnderTest", "FaultError", "StartCell", "cell", "cells"]
 
@@ -20,4 +20,4 @@ __all__ = ["CellUnderTest", "FaultError", "StartCell", "cell", "cells"]
 def __getattr__(name: str) -> object:
     if name not in __all__:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    return getattr(importlib.import_module("motocell.testing.harness"), name)
+    return getattr(importlib.import_module("motocell.testing.under_test"), name)

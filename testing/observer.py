@@ -16,7 +16,7 @@ import zenoh
 
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import Decoder, State, Tick
-from motocell.testkit.following import moving
+from motocell.testing.following import moving
 
 T = TypeVar("T")
 

@@ -29,7 +29,7 @@ from pathlib import Path
 import pytest
 
 from motocell.shared import registry
-from motocell.testkit.processes import alive, children, descendants, wait_until
+from motocell.testing.processes import alive, children, descendants, wait_until
 from tests import lanes, leftovers
 
 DEADLINE_S = 5.0

@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 
 from motocell.shared.ports import free_port, free_port_block
-from motocell.testkit.processes import alive, cmdline, descendants, wait_until
+from motocell.testing.processes import alive, cmdline, descendants, wait_until
 
 READY_TIMEOUT_S = 180.0
 """Generous: on a loaded machine a cell from a cold venv takes long to import and start."""

@@ -8,7 +8,7 @@ Whatever a test makes beyond its own process carries its owner's pid in its name
   digits (``suite_tag``): six digits hold any pid (at most 2^22) and keep a link name within
   the kernel's 15 characters;
 - ``motocell-cell-<pid>-XXXX`` in the temporary directory: a cell's run directory, its
-  registry and credentials (``testkit.cell``), owned by the process that started the cell;
+  registry and credentials (``testing.running_cell``), owned by the process that started the cell;
 - ``motocell-tests-<pid>-XXXX``: the registry a test session points every cell and tool at,
   so no test touches the user's own.
 
@@ -33,7 +33,7 @@ from pathlib import Path
 import msgspec
 
 from motocell.shared.registry import CellEntry
-from motocell.testkit.processes import alive, cmdline, wait_until
+from motocell.testing.processes import alive, cmdline, wait_until
 
 NETWORK_NAME = re.compile(r"m[ht](?P<owner>[0-9a-f]{6})")
 """The start of a namespace's or link's name: ``mh`` (scripts/multihost) or ``mt`` (tests)."""

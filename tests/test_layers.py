@@ -1,6 +1,6 @@
 """The layer rule (ARCHITECTURE.md, The layer rule), enforced on every import in the tree.
 
-tools and bench -> testkit and services -> shared. A service imports no other service; shared
+tools -> testing and services -> shared. A service imports no other service; shared
 imports nothing of ours above it; no core (``shared/protocol``, ``shared/motion``, each
 service's ``core``) loads an I/O module, itself or through a module of ours. Relative imports
 count as the absolute ones they stand for.
@@ -18,15 +18,13 @@ import pytest
 REPO = Path(__file__).resolve().parent.parent
 PACKAGE = "motocell"
 """The one import root of the installed code; the top-level folders are its subpackages."""
-OURS = frozenset({"shared", "services", "tools", "testkit", "bench", "testing"})
+OURS = frozenset({"shared", "services", "tools", "testing"})
 
 MAY_IMPORT = {
     "shared": {"shared"},
     "services": {"shared"},
-    "testkit": {"testkit", "shared"},
-    "tools": {"tools", "bench", "testkit", "services", "shared"},
-    "bench": {"bench", "testkit", "services", "shared"},
-    "testing": {"testing", "tools", "testkit", "shared"},
+    "testing": {"testing", "shared"},
+    "tools": {"tools", "testing", "services", "shared"},
 }
 """Which of our top-level packages each may import (services: plus its own service)."""
 

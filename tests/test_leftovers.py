@@ -13,7 +13,7 @@ import msgspec
 import pytest
 
 from motocell.shared.registry import CellEntry
-from motocell.testkit.processes import alive, wait_until
+from motocell.testing.processes import alive, wait_until
 from tests.leftovers import (
     LINKS,
     NAMESPACES,

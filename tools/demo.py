@@ -35,8 +35,7 @@ from motocell.shared.protocol.constants import Command, Result, describe_reply
 from motocell.shared.protocol.errors import PeerProtocolError
 from motocell.shared.protocol.messages import MotoMotionReply
 from motocell.shared.registry import CellEntry
-from motocell.testkit.cell import TickLog, running_cell
-from motocell.testkit.client import (
+from motocell.testing.client import (
     Feedback,
     MotionClient,
     PlannedPoint,
@@ -47,8 +46,9 @@ from motocell.testkit.client import (
     stream,
     stream_ex,
 )
-from motocell.testkit.following import FollowingError, following_errors
-from motocell.testkit.processes import connectable, wait_until
+from motocell.testing.following import FollowingError, following_errors
+from motocell.testing.processes import connectable, wait_until
+from motocell.testing.running_cell import TickLog, running_cell
 from motocell.tools.cells import JoinError, Target, join
 
 GOAL_TOLERANCE_RAD = 1e-4

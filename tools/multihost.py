@@ -36,7 +36,6 @@ from pathlib import Path
 import numpy as np
 import zenoh
 
-from motocell.bench.bench_streaming import empty_periods
 from motocell.shared.bus.access import Identity
 from motocell.shared.bus.catalog import Role
 from motocell.shared.bus.credentials import load, write_private
@@ -49,8 +48,7 @@ from motocell.shared.ports import free_port, free_port_block
 from motocell.shared.protocol.codec import ByteOrder
 from motocell.shared.protocol.constants import Command, MsgType, Result, describe_reply
 from motocell.shared.protocol.messages import Message
-from motocell.testkit.cell import HOST, LAUNCHER, wait_for_whole_cell
-from motocell.testkit.client import (
+from motocell.testing.client import (
     BUSY_RETRY_S,
     Feedback,
     MotionClient,
@@ -59,7 +57,9 @@ from motocell.testkit.client import (
     ex_messages,
     smooth_move,
 )
-from motocell.testkit.processes import descendants, wait_until
+from motocell.testing.processes import descendants, wait_until
+from motocell.testing.running_cell import HOST, LAUNCHER, wait_for_whole_cell
+from motocell.tools.bench.bench_streaming import empty_periods
 from motocell.tools.demo import drive, goal_within
 from motocell.tools.site import SiteCell, site_router_settings
 
@@ -231,7 +231,7 @@ class Streamed:
 def stream_until_refused(
     motion: MotionClient, messages: Sequence[Message], deadline_s: float
 ) -> Streamed:
-    """As ``testkit.client.stream_messages`` (resend after 5 ms on BUSY, stop at any other
+    """As ``testing.client.stream_messages`` (resend after 5 ms on BUSY, stop at any other
     refusal), but remembering when the refusal came, and giving up at ``deadline_s``."""
     result = Streamed(first_sent_ns=time.monotonic_ns())
     deadline = time.monotonic() + deadline_s

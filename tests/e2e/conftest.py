@@ -17,8 +17,8 @@ import pytest
 import zenoh
 
 from motocell.shared.bus.catalog import Role
-from motocell.testkit.cell import RunningCell, TickLog, running_cell
-from motocell.testkit.client import MotionClient, StateListener
+from motocell.testing.client import MotionClient, StateListener
+from motocell.testing.running_cell import RunningCell, TickLog, running_cell
 from tests.leftovers import why_no_namespaces
 
 TEST_CELLS = Path(__file__).parent / "cells"

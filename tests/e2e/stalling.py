@@ -18,7 +18,7 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from motocell.shared.bus.session import LEASE_MS
-from motocell.testkit.processes import wait_until
+from motocell.testing.processes import wait_until
 
 LEASE_S = LEASE_MS / 1000
 KEEP_ALIVE_S = LEASE_S / 4

@@ -11,8 +11,8 @@ from motocell.shared.protocol.codec import ByteOrder, Role, decode_frames
 from motocell.shared.protocol.constants import Command, InvalidSubcode, Result
 from motocell.shared.protocol.messages import MotoMotionReply
 from motocell.shared.protocol.replies import motion_ctrl
-from motocell.testkit.cell import RunningCell
-from motocell.testkit.client import MotionClient, smooth_move, stream
+from motocell.testing.client import MotionClient, smooth_move, stream
+from motocell.testing.running_cell import RunningCell
 
 pytestmark = [
     pytest.mark.cell,

@@ -14,8 +14,8 @@ from motocell.shared.bus.session import call
 from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
 from motocell.shared.protocol.replies import motion_ctrl
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
-from motocell.testkit.cell import RunningCell
-from motocell.testkit.client import MotionClient, StateListener, smooth_move, stream
+from motocell.testing.client import MotionClient, StateListener, smooth_move, stream
+from motocell.testing.running_cell import RunningCell
 
 pytestmark = pytest.mark.cell
 

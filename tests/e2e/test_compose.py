@@ -28,9 +28,9 @@ from motocell.shared.motion.kinematics import AxisMap
 from motocell.shared.ports import free_port, free_port_block
 from motocell.shared.protocol.codec import ByteOrder
 from motocell.shared.protocol.constants import Command, Result
-from motocell.testkit.cell import wait_for_whole_cell, zenoh_router
-from motocell.testkit.client import MotionClient, StateListener, smooth_move, stream_ex
-from motocell.testkit.processes import alive, wait_until
+from motocell.testing.client import MotionClient, StateListener, smooth_move, stream_ex
+from motocell.testing.processes import alive, wait_until
+from motocell.testing.running_cell import wait_for_whole_cell, zenoh_router
 from motocell.tools.cli import build_parser
 from motocell.tools.deploy import (
     COMPOSE_CELL,

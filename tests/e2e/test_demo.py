@@ -11,7 +11,7 @@ from collections.abc import Callable
 import pytest
 
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
-from motocell.testkit.cell import RunningCell
+from motocell.testing.running_cell import RunningCell
 
 pytestmark = [
     pytest.mark.cell,

@@ -19,8 +19,8 @@ import zenoh
 from motocell.shared.bus.catalog import ROUTES, Op, Role
 from motocell.shared.bus.session import ENCODING
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
-from motocell.testkit.cell import RunningCell, moving
-from motocell.testkit.processes import wait_until
+from motocell.testing.processes import wait_until
+from motocell.testing.running_cell import RunningCell, moving
 
 pytestmark = pytest.mark.cell
 

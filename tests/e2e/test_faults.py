@@ -13,9 +13,9 @@ from motocell.shared.bus.schemas import CommandRequest, Tick
 from motocell.shared.bus.session import call
 from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
 from motocell.shared.protocol.replies import traj_point
-from motocell.testkit.cell import RunningCell, TickLog
-from motocell.testkit.client import MotionClient, StateListener, smooth_move, stream
-from motocell.testkit.processes import wait_until
+from motocell.testing.client import MotionClient, StateListener, smooth_move, stream
+from motocell.testing.processes import wait_until
+from motocell.testing.running_cell import RunningCell, TickLog
 
 pytestmark = pytest.mark.cell
 

@@ -21,8 +21,14 @@ from motocell.shared.bus.credentials import write_passwords
 from motocell.shared.ports import free_port, free_port_block
 from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
-from motocell.testkit.cell import HOST, LAUNCHER, STOP_TIMEOUT_S, RunningCell, wait_for_whole_cell
-from motocell.testkit.client import MotionClient
+from motocell.testing.client import MotionClient
+from motocell.testing.running_cell import (
+    HOST,
+    LAUNCHER,
+    STOP_TIMEOUT_S,
+    RunningCell,
+    wait_for_whole_cell,
+)
 
 pytestmark = pytest.mark.cell
 

@@ -30,9 +30,9 @@ from motocell.shared.protocol.messages import (
     MotoMotionReply,
 )
 from motocell.shared.protocol.replies import read_io_bit, state_message
-from motocell.testkit.cell import RunningCell
-from motocell.testkit.client import ConnectionClosedError, MotionClient
-from motocell.testkit.processes import wait_until
+from motocell.testing.client import ConnectionClosedError, MotionClient
+from motocell.testing.processes import wait_until
+from motocell.testing.running_cell import RunningCell
 
 pytestmark = pytest.mark.cell
 

@@ -9,8 +9,8 @@ import pytest
 from motocell.shared.config import load_catalogue
 from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
 from motocell.shared.protocol.replies import traj_point
-from motocell.testkit.cell import TickLog
-from motocell.testkit.client import Feedback, MotionClient, StateListener, smooth_move, stream
+from motocell.testing.client import Feedback, MotionClient, StateListener, smooth_move, stream
+from motocell.testing.running_cell import TickLog
 
 pytestmark = pytest.mark.cell
 

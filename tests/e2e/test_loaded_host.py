@@ -28,9 +28,9 @@ from motocell.shared.bus.schemas import ControllerStatus, Decoder
 from motocell.shared.motion.kinematics import AxisMap
 from motocell.shared.protocol.constants import Command, Result
 from motocell.shared.protocol.messages import MotoMotionReply
-from motocell.testkit.cell import RunningCell
-from motocell.testkit.client import Feedback, MotionClient, StateListener, smooth_move, stream_ex
-from motocell.testkit.processes import wait_until
+from motocell.testing.client import Feedback, MotionClient, StateListener, smooth_move, stream_ex
+from motocell.testing.processes import wait_until
+from motocell.testing.running_cell import RunningCell
 from tests.e2e.stalling import WITHIN_LEASE_S, beyond_the_lease, stall
 
 pytestmark = [

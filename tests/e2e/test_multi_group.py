@@ -24,8 +24,7 @@ from motocell.shared.protocol.constants import (
 )
 from motocell.shared.protocol.messages import JointFeedbackEx
 from motocell.shared.protocol.replies import ex_group, traj_point, traj_point_ex
-from motocell.testkit.cell import RunningCell, TickLog
-from motocell.testkit.client import (
+from motocell.testing.client import (
     Feedback,
     MotionClient,
     PlannedPoint,
@@ -35,7 +34,8 @@ from motocell.testkit.client import (
     stream_ex,
     stream_messages,
 )
-from motocell.testkit.processes import wait_until
+from motocell.testing.processes import wait_until
+from motocell.testing.running_cell import RunningCell, TickLog
 
 pytestmark = [
     pytest.mark.cell,

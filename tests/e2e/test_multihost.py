@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from motocell.testkit.processes import cmdline, wait_until
+from motocell.testing.processes import cmdline, wait_until
 
 RUN_TIMEOUT_S = 120.0
 """A run takes 8-40 s here; a loaded machine starts a cell's eleven processes slowly."""

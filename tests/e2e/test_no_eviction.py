@@ -17,9 +17,9 @@ from motocell.shared.bus.catalog import Role
 from motocell.shared.bus.credentials import load
 from motocell.shared.bus.session import open_session
 from motocell.shared.ports import free_port_block
-from motocell.testkit.cell import RunningCell, running_cell
-from motocell.testkit.client import MotionClient, StateListener
-from motocell.testkit.processes import wait_until
+from motocell.testing.client import MotionClient, StateListener
+from motocell.testing.processes import wait_until
+from motocell.testing.running_cell import RunningCell, running_cell
 from tests.e2e.test_one_cell_per_name import still_moves
 
 pytestmark = pytest.mark.cell

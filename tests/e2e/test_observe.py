@@ -20,9 +20,9 @@ from motocell.shared.bus.schemas import Decoder, QueueState
 from motocell.shared.ports import free_port
 from motocell.shared.protocol.constants import Command, Result
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
-from motocell.testkit.cell import RunningCell, running_cell, zenoh_router
-from motocell.testkit.client import MotionClient, StateListener, point_messages, smooth_move, stream
-from motocell.testkit.processes import cmdline, wait_until
+from motocell.testing.client import MotionClient, StateListener, point_messages, smooth_move, stream
+from motocell.testing.processes import cmdline, wait_until
+from motocell.testing.running_cell import RunningCell, running_cell, zenoh_router
 
 pytestmark = pytest.mark.cell
 

@@ -18,9 +18,9 @@ from motocell.shared.ports import free_port, free_port_block
 from motocell.shared.protocol.codec import ByteOrder
 from motocell.shared.protocol.constants import Command, Result
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
-from motocell.testkit.cell import LAUNCHER, RunningCell, wait_for_whole_cell
-from motocell.testkit.client import MotionClient, StateListener, smooth_move, stream
-from motocell.testkit.processes import wait_until
+from motocell.testing.client import MotionClient, StateListener, smooth_move, stream
+from motocell.testing.processes import wait_until
+from motocell.testing.running_cell import LAUNCHER, RunningCell, wait_for_whole_cell
 
 pytestmark = pytest.mark.cell
 

@@ -16,9 +16,9 @@ import pytest
 from motocell.shared.protocol.constants import Command, Result
 from motocell.shared.protocol.messages import Message
 from motocell.shared.protocol.replies import ex_group, traj_point, traj_point_ex
-from motocell.testkit.cell import RunningCell, running_cell
-from motocell.testkit.client import MotionClient, StateListener
-from motocell.testkit.processes import wait_until
+from motocell.testing.client import MotionClient, StateListener
+from motocell.testing.processes import wait_until
+from motocell.testing.running_cell import RunningCell, running_cell
 
 pytestmark = pytest.mark.cell
 

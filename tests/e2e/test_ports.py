@@ -42,9 +42,9 @@ from motocell.shared.protocol.replies import (
     write_io_group,
     write_mregister,
 )
-from motocell.testkit.cell import RunningCell
-from motocell.testkit.client import MotionClient, smooth_move, stream
-from motocell.testkit.processes import wait_until
+from motocell.testing.client import MotionClient, smooth_move, stream
+from motocell.testing.processes import wait_until
+from motocell.testing.running_cell import RunningCell
 
 pytestmark = pytest.mark.cell
 

@@ -15,8 +15,8 @@ from motocell.shared.bus.schemas import Decoder, State
 from motocell.shared.motion.forward_kinematics import Chain, pose, tool_transform
 from motocell.shared.protocol.constants import Result
 from motocell.shared.protocol.replies import select_tool
-from motocell.testkit.cell import RunningCell, running_cell
-from motocell.testkit.processes import wait_until
+from motocell.testing.processes import wait_until
+from motocell.testing.running_cell import RunningCell, running_cell
 
 pytestmark = pytest.mark.cell
 

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from motocell.shared.realtime import RT_PRIORITY, SERVICE_PRIORITY
-from motocell.testkit.cell import RunningCell, running_cell
+from motocell.testing.running_cell import RunningCell, running_cell
 
 pytestmark = [
     pytest.mark.cell,

@@ -17,9 +17,9 @@ from pathlib import Path
 import pytest
 
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
-from motocell.testkit import cell as cell_module
-from motocell.testkit.cell import RunningCell, running_cell
-from motocell.testkit.processes import wait_until
+from motocell.testing import running_cell as cell_module
+from motocell.testing.processes import wait_until
+from motocell.testing.running_cell import RunningCell, running_cell
 
 pytestmark = [
     pytest.mark.cell,

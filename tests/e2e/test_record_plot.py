@@ -30,9 +30,9 @@ from motocell.shared.motion.kinematics import AxisMap
 from motocell.shared.ports import free_port
 from motocell.shared.protocol.constants import Command, Result
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
-from motocell.testkit.cell import RunningCell, zenoh_router
-from motocell.testkit.client import smooth_move, stream
-from motocell.testkit.processes import connectable, wait_until
+from motocell.testing.client import smooth_move, stream
+from motocell.testing.processes import connectable, wait_until
+from motocell.testing.running_cell import RunningCell, zenoh_router
 from motocell.tools.plotting import plot_recording
 from motocell.tools.recording import NotARecordingError
 from motocell.tools.recording import Recording as RecordingFile

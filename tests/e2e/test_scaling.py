@@ -19,9 +19,9 @@ from motocell.shared.bus.session import open_session
 from motocell.shared.motion.kinematics import AxisMap
 from motocell.shared.ports import free_port
 from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
-from motocell.testkit.cell import RunningCell, running_cell, zenoh_router
-from motocell.testkit.client import MotionClient, StateListener, smooth_move, stream, stream_ex
-from motocell.testkit.processes import alive, connectable, wait_until
+from motocell.testing.client import MotionClient, StateListener, smooth_move, stream, stream_ex
+from motocell.testing.processes import alive, connectable, wait_until
+from motocell.testing.running_cell import RunningCell, running_cell, zenoh_router
 from tests.leftovers import suite_tag
 
 pytestmark = pytest.mark.cell

@@ -14,10 +14,10 @@ from motocell.services.broadcaster.core import IN_MOTION_PULSES
 from motocell.shared.bus.schemas import CommandRequest, State, Tick
 from motocell.shared.bus.session import call
 from motocell.shared.protocol.constants import Command, Result
-from motocell.testkit.cell import RunningCell, SampleLog, TickLog
-from motocell.testkit.client import MotionClient, PlannedPoint, StateListener, stream
-from motocell.testkit.following import following_errors
-from motocell.testkit.processes import wait_until
+from motocell.testing.client import MotionClient, PlannedPoint, StateListener, stream
+from motocell.testing.following import following_errors
+from motocell.testing.processes import wait_until
+from motocell.testing.running_cell import RunningCell, SampleLog, TickLog
 
 pytestmark = pytest.mark.cell
 

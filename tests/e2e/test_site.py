@@ -34,7 +34,8 @@ from motocell.shared.ports import free_port
 from motocell.shared.protocol.codec import ByteOrder
 from motocell.shared.protocol.constants import Command, Result
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
-from motocell.testkit.cell import (
+from motocell.testing.processes import wait_until
+from motocell.testing.running_cell import (
     LAUNCHER,
     ROUTER,
     STOP_TIMEOUT_S,
@@ -45,7 +46,6 @@ from motocell.testkit.cell import (
     wait_for_whole_cell,
     zenoh_router,
 )
-from motocell.testkit.processes import wait_until
 from motocell.tools.demo import drive
 from tests.e2e.conftest import START_DEADLINE_S, TEST_CELLS
 from tests.e2e.test_bus_security import assert_untouched, attack

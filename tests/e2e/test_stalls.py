@@ -20,8 +20,7 @@ from motocell.shared.config import load_cell
 from motocell.shared.motion.kinematics import AxisMap
 from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
 from motocell.shared.protocol.messages import MotoMotionReply
-from motocell.testkit.cell import RunningCell, TickLog
-from motocell.testkit.client import (
+from motocell.testing.client import (
     BUSY_RETRY_S,
     MotionClient,
     PlannedPoint,
@@ -29,7 +28,8 @@ from motocell.testkit.client import (
     point_messages,
     smooth_move,
 )
-from motocell.testkit.processes import wait_until
+from motocell.testing.processes import wait_until
+from motocell.testing.running_cell import RunningCell, TickLog
 from tests.e2e.stalling import beyond_the_lease, stall
 
 pytestmark = pytest.mark.cell

@@ -28,7 +28,7 @@ from motocell.shared.bus.session import CONNECT_WAIT_S
 from motocell.shared.config import EXIT_CONFIG, load_cell
 from motocell.shared.ports import free_port, free_port_block
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
-from motocell.testkit.processes import alive, connectable, wait_until
+from motocell.testing.processes import alive, connectable, wait_until
 
 pytestmark = pytest.mark.cell
 

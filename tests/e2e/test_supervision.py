@@ -8,9 +8,9 @@ import signal
 import pytest
 
 from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
-from motocell.testkit.cell import running_cell
-from motocell.testkit.client import smooth_move, stream
-from motocell.testkit.processes import wait_until
+from motocell.testing.client import smooth_move, stream
+from motocell.testing.processes import wait_until
+from motocell.testing.running_cell import running_cell
 
 pytestmark = pytest.mark.cell
 

@@ -17,8 +17,7 @@ from motocell.shared.protocol.constants import (
 )
 from motocell.shared.protocol.messages import JointTrajPtFull, Message
 from motocell.shared.protocol.replies import traj_point
-from motocell.testkit.cell import RunningCell
-from motocell.testkit.client import (
+from motocell.testing.client import (
     MotionClient,
     PlannedPoint,
     StateListener,
@@ -26,7 +25,8 @@ from motocell.testkit.client import (
     stream,
     stream_messages,
 )
-from motocell.testkit.processes import wait_until
+from motocell.testing.processes import wait_until
+from motocell.testing.running_cell import RunningCell
 
 pytestmark = [
     pytest.mark.cell,

@@ -26,9 +26,9 @@ from motocell.shared.motion.forward_kinematics import Chain, tool_transform
 from motocell.shared.ports import free_port
 from motocell.shared.protocol.constants import Command, Result
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
-from motocell.testkit.cell import RunningCell, moving
-from motocell.testkit.client import Feedback, smooth_move, stream
-from motocell.testkit.processes import wait_until
+from motocell.testing.client import Feedback, smooth_move, stream
+from motocell.testing.processes import wait_until
+from motocell.testing.running_cell import RunningCell, moving
 from motocell.tools.view_layout import layout_text
 from tests.foxglove_ws import SUBPROTOCOL, FoxgloveClient, Received
 from tests.frames import foxglove_steps, in_root, pose_matrix, rotation, vector

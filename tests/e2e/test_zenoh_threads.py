@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from motocell.bench.harness import process_kinds
-from motocell.testkit.cell import RunningCell
+from motocell.testing.running_cell import RunningCell
+from motocell.tools.bench.measuring import process_kinds
 
 pytestmark = pytest.mark.cell
 

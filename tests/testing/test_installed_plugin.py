@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pytest
 
-from motocell.testkit.processes import cmdline, wait_until
+from motocell.testing.processes import cmdline, wait_until
 from tests.installed import clean_env, run
 from tests.test_packaging import BUILD_TIMEOUT_S, INSTALL_TIMEOUT_S, source_copy
 

@@ -17,8 +17,8 @@ CELL_MACHINERY = {
     "zenoh",
     "numpy",
     "msgspec",
-    "motocell.testing.harness",
-    "motocell.testkit.cell",
+    "motocell.testing.under_test",
+    "motocell.testing.running_cell",
     "motocell.tools.fault",
 }
 """What the plugin loads only when a fixture first asks for a cell."""

@@ -29,7 +29,7 @@ from motocell.shared.bus.schemas import CommandReply, ServiceInfo, encode
 from motocell.shared.bus.session import answer, open_session
 from motocell.shared.ports import free_port
 from motocell.shared.registry import CellEntry
-from motocell.testkit.processes import wait_until
+from motocell.testing.processes import wait_until
 from motocell.tools import cells
 from motocell.tools.cells import Target, TargetError
 from motocell.tools.cli import build_parser

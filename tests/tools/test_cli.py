@@ -18,7 +18,7 @@ import pytest
 from motocell.services.launcher.core import WELL_KNOWN_ENDPOINT
 from motocell.shared import registry
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
-from motocell.testkit.cell import RunningCell, running_cell
+from motocell.testing.running_cell import RunningCell, running_cell
 from motocell.tools import cli
 from motocell.tools.cli import build_parser
 
@@ -37,7 +37,7 @@ NOT_FOR_LIGHT = {
     *HEAVY,
     "numpy",
     "cryptography",
-    "motocell.bench",
+    "motocell.tools.bench",
     "motocell.services.launcher",
     *(f"motocell.tools.{name}" for name, _ in cli.COMMANDS if name not in LIGHT),
 }
@@ -140,7 +140,7 @@ def test_up_imports_neither_numpy_nor_the_benchmarks_nor_cryptography(tmp_path: 
         "from motocell.tools import cli\n"
         "cli.build_parser().parse_args(['up', '--port-base', '51240'])"
     )
-    assert loaded_after(code, {"motocell.bench", "cryptography", "numpy"}, tmp_path) == []
+    assert loaded_after(code, {"motocell.tools.bench", "cryptography", "numpy"}, tmp_path) == []
 
 
 @pytest.mark.cell

@@ -8,8 +8,9 @@ import argparse
 import pytest
 
 from motocell.shared.bus.schemas import CommandRequest
+from motocell.shared.faults import request_for
 from motocell.tools import fault
-from motocell.tools.fault import echo, request_for
+from motocell.tools.fault import echo
 
 
 def parse(*argv: str) -> argparse.Namespace:

@@ -33,7 +33,7 @@ from motocell.shared.ports import free_port
 from motocell.shared.protocol.constants import NotReadySubcode
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
 from motocell.shared.service import StopFlag
-from motocell.testkit.statuses import ready_status
+from motocell.testing.statuses import ready_status
 from motocell.tools.watch import STALE_S, Watcher, add_arguments, render
 
 KEYS = CellKeys("arm")

@@ -26,7 +26,7 @@ from motocell.shared.bus.liveness import AT_REST_HEARTBEAT_S
 from motocell.shared.bus.schemas import Alarm, ControllerStatus, GroupTick, State, Tick
 from motocell.shared.config import Cell, parse_cell
 from motocell.shared.protocol.constants import Result
-from motocell.testkit.statuses import ready_status
+from motocell.testing.statuses import ready_status
 
 MS = 1_000_000
 ARM6_PPU = (58670.0, 58670.0, 58670.0, 32594.0, 32594.0, 21990.0)

@@ -10,7 +10,7 @@ import zenoh
 from motocell.services.broadcaster.reports import REFRESH_S, Reports
 from motocell.shared.bus.catalog import Role
 from motocell.shared.bus.schemas import BroadcasterMetrics, CommandRequest, Decoder
-from motocell.testkit.processes import wait_until
+from motocell.testing.processes import wait_until
 from tests.services.broadcaster.test_ticks import KEYS, cell_bus
 
 

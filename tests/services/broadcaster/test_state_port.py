@@ -14,7 +14,7 @@ from motocell.services.broadcaster.backlog import STUCK_S
 from motocell.services.broadcaster.core import MAX_STATE_CLIENTS
 from motocell.services.broadcaster.state_port import Acceptor, StatePort
 from motocell.shared.service import listen
-from motocell.testkit.processes import wait_until
+from motocell.testing.processes import wait_until
 
 CYCLE_BYTES = 64 * 1024
 """Big enough that a client which does not read fills the kernel's buffers in a few cycles."""

@@ -23,7 +23,7 @@ from motocell.shared.bus.schemas import encode
 from motocell.shared.bus.session import open_session, publisher
 from motocell.shared.ports import free_port
 from motocell.shared.service import StopFlag
-from motocell.testkit.processes import wait_until
+from motocell.testing.processes import wait_until
 from tests.services.broadcaster.test_core import tick
 
 CELL = "c1"

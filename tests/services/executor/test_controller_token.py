@@ -10,7 +10,7 @@ import pytest
 from motocell.services.executor.controller_token import ASK_EVERY_NS, ControllerToken
 from motocell.shared.bus.session import open_session
 from motocell.shared.ports import free_port
-from motocell.testkit.processes import wait_until
+from motocell.testing.processes import wait_until
 
 TOKEN = "@motocell/c/alive/controller/0"
 

@@ -37,7 +37,7 @@ from motocell.shared.bus.schemas import (
 from motocell.shared.config import PositionLoop, parse_cell
 from motocell.shared.motion.servo import Servos
 from motocell.shared.protocol.constants import Result
-from motocell.testkit.statuses import ready_status
+from motocell.testing.statuses import ready_status
 
 FIRST_EPOCH = 100
 START = [[10, 20, 30, 40, 50, 60, 0, 0], [-5, 5, 0, 0, 0, 0, 0, 0]]

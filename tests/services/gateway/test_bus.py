@@ -13,7 +13,7 @@ from motocell.services.gateway.bus import ZenohBus
 from motocell.shared.bus.router import router_settings, zenoh_config
 from motocell.shared.bus.session import open_session
 from motocell.shared.ports import free_port
-from motocell.testkit.processes import wait_until
+from motocell.testing.processes import wait_until
 from tests.services.gateway.fake_bus import WAIT_S
 
 KEY = "motocell/test/group/0/slot"

@@ -22,7 +22,7 @@ from motocell.shared.bus.session import Liveness
 from motocell.shared.protocol.constants import Command, IoResult, NotReadySubcode, Result
 from motocell.shared.protocol.messages import Message, ReadIOBitReply, WriteIOBitReply
 from motocell.shared.protocol.replies import motion_ctrl, read_io_bit, write_io_bit
-from motocell.testkit.processes import wait_until
+from motocell.testing.processes import wait_until
 from tests.services.gateway.core.fake_cell import (
     NOW,
     queue,

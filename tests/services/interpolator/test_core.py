@@ -18,7 +18,7 @@ from motocell.services.interpolator.core import MAX_BATCH, Feeder, queue_point
 from motocell.shared.bus.schemas import ControllerStatus, IncrementBatch, Point, QueueState, Slot
 from motocell.shared.config import Group, load_cell, parse_cell
 from motocell.shared.motion.kinematics import IntArray
-from motocell.testkit.statuses import ready_status
+from motocell.testing.statuses import ready_status
 from tests.services.executor.test_core import set_ready
 
 PERIOD = 4_000_000

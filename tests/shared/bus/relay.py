@@ -12,7 +12,7 @@ import socket
 import threading
 from enum import Enum
 
-from motocell.testkit.processes import wait_until
+from motocell.testing.processes import wait_until
 
 CHUNK = 65_536
 HOST = "127.0.0.1"

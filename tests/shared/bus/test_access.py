@@ -27,7 +27,7 @@ from motocell.shared.bus.catalog import Role
 from motocell.shared.bus.credentials import load, write_passwords
 from motocell.shared.bus.router import router_settings, zenoh_config
 from motocell.shared.ports import free_port
-from motocell.testkit.processes import wait_until
+from motocell.testing.processes import wait_until
 
 CELL = "c1"
 

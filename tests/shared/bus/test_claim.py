@@ -20,7 +20,7 @@ from motocell.shared.bus.claim import (
 )
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.session import open_session
-from motocell.testkit.processes import wait_until
+from motocell.testing.processes import wait_until
 from tests.shared.bus.relay import Mode, Relay, wait_for_connections
 
 KEYS = CellKeys("c1")

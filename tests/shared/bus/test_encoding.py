@@ -9,7 +9,7 @@ import zenoh
 from motocell.shared.bus.schemas import CommandReply, CommandRequest, Slot, encode
 from motocell.shared.bus.session import ENCODING, answer, call, command_of, publisher
 from motocell.shared.protocol.constants import Result
-from motocell.testkit.processes import wait_until
+from motocell.testing.processes import wait_until
 
 KEY = "motocell/c1/group/0/slot"
 

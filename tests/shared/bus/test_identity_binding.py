@@ -27,7 +27,7 @@ from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.router import router_settings, zenoh_config
 from motocell.shared.bus.session import open_session
 from motocell.shared.ports import free_port
-from motocell.testkit.processes import wait_until
+from motocell.testing.processes import wait_until
 
 CELL = "c1"
 KEYS = CellKeys(CELL)

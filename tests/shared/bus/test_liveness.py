@@ -14,7 +14,7 @@ import zenoh
 from motocell.shared.bus.liveness import Presence
 from motocell.shared.bus.session import Liveness, open_session
 from motocell.shared.ports import free_port
-from motocell.testkit.processes import wait_until
+from motocell.testing.processes import wait_until
 
 A = "@motocell/c/alive/executor/0"
 B = "@motocell/c/alive/gateway/0"

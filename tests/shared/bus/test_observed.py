@@ -5,7 +5,7 @@ from __future__ import annotations
 import zenoh
 
 from motocell.shared.bus.session import observed, publisher
-from motocell.testkit.processes import wait_until
+from motocell.testing.processes import wait_until
 
 KEY = "motocell/c1/state"
 

@@ -7,7 +7,7 @@ import pytest
 
 from motocell.shared.protocol.constants import Command, Result
 from motocell.testing import CellUnderTest, StartCell
-from motocell.testkit.client import MotionClient, smooth_move, stream
+from motocell.testing.client import MotionClient, smooth_move, stream
 
 
 def test_the_robot_moves_to_the_last_point(motocell_cell: CellUnderTest) -> None:

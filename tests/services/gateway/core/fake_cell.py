@@ -22,7 +22,7 @@ from motocell.shared.bus.schemas import (
 from motocell.shared.config import Cell, parse_cell
 from motocell.shared.protocol.constants import Result
 from motocell.shared.protocol.messages import Message, MotoMotionReply, UnknownMessage
-from motocell.testkit.statuses import ready_status
+from motocell.testing.statuses import ready_status
 
 INSTANCE = 7
 """The interpolator process every group's slot reports come from."""

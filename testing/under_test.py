@@ -1,0 +1,196 @@
+"""Started cells for a test, whatever runs it: ``cell()`` starts one, ``cells()`` as many as a
+test asks for; each stops, with every process of it proven gone, when its block ends, also on
+a failure or Ctrl-C. The pytest plugin (``motocell.testing.plugin``) is these as fixtures.
+
+A cell here is what ``testing.running_cell`` starts for the project's own tests:
+free loopback ports, its own router on a free port, secured (every identity has a password),
+its own registry of running cells; and a name of its own, so two cells of one test, or of two
+test runs at once, are never confused.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import os
+import tempfile
+from collections.abc import Iterator
+from contextlib import ExitStack, contextmanager
+from pathlib import Path
+from typing import Any, Protocol
+
+import zenoh
+
+from motocell.shared import faults
+from motocell.shared.bus.catalog import Role
+from motocell.shared.config import Cell
+from motocell.shared.protocol.constants import Result, describe_reply
+from motocell.testing.cell_file import write_cell_file
+from motocell.testing.following import FollowingError, following_errors
+from motocell.testing.observer import CellObserver
+from motocell.testing.running_cell import RunningCell, running_cell
+
+START_TIMEOUT_S = 60.0
+"""For a cell to be whole: about a second on an idle machine, many times that on a loaded one;
+a bound for a hang, not a speed. A start that fails (a port taken meanwhile) is tried once
+more on new ports."""
+STATE_TIMEOUT_S = 10.0
+REST_TIMEOUT_S = 30.0
+
+_numbers = itertools.count(1)
+
+
+def unique_name() -> str:
+    """``test-<pid>-<n>``: unique on this machine while this process runs."""
+    return f"test-{os.getpid()}-{next(_numbers)}"
+
+
+class FaultError(RuntimeError):
+    """The controller refused the fault, or no controller answered."""
+
+
+class CellUnderTest:
+    """A started cell: where to reach it, and what a test asks of it without knowing Zenoh."""
+
+    def __init__(self, running: RunningCell, session: zenoh.Session) -> None:
+        self.running = running
+        """The harness's cell (``motocell.testing.running_cell``): its Simple Message clients
+        (``motion()``, ``io()``, ``state()``), its processes, a Zenoh ``session()``."""
+        self.bus = session
+        """A Zenoh session on the cell's bus as its operator: it sees every key, and may
+        inject faults. Closed when the cell stops."""
+        self.config: Cell = dataclasses.replace(
+            running.cell, host=running.host, port_base=running.port_base
+        )
+        """The cell as its services run it: groups, models, periods, byte order, ports."""
+        self._observer = CellObserver(session, running.keys)
+
+    @property
+    def name(self) -> str:
+        return self.config.name
+
+    @property
+    def host(self) -> str:
+        return self.config.host
+
+    @property
+    def motion_port(self) -> int:
+        return self.config.motion_port
+
+    @property
+    def state_port(self) -> int:
+        return self.config.state_port
+
+    @property
+    def io_port(self) -> int:
+        return self.config.io_port
+
+    @property
+    def byte_order(self) -> str:
+        """``little``, or ``big`` (an FS100, or asked for)."""
+        return self.config.byte_order
+
+    @property
+    def zenoh_endpoint(self) -> str:
+        """The cell's router: ``motocell watch --zenoh-connect ENDPOINT --credentials DIR``."""
+        return self.running.zenoh_endpoint
+
+    @property
+    def credentials(self) -> Path:
+        """The cell's credentials directory (a password per identity)."""
+        directory = self.running.credentials
+        assert directory is not None, "a cell started here runs its own, secured, router"
+        return directory
+
+    def positions(self, group: int = 0, timeout: float = STATE_TIMEOUT_S) -> tuple[float, ...]:
+        """The group's joint positions (radians, metres for a linear axis; ROS order) in the
+        newest state snapshot: the feedback, as JOINT_FEEDBACK carries it."""
+        state = self._observer.state(timeout)
+        return tuple(state.groups[group].positions[: self.config.groups[group].axes])
+
+    def wait_at_rest(self, timeout: float = REST_TIMEOUT_S) -> None:
+        """Until the executor says its clock rests: nothing queued, owed or settling, for a
+        second. Call it once the motion's last point was accepted; it takes about a second
+        after the robot stops (or, at rest already, until the executor says so again, once a
+        second). TimeoutError after ``timeout`` s."""
+        self._observer.wait_at_rest(timeout)
+
+    def fault(self, kind: str, setting: str | int = "on", subcode: int | None = None) -> None:
+        """What ``motocell fault KIND SETTING [SUBCODE]`` does: ``fault("estop")``,
+        ``fault("hold", "off")``, ``fault("alarm", 4100, 2)``, ``fault("alarm", "clear")``.
+        ValueError for a fault the command would refuse; FaultError when the controller
+        refuses it or does not answer."""
+        kind = kind.lower()
+        if kind not in faults.KINDS:
+            raise ValueError(f"fault {kind!r}: expected one of {', '.join(faults.KINDS)}")
+        request = faults.request_for(kind, str(setting), subcode)
+        reply = faults.inject(self.bus, self.name, kind, request)
+        if reply is None:
+            raise FaultError(f"fault {kind} {setting}: no controller of cell {self.name} answered")
+        if reply.result != Result.SUCCESS:
+            shown = describe_reply(reply.result, reply.subcode)
+            raise FaultError(f"fault {kind} {setting}: {shown} {reply.detail}".rstrip())
+
+    def following_error(self, group: int = 0) -> FollowingError:
+        """The group's following error (commanded - feedback, per axis) over the last motion:
+        the ticks in which something moved since the clock last rested. LookupError before
+        anything moved."""
+        ticks = self._observer.last_motion()
+        if not ticks:
+            raise LookupError(f"cell {self.name}: nothing moved yet")
+        return following_errors(self.config, ticks)[group]
+
+
+@contextmanager
+def cell(
+    config: str | Path | None = None,
+    *,
+    name: str | None = None,
+    timeout: float = START_TIMEOUT_S,
+    **settings: Any,
+) -> Iterator[CellUnderTest]:
+    """A started cell: ``config`` is a cell file or a sample's name (``four-group``; none: one
+    6-axis arm on a YRC1000), ``settings`` set its top-level fields (``byte_order="big"``,
+    ``pending_points=4``), ``name`` its name (default: unique). Stopped on exit;
+    AssertionError then if any of its processes outlived the stop (they are killed first)."""
+    with tempfile.TemporaryDirectory(prefix="motocell-test-cell-") as directory:
+        path = write_cell_file(
+            Path(directory) / "cell.toml", config, name or unique_name(), settings
+        )
+        with running_cell(path, timeout=timeout, attempts=2) as running:
+            session = running.session(Role.OPERATOR)
+            try:
+                yield CellUnderTest(running, session)
+            finally:
+                session.close()
+
+
+class StartCell(Protocol):
+    """``start(config, name=..., timeout=..., **settings)``, as ``cell`` takes them."""
+
+    def __call__(
+        self,
+        config: str | Path | None = None,
+        *,
+        name: str | None = None,
+        timeout: float = START_TIMEOUT_S,
+        **settings: Any,
+    ) -> CellUnderTest: ...
+
+
+@contextmanager
+def cells() -> Iterator[StartCell]:
+    """A function that starts a cell each time it is called (as ``cell`` does) and returns it
+    started; every cell it started stops on exit, the last first."""
+    with ExitStack() as stack:
+
+        def start(
+            config: str | Path | None = None,
+            *,
+            name: str | None = None,
+            timeout: float = START_TIMEOUT_S,
+            **settings: Any,
+        ) -> CellUnderTest:
+            return stack.enter_context(cell(config, name=name, timeout=timeout, **settings))
+
+        yield start
