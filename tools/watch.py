@@ -34,7 +34,12 @@ from motocell.shared.bus.access import Identity
 from motocell.shared.bus.catalog import Role
 from motocell.shared.bus.expiry import warnings
 from motocell.shared.bus.keys import ALIVE_ROOT, ROOT, service_of_alive
-from motocell.shared.bus.liveness import STALE_HEARTBEATS, heartbeat_ms, silence_bound_s
+from motocell.shared.bus.liveness import (
+    QUERY_TIMEOUT_S,
+    STALE_HEARTBEATS,
+    heartbeat_ms,
+    silence_bound_s,
+)
 from motocell.shared.bus.schemas import (
     BroadcasterMetrics,
     CommandRequest,
@@ -193,7 +198,7 @@ class Watcher:
         with self.lock:
             self._liveness[target] = watched
         for answered in [liveness.ask() for liveness in watched]:
-            answered.wait(Liveness.QUERY_TIMEOUT_S)
+            answered.wait(QUERY_TIMEOUT_S)
         self._tokens_changed()
 
     def unfollow(self, target: Target) -> None:

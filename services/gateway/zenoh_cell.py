@@ -39,14 +39,12 @@ import msgspec
 
 from motocell.services.gateway.bus import Bus
 from motocell.services.gateway.core.cell_state import (
-    SLOT_QUERY_TIMEOUT_S,
     STATUS_STREAM,
     CellState,
     queue_stream,
 )
-from motocell.services.gateway.core.freshness import Asking
 from motocell.shared.bus.keys import CellKeys
-from motocell.shared.bus.liveness import AT_REST_HEARTBEAT_S
+from motocell.shared.bus.liveness import QUERY_TIMEOUT_S, Asking
 from motocell.shared.bus.schemas import (
     CommandReply,
     CommandRequest,
@@ -57,7 +55,6 @@ from motocell.shared.bus.schemas import (
     Slot,
     encode,
 )
-from motocell.shared.bus.session import Liveness
 from motocell.shared.config import Cell
 
 log = logging.getLogger("gateway")
@@ -70,10 +67,6 @@ WAIT_POLL_S = 0.001
 """How often ``wait_for`` reads the channels again: nothing notifies a waiter of a queue state
 or a slot (no callback runs for them), so a condition on them is polled. Waits are rare
 (START_TRAJ_MODE, STOP_MOTION), and 1 ms is short next to what they wait for."""
-TOKEN_ASK_EVERY_S = AT_REST_HEARTBEAT_S
-"""While the controller's liveliness token is missing, ask for it this often (after the last
-question's timeout): its declaration may be an event this gateway missed. Never while it is
-there: its DELETE is an event."""
 STOP_JOIN_S = 5.0
 """How long ``close`` waits for the watchdog, which never blocks on anything but its wait."""
 
@@ -146,7 +139,7 @@ class ZenohCell:
         self.wake_at: float | None = None
         """When the watchdog checks next (None: only when woken), by ``clock``."""
         self._watchdog: threading.Thread | None = None
-        self._token_asking = Asking(TOKEN_ASK_EVERY_S, Liveness.QUERY_TIMEOUT_S)
+        self._token_asking = Asking()
         self._queue_keys = [keys.group_queue(g) for g in groups]
         self._slot_keys = [keys.group_slot(g) for g in groups]
         self._queue_groups = {queue_stream(g): g for g in groups}
@@ -301,7 +294,7 @@ class ZenohCell:
                 self.state.slot_answered(group, self._clock())
                 self._plan_again_if_sooner()
 
-        self.bus.query(key, None, on_reply, on_done, SLOT_QUERY_TIMEOUT_S)
+        self.bus.query(key, None, on_reply, on_done, QUERY_TIMEOUT_S)
 
     def _on_status(self, payload: bytes) -> None:
         status = _decoded(payload, _status_decoder, self.keys.controller_status)

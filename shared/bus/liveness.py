@@ -23,6 +23,13 @@ SILENT_HEARTBEATS = 4
 ``STALE_HEARTBEATS``, so motion has stopped before a client can be told NOT_READY."""
 STALE_HEARTBEATS = 5
 """Heartbeats a subscriber may miss before it takes a stream as stopped."""
+QUERY_TIMEOUT_S = 1.0
+"""How long a service's query on the bus (a liveliness token, a slot) may take: Zenoh ends it
+then, answered or not."""
+ASK_AGAIN_S = AT_REST_HEARTBEAT_S
+"""While something a service needs is missing (a token its events missed, a slot), how long
+after the last question it asks again: as often as the at-rest heartbeat, so asking costs an
+idle cell no more than its state streams do."""
 
 
 def heartbeat_ms(motion_possible: bool) -> int:
@@ -82,3 +89,30 @@ class Presence:
     @property
     def present(self) -> frozenset[str]:
         return frozenset(self._present)
+
+
+class Asking:
+    """When to ask again for something a service needs and lacks (a group's slot, a
+    liveliness token its events missed): at once, then at most once per ``every`` s after the
+    last question finished. A question never finished counts as finished after ``timeout``
+    (the bus ends every query by then), so one lost answer cannot stop the asking. The one
+    rule for every service's re-asking; times in seconds of any monotonic clock."""
+
+    def __init__(self, every: float = ASK_AGAIN_S, timeout: float = QUERY_TIMEOUT_S) -> None:
+        self.every = every
+        self.timeout = timeout
+        self.next = 0.0
+        """The earliest moment to ask again."""
+
+    def due(self, now: float) -> bool:
+        return now >= self.next
+
+    def asked(self, now: float) -> None:
+        self.next = now + self.timeout + self.every
+
+    def finished(self, now: float) -> None:
+        self.next = now + self.every
+
+    def renew(self) -> None:
+        """An answer has become likely (whoever answers came back): ask at once."""
+        self.next = 0.0

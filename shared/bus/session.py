@@ -22,7 +22,7 @@ import msgspec
 import zenoh
 
 from motocell.shared.bus.credentials import Credentials
-from motocell.shared.bus.liveness import Presence
+from motocell.shared.bus.liveness import QUERY_TIMEOUT_S, Presence
 from motocell.shared.bus.schemas import CommandReply, CommandRequest, Decoder, encode
 
 log = logging.getLogger(__name__)
@@ -372,8 +372,6 @@ class Liveness:
     that stays is news to nobody, and its DELETE is an event.
     """
 
-    QUERY_TIMEOUT_S = 1.0
-
     def __init__(
         self,
         session: zenoh.Session,
@@ -411,7 +409,7 @@ class Liveness:
         self._session.liveliness().get(
             self._key_expr,
             zenoh.handlers.Callback(on_reply, on_finished),
-            timeout=self.QUERY_TIMEOUT_S,
+            timeout=QUERY_TIMEOUT_S,
         )
         return answered
 

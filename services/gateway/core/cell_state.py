@@ -8,19 +8,14 @@ changes."""
 from __future__ import annotations
 
 from motocell.services.gateway.core.credits import GroupCredit
-from motocell.services.gateway.core.freshness import Asking, Freshness
-from motocell.shared.bus.liveness import AT_REST_HEARTBEAT_S
+from motocell.services.gateway.core.freshness import Freshness
+from motocell.shared.bus.liveness import Asking
 from motocell.shared.bus.schemas import ControllerStatus, QueueState, Slot
 from motocell.shared.protocol.constants import NotReadySubcode
 
 EXECUTOR = "executor/0"
 INTERPOLATOR = "interpolator"
 STATUS_STREAM = "controller/status"
-SLOT_QUERY_TIMEOUT_S = 1.0
-"""How long an interpolator has to answer for its slot."""
-SLOT_ASK_EVERY_S = AT_REST_HEARTBEAT_S
-"""How often a slot still unknown is asked for again (an interpolator not up yet, or one that
-answers no query): as often as an idle cell's heartbeat, no more."""
 
 
 def queue_stream(group: int) -> str:
@@ -39,7 +34,7 @@ class CellState:
         self._doubted: set[int] = set()
         """Groups whose slot may be out of date: their queue stream stopped reaching the
         gateway, and a slot published meanwhile may have been lost the same way."""
-        self._asking = [Asking(SLOT_ASK_EVERY_S, SLOT_QUERY_TIMEOUT_S) for _ in range(groups)]
+        self._asking = [Asking() for _ in range(groups)]
         self._replan = False
 
     def on_status(self, status: ControllerStatus, now: float) -> None:

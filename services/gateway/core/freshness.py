@@ -137,29 +137,3 @@ class Freshness:
         self._sooner = False
         self._planned = min((entry.due() for entry in self._streams.values()), default=None)
         return self._planned
-
-
-class Asking:
-    """When to ask again for something the gateway needs and lacks (a group's slot, the
-    controller's liveliness token): at once, then at most once per ``every`` s after the last
-    question finished. A question never finished counts as finished after ``timeout`` (the
-    bus ends every query by then), so one lost answer cannot stop the asking."""
-
-    def __init__(self, every: float, timeout: float) -> None:
-        self.every = every
-        self.timeout = timeout
-        self.next = 0.0
-        """The earliest moment to ask again."""
-
-    def due(self, now: float) -> bool:
-        return now >= self.next
-
-    def asked(self, now: float) -> None:
-        self.next = now + self.timeout + self.every
-
-    def finished(self, now: float) -> None:
-        self.next = now + self.every
-
-    def renew(self) -> None:
-        """An answer has become likely (whoever answers came back): ask at once."""
-        self.next = 0.0

@@ -11,14 +11,17 @@ from collections.abc import Iterator
 
 import pytest
 
-from motocell.services.gateway.core.cell_state import SLOT_ASK_EVERY_S, SLOT_QUERY_TIMEOUT_S
 from motocell.services.gateway.core.io import IoHandler
 from motocell.services.gateway.core.motion import START_TRAJ_MODE_TIMEOUT_S, MotionHandler
-from motocell.services.gateway.zenoh_cell import TOKEN_ASK_EVERY_S, ZenohCell
+from motocell.services.gateway.zenoh_cell import ZenohCell
 from motocell.shared.bus.keys import CellKeys
-from motocell.shared.bus.liveness import AT_REST_HEARTBEAT_S, STALE_HEARTBEATS
+from motocell.shared.bus.liveness import (
+    ASK_AGAIN_S,
+    AT_REST_HEARTBEAT_S,
+    QUERY_TIMEOUT_S,
+    STALE_HEARTBEATS,
+)
 from motocell.shared.bus.schemas import CommandReply, encode
-from motocell.shared.bus.session import Liveness
 from motocell.shared.protocol.constants import Command, IoResult, NotReadySubcode, Result
 from motocell.shared.protocol.messages import Message, ReadIOBitReply, WriteIOBitReply
 from motocell.shared.protocol.replies import motion_ctrl, read_io_bit, write_io_bit
@@ -119,15 +122,15 @@ def test_the_first_pass_asks_for_the_controller_token_and_every_slot(harness: Ha
     queries = harness.bus.queries()
     assert [query.key for query in queries] == [KEYS.group_slot(0), KEYS.group_slot(1)]
     assert all(query.payload is None for query in queries)
-    assert all(query.timeout == SLOT_QUERY_TIMEOUT_S for query in queries)
+    assert all(query.timeout == QUERY_TIMEOUT_S for query in queries)
 
 
 # -- the controller's token --------------------------------------------------------------
 def test_a_missing_token_is_asked_for_again_at_a_slow_rate(harness: Harness) -> None:
     harness.check_at(NOW)
-    harness.check_at(NOW + TOKEN_ASK_EVERY_S)
+    harness.check_at(NOW + ASK_AGAIN_S)
     assert harness.tokens.asked == 1
-    again = NOW + Liveness.QUERY_TIMEOUT_S + TOKEN_ASK_EVERY_S
+    again = NOW + QUERY_TIMEOUT_S + ASK_AGAIN_S
     assert harness.check_at(again - 0.01) == pytest.approx(again)
     assert harness.check_at(again) is not None
     assert harness.tokens.asked == 2
@@ -137,7 +140,7 @@ def test_a_present_token_is_never_asked_for_again(harness: Harness) -> None:
     harness.whole(AT_REST)
     harness.check_at(NOW)
     asked = harness.tokens.asked
-    next_check = harness.check_at(NOW + 3 * TOKEN_ASK_EVERY_S)
+    next_check = harness.check_at(NOW + 3 * ASK_AGAIN_S)
     assert harness.tokens.asked == asked
     assert next_check == pytest.approx(NOW + REST_SPAN)
 
@@ -176,7 +179,7 @@ def test_an_unanswered_slot_is_asked_again_after_a_while(harness: Harness) -> No
     harness.bus.next_query(KEYS.group_slot(0)).finish()
     assert harness.check_at(NOW + 0.5) is not None
     assert len(harness.bus.queries(KEYS.group_slot(0))) == 1
-    harness.check_at(NOW + SLOT_ASK_EVERY_S)
+    harness.check_at(NOW + ASK_AGAIN_S)
     assert len(harness.bus.queries(KEYS.group_slot(0))) == 2
 
 

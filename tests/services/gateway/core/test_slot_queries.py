@@ -6,12 +6,8 @@ nobody answers. Pure: the test's clock."""
 
 from __future__ import annotations
 
-from motocell.services.gateway.core.cell_state import (
-    SLOT_ASK_EVERY_S,
-    SLOT_QUERY_TIMEOUT_S,
-    CellState,
-)
-from motocell.services.gateway.core.freshness import Asking
+from motocell.services.gateway.core.cell_state import CellState
+from motocell.shared.bus.liveness import ASK_AGAIN_S, QUERY_TIMEOUT_S, Asking
 from tests.services.gateway.core.fake_cell import NOW, FakeCell, queue, slot, status
 
 GONE = ["interpolator/1"]
@@ -21,7 +17,7 @@ def test_every_group_is_asked_for_at_start_once() -> None:
     state = CellState(3)
     assert state.slots_to_ask(NOW) == [0, 1, 2]
     assert state.slots_to_ask(NOW) == []
-    assert state.next_check() == NOW + SLOT_QUERY_TIMEOUT_S + SLOT_ASK_EVERY_S
+    assert state.next_check() == NOW + QUERY_TIMEOUT_S + ASK_AGAIN_S
 
 
 def test_a_slot_heard_is_not_asked_for() -> None:
@@ -35,15 +31,15 @@ def test_an_unanswered_group_is_asked_again_at_a_slow_rate() -> None:
     state.slots_to_ask(NOW)
     state.slot_answered(0, NOW + 0.01)
     assert state.sooner()
-    assert state.next_check() == NOW + 0.01 + SLOT_ASK_EVERY_S
-    assert state.slots_to_ask(NOW + SLOT_ASK_EVERY_S) == []
-    assert state.slots_to_ask(NOW + 0.01 + SLOT_ASK_EVERY_S) == [0]
+    assert state.next_check() == NOW + 0.01 + ASK_AGAIN_S
+    assert state.slots_to_ask(NOW + ASK_AGAIN_S) == []
+    assert state.slots_to_ask(NOW + 0.01 + ASK_AGAIN_S) == [0]
 
 
 def test_a_question_never_finished_does_not_stop_the_asking() -> None:
     state = CellState(1)
     state.slots_to_ask(NOW)
-    assert state.slots_to_ask(NOW + SLOT_QUERY_TIMEOUT_S + SLOT_ASK_EVERY_S) == [0]
+    assert state.slots_to_ask(NOW + QUERY_TIMEOUT_S + ASK_AGAIN_S) == [0]
 
 
 def test_a_missing_interpolator_is_not_asked_and_is_asked_at_once_when_back() -> None:
