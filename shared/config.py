@@ -55,6 +55,9 @@ EXIT_CONFIG = 2
 credentials, a taken name): restarting it would not help, so the launcher stops the cell."""
 MAX_PORT = 65535
 """The highest TCP port: a cell's port base leaves room for its state and I/O ports below it."""
+PORT_COUNT = 3
+"""A cell's consecutive TCP ports from its port base: motion, state, I/O (``Cell``)."""
+MAX_PORT_BASE = MAX_PORT - PORT_COUNT + 1
 
 
 class ConfigError(ValueError):
@@ -268,6 +271,8 @@ class Cell:
 
     @property
     def motion_port(self) -> int:
+        """The ports follow MotoROS's layout (50240 motion, 50241 state, 50242 I/O): the one
+        place that knows it."""
         return self.port_base
 
     @property
@@ -276,7 +281,22 @@ class Cell:
 
     @property
     def io_port(self) -> int:
-        return self.port_base + 2
+        return self.port_base + PORT_COUNT - 1
+
+    def listening_at(
+        self,
+        host: str | None,
+        port_base: int | None,
+        byte_order: Literal["little", "big"] | None = None,
+    ) -> Cell:
+        """This cell served elsewhere (a service's ``--host``, ``--port-base`` and
+        ``--byte-order``); None keeps the cell file's."""
+        return dataclasses.replace(
+            self,
+            host=host or self.host,
+            port_base=port_base or self.port_base,
+            byte_order=byte_order or self.byte_order,
+        )
 
 
 def load_catalogue() -> dict[str, RobotModel]:
@@ -536,8 +556,8 @@ def resolve(
         raise ConfigError(f"{where}: pending_points: must be 1 to {MAX_PENDING_POINTS}")
     if not 0 <= cell_file.start_buffer_periods <= MAX_START_BUFFER_PERIODS:
         raise ConfigError(f"{where}: start_buffer_periods: must be 0 to {MAX_START_BUFFER_PERIODS}")
-    if not 1 <= cell_file.port_base <= MAX_PORT - 2:
-        raise ConfigError(f"{where}: port_base: must be 1 to {MAX_PORT - 2}")
+    if not 1 <= cell_file.port_base <= MAX_PORT_BASE:
+        raise ConfigError(f"{where}: port_base: must be 1 to {MAX_PORT_BASE}")
     _check_tools(f"{where}: tools", cell_file.tools)
     groups: list[Group] = []
     for index, group in enumerate(cell_file.groups):

@@ -14,7 +14,7 @@ import random
 import socket
 from pathlib import Path
 
-from motocell.shared.config import MAX_PORT
+from motocell.shared.config import MAX_PORT, MAX_PORT_BASE, PORT_COUNT
 
 EPHEMERAL_RANGE = Path("/proc/sys/net/ipv4/ip_local_port_range")
 PICKED_SPAN = 12000
@@ -47,10 +47,10 @@ def port_base_argument(text: str) -> int:
         base = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not 1 <= base <= MAX_PORT - 2:
+    if not 1 <= base <= MAX_PORT_BASE:
         raise argparse.ArgumentTypeError(
-            f"{base}: the motion, state and I/O ports ({base}-{base + 2}) must lie within "
-            f"1-{MAX_PORT}"
+            f"{base}: the motion, state and I/O ports ({base}-{base + PORT_COUNT - 1}) must lie "
+            f"within 1-{MAX_PORT}"
         )
     return base
 

@@ -35,6 +35,7 @@ from motocell.shared.bus.runtime import zenoh_runtime
 from motocell.shared.bus.schemas import Listening, ServiceInfo, encode
 from motocell.shared.bus.session import ENCODING, StoppedWaiting, open_session
 from motocell.shared.config import EXIT_CONFIG, Cell, ConfigError, load_cell
+from motocell.shared.ports import port_base_argument
 from motocell.shared.realtime import enter_service_priority
 from motocell.shared.service_names import (
     PER_GROUP,
@@ -97,6 +98,18 @@ def argument_parser(service: str, description: str) -> argparse.ArgumentParser:
     add_bus_arguments(parser)
     parser.add_argument("--log-level", default=os.environ.get("MOTOCELL_LOG", "INFO"))
     return parser
+
+
+def add_listening_arguments(parser: argparse.ArgumentParser) -> None:
+    """For a service with TCP ports: where they are, instead of the cell file's
+    (``running_service`` applies them to ``ServiceContext.cell``)."""
+    parser.add_argument("--host", help="address to listen on (default: the cell file's)")
+    parser.add_argument(
+        "--port-base",
+        type=port_base_argument,
+        help="the motion port; the state and I/O ports follow it (default: the cell file's)",
+    )
+    parser.add_argument("--byte-order", choices=("little", "big"))
 
 
 def add_cell_arguments(parser: argparse.ArgumentParser) -> None:
@@ -293,7 +306,10 @@ def running_service(
         # Before the session opens, whose threads inherit it; `motocell up` says a refusal once.
         enter_service_priority(logging.getLogger(service), quiet=PARENT_PID_ENV in os.environ)
         try:
-            cell = load_cell(args.config, args.name)
+            given = vars(args)
+            cell = load_cell(args.config, args.name).listening_at(
+                given.get("host"), given.get("port_base"), given.get("byte_order")
+            )
             parse_service(str(name), cell)  # an interpolator of a group the cell lacks
             session, description, alive = joined.enter_context(
                 _service_session(service, instance, cell, args, stop)

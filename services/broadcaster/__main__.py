@@ -14,26 +14,24 @@ from motocell.services.broadcaster.reports import Reports
 from motocell.services.broadcaster.state_port import Acceptor, StatePort
 from motocell.services.broadcaster.ticks import TickSource
 from motocell.shared.bus.session import answer, observed, publisher
-from motocell.shared.ports import port_base_argument
 from motocell.shared.protocol.codec import ByteOrder
-from motocell.shared.service import argument_parser, listen, running_service
+from motocell.shared.service import (
+    add_listening_arguments,
+    argument_parser,
+    listen,
+    running_service,
+)
 
 log = logging.getLogger("broadcaster")
 
 
 def main(argv: Sequence[str] | None = None) -> None:
     parser = argument_parser("broadcaster", "Controller state at the state period.")
-    parser.add_argument("--host", help="address to listen on (default: the cell file's)")
-    parser.add_argument(
-        "--port-base", type=port_base_argument, help="motion port; the state port follows it"
-    )
-    parser.add_argument("--byte-order", choices=("little", "big"))
+    add_listening_arguments(parser)
     args = parser.parse_args(argv)
     with running_service("broadcaster", "0", args) as ctx:
-        host = args.host or ctx.cell.host
-        port = args.port_base + 1 if args.port_base else ctx.cell.state_port
-        byte_order = ByteOrder(args.byte_order or ctx.cell.byte_order)
-        state_socket = listen(host, port)
+        byte_order = ByteOrder(ctx.cell.byte_order)
+        state_socket = listen(ctx.cell.host, ctx.cell.state_port)
         ctx.description.listening("state", state_socket.getsockname())
         watch = ControllerWatch(ctx.session, ctx.keys)
         broadcaster = Broadcaster(ctx.cell, watch)
@@ -55,7 +53,7 @@ def main(argv: Sequence[str] | None = None) -> None:
             observed=lambda: observed(state_pub),
             reports=reports,
         )
-        log.info("state port on %s:%d (%s-endian)", host, port, byte_order)
+        log.info("state port on %s:%d (%s-endian)", ctx.cell.host, ctx.cell.state_port, byte_order)
         ticks.start()
         acceptor.start()
         ctx.alive.announce()

@@ -18,26 +18,24 @@ from motocell.services.gateway.metrics import GatewayStats
 from motocell.services.gateway.reporter import Reporter
 from motocell.services.gateway.tcp import RequestServer, SocketListener
 from motocell.services.gateway.zenoh_cell import ZenohCell
-from motocell.shared.ports import port_base_argument
 from motocell.shared.protocol.codec import ByteOrder
-from motocell.shared.service import argument_parser, listen, running_service
+from motocell.shared.service import (
+    add_listening_arguments,
+    argument_parser,
+    listen,
+    running_service,
+)
 
 log = logging.getLogger("gateway")
 
 
 def main(argv: Sequence[str] | None = None) -> None:
     parser = argument_parser("gateway", "Simple Message TCP servers of one controller.")
-    parser.add_argument("--host", help="address to listen on (default: the cell file's)")
-    parser.add_argument(
-        "--port-base", type=port_base_argument, help="motion port; I/O is port-base + 2"
-    )
-    parser.add_argument("--byte-order", choices=("little", "big"))
+    add_listening_arguments(parser)
     args = parser.parse_args(argv)
     with running_service("gateway", "0", args) as ctx:
         cell = ctx.cell
-        host = args.host or cell.host
-        port_base = args.port_base or cell.port_base
-        byte_order = ByteOrder(args.byte_order or cell.byte_order)
+        byte_order = ByteOrder(cell.byte_order)
         bus = ZenohBus(ctx.session)
         cell_port = ZenohCell(cell, ctx.keys, bus)
         io = IoHandler(cell_port)
@@ -45,7 +43,10 @@ def main(argv: Sequence[str] | None = None) -> None:
         motion = MotionHandler(cell, cell_port, io, sync_seed=time.time_ns() // 1000)
         stats = GatewayStats(len(cell.groups))
         moving = cell_port.moving
-        motion_socket, io_socket = listen(host, port_base), listen(host, port_base + 2)
+        motion_socket, io_socket = (
+            listen(cell.host, cell.motion_port),
+            listen(cell.host, cell.io_port),
+        )
         ctx.description.listening("motion", motion_socket.getsockname())
         ctx.description.listening("io", io_socket.getsockname())
         motion_server = RequestServer(
@@ -74,7 +75,11 @@ def main(argv: Sequence[str] | None = None) -> None:
             adapter.start()
         ctx.alive.announce()
         log.info(
-            "listening on %s:%d and %d (%s-endian)", host, port_base, port_base + 2, byte_order
+            "listening on %s:%d and %d (%s-endian)",
+            cell.host,
+            cell.motion_port,
+            cell.io_port,
+            byte_order,
         )
         ctx.stop.wait()
         # In reverse: the ports stop taking requests (and a client's clean-up still reaches

@@ -7,7 +7,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from enum import Enum
 
-from motocell.shared.config import EXIT_CONFIG, MAX_PORT, Cell
+from motocell.shared.config import EXIT_CONFIG, MAX_PORT, MAX_PORT_BASE, PORT_COUNT, Cell
 from motocell.shared.service_names import (
     PER_GROUP,
     ServiceName,
@@ -103,15 +103,15 @@ class TcpPort:
     port: int
 
 
-def tcp_ports(port_base: int, services: Sequence[ServiceName]) -> list[TcpPort]:
+def tcp_ports(cell: Cell, services: Sequence[ServiceName]) -> list[TcpPort]:
     """The Simple Message ports ``services`` will listen on (a skipped service's ports are
     another host's business), in port order."""
     kinds = {name.service for name in services}
     ports = []
     if "gateway" in kinds:
-        ports += [TcpPort("motion", port_base), TcpPort("I/O", port_base + 2)]
+        ports += [TcpPort("motion", cell.motion_port), TcpPort("I/O", cell.io_port)]
     if "broadcaster" in kinds:
-        ports.append(TcpPort("state", port_base + 1))
+        ports.append(TcpPort("state", cell.state_port))
     return sorted(ports, key=lambda p: p.port)
 
 
@@ -125,11 +125,11 @@ def port_base_problem(given: str) -> str | None:
         port_base = int(given)
     except ValueError:
         return f"--port-base {given} is not a number: give the motion port N, or {how}"
-    if 1 <= port_base <= MAX_PORT - 2:
+    if 1 <= port_base <= MAX_PORT_BASE:
         return None
     return (
         f"--port-base {port_base} is out of range: the motion, state and I/O ports "
-        f"({port_base}-{port_base + 2}) must lie within 1-{MAX_PORT}; {how}"
+        f"({port_base}-{port_base + PORT_COUNT - 1}) must lie within 1-{MAX_PORT}; {how}"
     )
 
 

@@ -53,7 +53,7 @@ from motocell.shared.bus.credentials import CredentialsError, write_passwords
 from motocell.shared.bus.credentials import load as load_credentials
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.session import StoppedWaiting, open_session
-from motocell.shared.config import EXIT_CONFIG, Cell, ConfigError, load_cell
+from motocell.shared.config import EXIT_CONFIG, PORT_COUNT, Cell, ConfigError, load_cell
 from motocell.shared.ports import free_port_block
 from motocell.shared.realtime import enter_service_priority, leave_service_priority
 from motocell.shared.registry import CellEntry, CellNameTakenError
@@ -99,7 +99,9 @@ class ThisHost:
         self.services = services_here(cell, args.skip or ())
         self.host: str = args.host or cell.host
         self.port_base = self._port_base(args.port_base, cell)
-        self.ports = tcp_ports(self.port_base, self.services)
+        self.served = cell.listening_at(self.host, self.port_base)
+        """The cell as this host serves it: where its TCP ports are."""
+        self.ports = tcp_ports(self.served, self.services)
 
     def _port_base(self, given: str | None, cell: Cell) -> int:
         if given is None:
@@ -108,7 +110,7 @@ class ThisHost:
         if problem is not None:
             raise PortError(problem)
         if given == PORT_BASE_AUTO:
-            return free_port_block(3, self.host)
+            return free_port_block(PORT_COUNT, self.host)
         return int(given)
 
     def check_ports(self) -> None:
@@ -116,8 +118,8 @@ class ThisHost:
         check_tcp_ports(self.host, self.ports)
 
     def describe(self) -> str:
-        base = self.port_base
-        return f"motion {self.host}:{base}, state {base + 1}, I/O {base + 2}"
+        at = self.served
+        return f"motion {at.host}:{at.motion_port}, state {at.state_port}, I/O {at.io_port}"
 
 
 def _hint(exc: Exception, args: argparse.Namespace) -> str:

@@ -152,9 +152,10 @@ def test_port_options_go_to_the_services_that_serve_tcp_only() -> None:
 
 def test_the_ports_are_those_of_the_services_run_here() -> None:
     everything = [TcpPort("motion", 50240), TcpPort("state", 50241), TcpPort("I/O", 50242)]
-    assert tcp_ports(50240, services_here(ONE_ARM, ())) == everything
-    assert tcp_ports(50240, services_here(ONE_ARM, ("gateway",))) == [everything[1]]
-    assert tcp_ports(50240, services_here(ONE_ARM, ("broadcaster",))) == everything[::2]
+    served = ONE_ARM.listening_at(None, 50240)
+    assert tcp_ports(served, services_here(ONE_ARM, ())) == everything
+    assert tcp_ports(served, services_here(ONE_ARM, ("gateway",))) == [everything[1]]
+    assert tcp_ports(served, services_here(ONE_ARM, ("broadcaster",))) == everything[::2]
 
 
 @pytest.mark.parametrize("given", ["1", "50240", "65533", "auto"])
