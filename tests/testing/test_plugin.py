@@ -19,7 +19,7 @@ CELL_MACHINERY = {
     "msgspec",
     "motocell.testing.under_test",
     "motocell.testing.running_cell",
-    "motocell.tools.fault",
+    "motocell.shared.faults",
 }
 """What the plugin loads only when a fixture first asks for a cell."""
 
