@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import json
 import logging
-import queue
 import re
 import socket
 import threading
@@ -277,51 +276,6 @@ def observed(publisher: zenoh.Publisher) -> bool:
     return bool(status.matching)
 
 
-class Inbox:
-    """One queue that several Zenoh callbacks feed, drained by the service's own thread.
-
-    Zenoh callbacks run on Zenoh's threads; they only append here, so no service logic ever
-    runs on them. Bounded: what a producer that outruns the consumer sends is dropped and
-    counted (``dropped``) rather than growing memory without limit.
-    """
-
-    def __init__(self, maxsize: int = 10_000) -> None:
-        self._queue: queue.Queue[tuple[str, Any]] = queue.Queue(maxsize)
-        self._dropped = 0
-        self._dropped_lock = threading.Lock()
-        """Several Zenoh threads may find the queue full at once."""
-
-    @property
-    def dropped(self) -> int:
-        with self._dropped_lock:
-            return self._dropped
-
-    def feed(self, tag: str) -> Callable[[Any], None]:
-        def callback(item: Any) -> None:
-            try:
-                self._queue.put_nowait((tag, item))
-            except queue.Full:
-                with self._dropped_lock:
-                    self._dropped += 1
-
-        return callback
-
-    def put(self, tag: str, item: Any) -> None:
-        self._queue.put((tag, item))
-
-    def get(self, timeout: float | None) -> tuple[str, Any] | None:
-        try:
-            return self._queue.get(timeout=timeout)
-        except queue.Empty:
-            return None
-
-    def get_nowait(self) -> tuple[str, Any] | None:
-        try:
-            return self._queue.get_nowait()
-        except queue.Empty:
-            return None
-
-
 _reply_decoder = Decoder(CommandReply)
 
 
@@ -386,10 +340,10 @@ class Liveness:
         self._key_expr = key_expr
         self._subscriber = session.liveliness().declare_subscriber(key_expr, self._on_sample)
 
-    def ask(self) -> threading.Event:
+    def ask(self, on_finished: Callable[[], None] | None = None) -> threading.Event:
         """Ask which tokens are there; returns at once, with an event set once the answers
         are in. They count when the query is finished (``Presence.on_answer``), and
-        ``on_change`` runs if they found any new."""
+        ``on_change`` runs if they found any new, then ``on_finished`` (on Zenoh's thread)."""
         with self._lock:
             asked = self._presence.asking()
         tokens: list[str] = []
@@ -399,16 +353,18 @@ class Liveness:
             if reply.ok is not None:
                 tokens.append(str(reply.ok.key_expr))
 
-        def on_finished() -> None:
+        def on_end() -> None:
             with self._lock:
                 found = self._presence.on_answer(tokens, asked)
             if found and self._on_change is not None:
                 self._on_change()
+            if on_finished is not None:
+                on_finished()
             answered.set()
 
         self._session.liveliness().get(
             self._key_expr,
-            zenoh.handlers.Callback(on_reply, on_finished),
+            zenoh.handlers.Callback(on_reply, on_end),
             timeout=QUERY_TIMEOUT_S,
         )
         return answered

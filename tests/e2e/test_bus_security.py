@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import zenoh
 
-from motocell.services.controller.core.dispatch import COMMANDS, FAULTS
+from motocell.services.controller.core.dispatch import FaultKind, Verb
 from motocell.shared.bus.access import Identity
 from motocell.shared.bus.catalog import Role
 from motocell.shared.bus.credentials import Credentials, load
@@ -72,9 +72,9 @@ def attack(session: zenoh.Session, cell: RunningCell) -> None:
         session.put(key, payload)
     keys = cell.keys
     on = encode(CommandRequest(value=1, args=[4100, 0]))
-    for verb in COMMANDS:
+    for verb in Verb:
         list(session.get(keys.controller_cmd(verb), payload=encode(CommandRequest()), timeout=0.5))
-    for kind in FAULTS:
+    for kind in FaultKind:
         list(session.get(keys.controller_fault(kind), payload=on, timeout=0.5))
     list(session.get(keys.executor_cmd("stop"), payload=encode(CommandRequest()), timeout=0.5))
 
@@ -157,7 +157,7 @@ def test_outside_identities_cannot_move_the_robot_or_raise_a_fault(
 def attack_without_faults(session: zenoh.Session, cell: RunningCell) -> None:
     for key, payload in attacks(cell):
         session.put(key, payload)
-    for verb in COMMANDS:
+    for verb in Verb:
         list(session.get(cell.keys.controller_cmd(verb), timeout=0.5))
     list(session.get(cell.keys.executor_cmd("stop"), timeout=0.5))
 

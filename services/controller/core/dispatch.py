@@ -1,61 +1,82 @@
-"""The controller's answers: decoded commands, faults and notices in, replies and statuses out.
+"""The controller's decisions: decoded commands, faults and notices in, replies and statuses
+out, and when to ask which services are there.
 
 No I/O. A reply waits in the outbox until the service has published the status it depends on
-(``status_due`` before ``take_replies``), so the gateway's next answer cannot be stale. Which
-query a reply answers is the adapter's business: ``Q`` is whatever handle it passes in.
+(``status_due`` before ``take_replies``), so the gateway's next answer cannot be stale. Where a
+reply goes is the loop's business: ``ReplyHandle`` is whatever handle it passes in.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass
-from typing import Generic, TypeVar
+from enum import StrEnum, unique
+from typing import Generic, TypeVar, assert_never
 
 import msgspec
 
 from motocell.services.controller.core.io_table import IoTable
 from motocell.services.controller.core.model import OT_ROS_READY, START_TIMEOUT_S, Controller
 from motocell.shared.bus.keys import service_of_alive
+from motocell.shared.bus.liveness import Asking
 from motocell.shared.bus.schemas import Alarm, CommandReply, CommandRequest, ControllerStatus
 from motocell.shared.protocol.constants import TOOL_NUMBERS, InvalidSubcode, Result
 
 log = logging.getLogger("controller")
 
-Q = TypeVar("Q")
+ReplyHandle = TypeVar("ReplyHandle")
 
 
-COMMANDS = (
-    "start_servos",
-    "stop_servos",
-    "reset_alarm",
-    "start_traj_mode",
-    "stop_traj_mode",
-    "select_tool",
-    "read_bit",
-    "write_bit",
-    "read_group",
-    "write_group",
-    "read_register",
-    "write_register",
-)
-FAULTS = ("estop", "hold", "alarm", "error", "servo", "play", "remote", "pfl", "ot889")
+@unique
+class Verb(StrEnum):
+    """The commands the controller answers, each on its ``controller/cmd/<verb>`` queryable."""
 
-IO_READS: dict[str, Callable[[IoTable, int], tuple[int, int]]] = {
-    "read_bit": IoTable.read_bit,
-    "read_group": IoTable.read_group,
-    "read_register": IoTable.read_register,
+    START_SERVOS = "start_servos"
+    STOP_SERVOS = "stop_servos"
+    RESET_ALARM = "reset_alarm"
+    START_TRAJ_MODE = "start_traj_mode"
+    STOP_TRAJ_MODE = "stop_traj_mode"
+    SELECT_TOOL = "select_tool"
+    READ_BIT = "read_bit"
+    WRITE_BIT = "write_bit"
+    READ_GROUP = "read_group"
+    WRITE_GROUP = "write_group"
+    READ_REGISTER = "read_register"
+    WRITE_REGISTER = "write_register"
+
+
+@unique
+class FaultKind(StrEnum):
+    """The faults an operator injects, each on its ``controller/fault/<kind>`` queryable."""
+
+    ESTOP = "estop"
+    HOLD = "hold"
+    ALARM = "alarm"
+    ERROR = "error"
+    SERVO = "servo"
+    PLAY = "play"
+    REMOTE = "remote"
+    PFL = "pfl"
+    OT889 = "ot889"
+
+
+IO_READS: dict[Verb, Callable[[IoTable, int], tuple[int, int]]] = {
+    Verb.READ_BIT: IoTable.read_bit,
+    Verb.READ_GROUP: IoTable.read_group,
+    Verb.READ_REGISTER: IoTable.read_register,
 }
-IO_WRITES: dict[str, Callable[[IoTable, int, int], int]] = {
-    "write_bit": IoTable.write_bit,
-    "write_group": IoTable.write_group,
-    "write_register": IoTable.write_register,
+IO_WRITES: dict[Verb, Callable[[IoTable, int, int], int]] = {
+    Verb.WRITE_BIT: IoTable.write_bit,
+    Verb.WRITE_GROUP: IoTable.write_group,
+    Verb.WRITE_REGISTER: IoTable.write_register,
 }
 
 
 @dataclass
-class PendingReply(Generic[Q]):
-    query: Q
+class PendingReply(Generic[ReplyHandle]):
+    reply_to: ReplyHandle
     deadline: float
     done: Callable[[Controller], bool]
     on_timeout: Callable[[Controller], tuple[int, int]]
@@ -69,7 +90,7 @@ def _not_ready(model: Controller) -> tuple[int, int]:
     return int(Result.NOT_READY), model.not_ready_subcode()
 
 
-class Dispatcher(Generic[Q]):
+class Dispatcher(Generic[ReplyHandle]):
     """Everything the controller service decides, with time passed in."""
 
     def __init__(
@@ -81,15 +102,17 @@ class Dispatcher(Generic[Q]):
         self.model = model
         self.io = io
         self.required_alive = list(required_alive)
-        self.pending: list[PendingReply[Q]] = []
-        self.outbox: list[tuple[Q, CommandReply]] = []
+        self.pending: list[PendingReply[ReplyHandle]] = []
+        self.outbox: list[tuple[ReplyHandle, CommandReply]] = []
         self.sequence = first_seq
         self._published: ControllerStatus | None = None
         self._next_refresh = 0.0
         self._whole_once = False
         """Every required service has been present at least once (start-up is over)."""
+        self._token_asking = Asking()
+        self._tokens_asked = False
 
-    # -- notices ---------------------------------------------------------------------------
+    # -- which services are there ----------------------------------------------------------
     def services_present(self, present: Collection[str]) -> None:
         """The liveliness tokens present now: a missing service makes the cell not ready. A
         token is missing only on evidence that its service is gone (``Presence``): it exited,
@@ -106,6 +129,23 @@ class Dispatcher(Generic[Q]):
                 log.info("waiting for services: %s", ", ".join(missing))
         self.model.set_missing_services(missing)
 
+    def next_token_question(self) -> float:
+        """When to ask which liveliness tokens are there: at start, then as ``Asking`` says
+        while a service is missing (a declaration the events missed); never while the cell is
+        whole, since a token that stays is no news and its DELETE is an event."""
+        if self._tokens_asked and not self.model.missing_services:
+            return math.inf
+        return self._token_asking.next
+
+    def tokens_asked(self, now: float) -> None:
+        self._tokens_asked = True
+        self._token_asking.asked(now)
+
+    def tokens_answered(self, now: float) -> None:
+        """The last question for tokens is finished (what it found came as a change)."""
+        self._token_asking.finished(now)
+
+    # -- notices ---------------------------------------------------------------------------
     def connections(self, counts: CommandRequest) -> None:
         """Motion, state and I/O client counts, in ``args``: the gateway reports the motion and
         I/O ports, the broadcaster the state port, each -1 for the ports it does not serve."""
@@ -126,44 +166,49 @@ class Dispatcher(Generic[Q]):
             log.error("increment path broken; motion stopped (NOT_READY 5012)")
             self.model.set_incmove_error()
 
-    def bad_payload(self, what: str, query: Q | None, error: Exception) -> None:
+    def bad_payload(self, source: str, reply_to: ReplyHandle | None, reason: str) -> None:
         """A payload that does not decode gets INVALID (queries) or is only logged (notices);
-        it never stops the controller or changes its state."""
-        log.warning("%s: bad payload ignored: %s", what, error)
-        if query is not None:
-            self.reply(query, CommandReply(Result.INVALID, InvalidSubcode.DATA, detail=str(error)))
+        it never stops the controller or changes its state. ``source``: the key it came on,
+        after ``controller/``."""
+        log.warning("%s: bad payload ignored: %s", source, reason)
+        if reply_to is not None:
+            self.reply(reply_to, CommandReply(Result.INVALID, InvalidSubcode.DATA, detail=reason))
 
     # -- commands --------------------------------------------------------------------------
-    def command(self, verb: str, request: CommandRequest, query: Q, now: float) -> None:
+    def command(
+        self, verb: Verb, request: CommandRequest, reply_to: ReplyHandle, now: float
+    ) -> None:
         model = self.model
-        if verb == "reset_alarm":
-            self.reply(query, CommandReply(model.reset_alarm()))
-        elif verb == "start_servos":
-            model.eco = False
-            model.set_servo(True, now)
-            self._await(
-                query, now, lambda m: m.servo_on, _failure, impossible=not model.servo_possible()
-            )
-        elif verb == "stop_servos":
-            model.set_servo(False, now)
-            self.reply(query, CommandReply(Result.SUCCESS))
-        elif verb == "start_traj_mode":
-            decided = model.begin_start_traj_mode(now)
-            if decided is not None:
-                self.reply(query, CommandReply(*decided))
-            else:
-                self._await(query, now, Controller.motion_ready, _not_ready)
-        elif verb == "stop_traj_mode":
-            model.stop_traj_mode()
-            self.reply(query, CommandReply(Result.SUCCESS))
-        elif verb in IO_READS:
-            value, code = IO_READS[verb](self.io, request.value)
-            self.reply(query, CommandReply(code, value=value))
-        elif verb in IO_WRITES:
-            value = request.args[0] if request.args else -1
-            self.reply(query, CommandReply(IO_WRITES[verb](self.io, request.value, value)))
-        elif verb == "select_tool":
-            self.reply(query, self._select_tool(request))
+        match verb:
+            case Verb.RESET_ALARM:
+                self.reply(reply_to, CommandReply(model.reset_alarm()))
+            case Verb.START_SERVOS:
+                model.eco = False
+                model.set_servo(True, now)
+                impossible = not model.servo_possible()
+                self._await(reply_to, now, lambda m: m.servo_on, _failure, impossible=impossible)
+            case Verb.STOP_SERVOS:
+                model.set_servo(False, now)
+                self.reply(reply_to, CommandReply(Result.SUCCESS))
+            case Verb.START_TRAJ_MODE:
+                decided = model.begin_start_traj_mode(now)
+                if decided is not None:
+                    self.reply(reply_to, CommandReply(*decided))
+                else:
+                    self._await(reply_to, now, Controller.motion_ready, _not_ready)
+            case Verb.STOP_TRAJ_MODE:
+                model.stop_traj_mode()
+                self.reply(reply_to, CommandReply(Result.SUCCESS))
+            case Verb.READ_BIT | Verb.READ_GROUP | Verb.READ_REGISTER:
+                value, code = IO_READS[verb](self.io, request.value)
+                self.reply(reply_to, CommandReply(code, value=value))
+            case Verb.WRITE_BIT | Verb.WRITE_GROUP | Verb.WRITE_REGISTER:
+                value = request.args[0] if request.args else -1
+                self.reply(reply_to, CommandReply(IO_WRITES[verb](self.io, request.value, value)))
+            case Verb.SELECT_TOOL:
+                self.reply(reply_to, self._select_tool(request))
+            case _:
+                assert_never(verb)
 
     def _select_tool(self, request: CommandRequest) -> CommandReply:
         if not 0 <= request.group < self.model.groups:
@@ -175,7 +220,7 @@ class Dispatcher(Generic[Q]):
 
     def _await(
         self,
-        query: Q,
+        reply_to: ReplyHandle,
         now: float,
         done: Callable[[Controller], bool],
         on_timeout: Callable[[Controller], tuple[int, int]],
@@ -185,50 +230,55 @@ class Dispatcher(Generic[Q]):
         polls for (motoros1 §2.3, motoros1 §7.3). When the simulation already knows it cannot
         happen (``impossible``), it answers at once instead of making the client wait 5 s."""
         deadline = now if impossible else now + START_TIMEOUT_S
-        self.pending.append(PendingReply(query, deadline, done, on_timeout))
+        self.pending.append(PendingReply(reply_to, deadline, done, on_timeout))
         self._finish_pending(now)
 
     def _finish_pending(self, now: float) -> None:
         still = []
         for pending in self.pending:
             if pending.done(self.model):
-                self.reply(pending.query, CommandReply(Result.SUCCESS))
+                self.reply(pending.reply_to, CommandReply(Result.SUCCESS))
             elif now >= pending.deadline:
-                self.reply(pending.query, CommandReply(*pending.on_timeout(self.model)))
+                self.reply(pending.reply_to, CommandReply(*pending.on_timeout(self.model)))
             else:
                 still.append(pending)
         self.pending = still
 
     # -- faults ----------------------------------------------------------------------------
-    def fault(self, kind: str, request: CommandRequest, query: Q, now: float) -> None:
+    def fault(
+        self, kind: FaultKind, request: CommandRequest, reply_to: ReplyHandle, now: float
+    ) -> None:
         """An injected fault; always acknowledged with SUCCESS."""
         model = self.model
         on = bool(request.value)
         log.warning("fault injected: %s %s %s", kind, request.value, request.args)
-        if kind == "estop":
-            model.set_estop(on)
-        elif kind == "hold":
-            model.set_hold(on)
-        elif kind == "alarm":
-            if on:
-                code, subcode = ([*request.args, 0, 0])[:2]
-                model.raise_alarm(code or 9999, subcode)
-            else:
-                model.alarms.clear()
-        elif kind == "error":
-            model.set_error(request.args[0] if on and request.args else (9999 if on else 0))
-        elif kind == "servo":
-            model.set_servo(on, now)
-        elif kind == "play":
-            model.set_play(on)
-        elif kind == "remote":
-            model.set_remote(on)
-        elif kind == "pfl":
-            model.set_pfl(on)
-        elif kind == "ot889":
-            # Something (a job edit, an I/O write) drops the job's "ready for ROS" output.
-            model.set_output(OT_ROS_READY, int(on))
-        self.reply(query, CommandReply(Result.SUCCESS))
+        match kind:
+            case FaultKind.ESTOP:
+                model.set_estop(on)
+            case FaultKind.HOLD:
+                model.set_hold(on)
+            case FaultKind.ALARM:
+                if on:
+                    code, subcode = ([*request.args, 0, 0])[:2]
+                    model.raise_alarm(code or 9999, subcode)
+                else:
+                    model.alarms.clear()
+            case FaultKind.ERROR:
+                model.set_error(request.args[0] if on and request.args else (9999 if on else 0))
+            case FaultKind.SERVO:
+                model.set_servo(on, now)
+            case FaultKind.PLAY:
+                model.set_play(on)
+            case FaultKind.REMOTE:
+                model.set_remote(on)
+            case FaultKind.PFL:
+                model.set_pfl(on)
+            case FaultKind.OT889:
+                # Something (a job edit, an I/O write) drops the job's "ready for ROS" output.
+                model.set_output(OT_ROS_READY, int(on))
+            case _:
+                assert_never(kind)
+        self.reply(reply_to, CommandReply(Result.SUCCESS))
 
     # -- time and output -------------------------------------------------------------------
     def advance(self, now: float) -> None:
@@ -236,8 +286,8 @@ class Dispatcher(Generic[Q]):
         self.model.advance(now)
         self._finish_pending(now)
 
-    def reply(self, query: Q, reply: CommandReply) -> None:
-        self.outbox.append((query, reply))
+    def reply(self, reply_to: ReplyHandle, reply: CommandReply) -> None:
+        self.outbox.append((reply_to, reply))
 
     def status_due(self, now: float) -> ControllerStatus | None:
         """The status to publish now, numbered: on every change, and at the heartbeat it
@@ -253,19 +303,24 @@ class Dispatcher(Generic[Q]):
 
     def next_deadline(self) -> float:
         """When the service must look again if no command, fault or notice comes first: the
-        status heartbeat, a reply's time-out, or the model's own next step."""
-        times = [self._next_refresh, *(pending.deadline for pending in self.pending)]
+        status heartbeat, a reply's time-out, the model's own next step, or the next question
+        for tokens."""
+        times = [
+            self._next_refresh,
+            self.next_token_question(),
+            *(pending.deadline for pending in self.pending),
+        ]
         model_event = self.model.next_event()
         if model_event is not None:
             times.append(model_event)
         return min(times)
 
-    def take_replies(self) -> list[tuple[Q, CommandReply]]:
+    def take_replies(self) -> list[tuple[ReplyHandle, CommandReply]]:
         """The replies to send, each naming the last status published (which shows their
         effect)."""
         replies = [
-            (query, msgspec.structs.replace(reply, status_seq=self.sequence))
-            for query, reply in self.outbox
+            (reply_to, msgspec.structs.replace(reply, status_seq=self.sequence))
+            for reply_to, reply in self.outbox
         ]
         self.outbox.clear()
         return replies

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from motocell.services.controller.core.job import Job, JobAction, JobEvent, step
+from motocell.services.controller.core.states import JobAction, JobEvent, JobState, step
 from motocell.shared.bus.liveness import heartbeat_ms
 from motocell.shared.bus.schemas import Alarm, ControllerStatus
 from motocell.shared.protocol.constants import NotReadySubcode, Result
@@ -52,7 +52,7 @@ class Controller:
     pfl_signal: bool = False
     """The PFL stop/escape/avoiding inputs (YRC1000 family)."""
     incmove_error: bool = False
-    job: Job = Job.IDLE
+    job: JobState = JobState.IDLE
     job_timer_until: float = 0.0
     job_ready: bool = False
     missing_services: list[str] = field(default_factory=list)
@@ -68,7 +68,7 @@ class Controller:
     # -- derived status -------------------------------------------------------------------
     @property
     def operating(self) -> bool:
-        return self.job in (Job.TIMER, Job.WAITING)
+        return self.job in (JobState.TIMER, JobState.WAITING)
 
     def motion_ready(self) -> bool:
         """motoros1 §7.1: job-ready latch, operating, REMOTE, no PFL, no IncMove error; plus
@@ -137,7 +137,8 @@ class Controller:
             self.job_ready = bool(value)
 
     def fire(self, event: JobEvent, now: float = 0.0) -> None:
-        """Move the INIT_ROS job by its transition table and carry out the step's action."""
+        """Move the INIT_ROS job by its state table (``states.TRANSITIONS``) and carry out the
+        step's action."""
         self.job, action = step(self.job, event)
         if action is JobAction.BEGIN:
             self.set_output(OT_ROS_DONE, 0)
@@ -160,7 +161,7 @@ class Controller:
                 self.servo_on = True
         if self.servo_on:
             self.fire(JobEvent.SERVO_ON, now)
-        if self.job is Job.TIMER and now >= self.job_timer_until:
+        if self.job is JobState.TIMER and now >= self.job_timer_until:
             self.fire(JobEvent.TIMER_DONE, now)
         if self.outputs.get(OT_ROS_DONE, 0):
             self.fire(JobEvent.ROS_DONE, now)
@@ -169,7 +170,7 @@ class Controller:
         """When ``advance`` next has something to do on its own (servo power-up, the job's
         TIMER step), or None: the rest happens only when a command or fault comes."""
         times = [self.servo_on_at] if self.servo_on_at is not None else []
-        if self.job is Job.TIMER:
+        if self.job is JobState.TIMER:
             times.append(self.job_timer_until)
         return min(times, default=None)
 

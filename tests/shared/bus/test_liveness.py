@@ -87,7 +87,9 @@ def test_liveness_over_a_router(router: str) -> None:
         wait_until(lambda: _queried(watcher) == {A}, 5.0, "the first token at the router")
         liveness = Liveness(watcher, "@motocell/c/alive/*/*")
         assert liveness.present() == frozenset()  # nothing asked yet, no event yet
-        assert liveness.ask().wait(5.0)
+        finished: list[frozenset[str]] = []
+        assert liveness.ask(lambda: finished.append(liveness.present())).wait(5.0)
+        assert finished == [{A}]  # told once the answers count
         assert liveness.present() == {A}
 
         tokens.append(late.liveliness().declare_token(B))

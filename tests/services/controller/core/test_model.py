@@ -9,7 +9,6 @@ from dataclasses import dataclass
 
 import pytest
 
-from motocell.services.controller.core.job import Job
 from motocell.services.controller.core.model import (
     JOB_TIMER_S,
     OT_INIT_DONE,
@@ -19,6 +18,7 @@ from motocell.services.controller.core.model import (
     SERVO_ON_DELAY_S,
     Controller,
 )
+from motocell.services.controller.core.states import JobState
 from motocell.shared.bus.schemas import Alarm, ControllerStatus
 
 SUCCESS = (0, 0)
@@ -48,7 +48,7 @@ def test_initial_state() -> None:
     assert (OT_ROS_READY, OT_ROS_DONE, OT_INIT_DONE, OT_SERVER_RUNNING) == (
         11120, 11121, 11122, 11123
     )  # fmt: skip
-    assert c.job is Job.IDLE
+    assert c.job is JobState.IDLE
     assert not c.operating
     assert not c.motion_ready()
     assert c.not_ready_subcode() == 5006  # servo off comes before "not operating"
@@ -58,17 +58,17 @@ def test_start_traj_mode_sequence_from_servo_off() -> None:
     assert (SERVO_ON_DELAY_S, JOB_TIMER_S) == (0.05, 0.05)
     c = Controller(1)
     assert start(c, 0.0) is None
-    assert c.job is Job.STARTING
+    assert c.job is JobState.STARTING
     assert not c.servo_on
     c.advance(0.049)
     assert not c.servo_on
-    assert c.job is Job.STARTING
+    assert c.job is JobState.STARTING
     assert c.not_ready_subcode() == 5006
 
     # Servo on after its delay; the job starts at once: OT#889/890 off, TIMER 50 ms.
     c.advance(0.05)
     assert c.servo_on
-    assert c.job is Job.TIMER
+    assert c.job is JobState.TIMER
     assert c.operating
     assert c.outputs[OT_ROS_READY] == 0
     assert c.outputs[OT_ROS_DONE] == 0
@@ -77,12 +77,12 @@ def test_start_traj_mode_sequence_from_servo_off() -> None:
     assert c.not_ready_subcode() == 5009  # operating, OT#889 still off
 
     c.advance(0.0999)
-    assert c.job is Job.TIMER
+    assert c.job is JobState.TIMER
     assert not c.motion_ready()
 
     # TIMER done: OT#889 ON (rising edge latches job_ready), parked at WAIT OT#890.
     c.advance(0.1)
-    assert c.job is Job.WAITING
+    assert c.job is JobState.WAITING
     assert c.outputs[OT_ROS_READY] == 1
     assert c.job_ready
     assert c.motion_ready()
@@ -90,7 +90,7 @@ def test_start_traj_mode_sequence_from_servo_off() -> None:
 
     # It stays there.
     c.advance(100.0)
-    assert c.job is Job.WAITING
+    assert c.job is JobState.WAITING
     assert c.motion_ready()
 
 
@@ -100,7 +100,7 @@ def test_start_traj_mode_with_servo_already_on_starts_the_job_at_once() -> None:
     c.advance(0.05)
     assert c.servo_on
     assert start(c, 1.0) is None
-    assert c.job is Job.TIMER
+    assert c.job is JobState.TIMER
     assert c.job_timer_until == pytest.approx(1.05)
     c.advance(1.0499)
     assert not c.motion_ready()
@@ -111,7 +111,7 @@ def test_start_traj_mode_with_servo_already_on_starts_the_job_at_once() -> None:
 def test_start_traj_mode_when_already_ready_succeeds_at_once() -> None:
     c = ready_controller()
     assert start(c, 5.0) == SUCCESS
-    assert c.job is Job.WAITING
+    assert c.job is JobState.WAITING
     assert c.outputs[OT_ROS_READY] == 1  # no job restart, no falling edge
 
 
@@ -121,7 +121,7 @@ def test_start_traj_mode_while_the_job_is_starting_is_refused() -> None:
     c.advance(0.05)
     assert start(c, 1.0) is None
     assert start(c, 1.01) == (5, 5009)  # operating: the job is in its TIMER
-    assert c.job is Job.TIMER
+    assert c.job is JobState.TIMER
 
 
 def test_start_traj_mode_refused_under_estop() -> None:
@@ -133,7 +133,7 @@ def test_start_traj_mode_refused_under_estop() -> None:
     c.alarms.clear()
     assert start(c, 0.0) == (5, 5003)
     assert c.servo_on_at is None
-    assert c.job is Job.IDLE
+    assert c.job is JobState.IDLE
     c.advance(10.0)
     assert not c.servo_on
 
@@ -149,7 +149,7 @@ def test_start_traj_mode_refused_under_hold() -> None:
     c.error = 0
     assert start(c, 1.0) == (5, 5007)
     c.advance(2.0)
-    assert c.job is Job.IDLE
+    assert c.job is JobState.IDLE
 
 
 def test_start_traj_mode_refused_when_not_remote() -> None:
@@ -157,7 +157,7 @@ def test_start_traj_mode_refused_when_not_remote() -> None:
     c.set_remote(False)
     assert start(c, 0.0) == (5, 5005)
     c.advance(1.0)
-    assert (c.servo_on, c.job) == (False, Job.IDLE)
+    assert (c.servo_on, c.job) == (False, JobState.IDLE)
 
 
 def test_start_traj_mode_in_teach_resets_but_does_not_start() -> None:
@@ -166,7 +166,7 @@ def test_start_traj_mode_in_teach_resets_but_does_not_start() -> None:
     c.set_play(False)
     assert start(c, 0.0) == (5, 5004)
     assert c.error == 0
-    assert c.job is Job.IDLE
+    assert c.job is JobState.IDLE
     assert c.servo_on_at is None
 
 
@@ -188,7 +188,7 @@ def test_start_traj_mode_cancels_an_error() -> None:
     assert c.servo_on  # an error does not switch the servo off
     assert start(c, 1.0) is None
     assert c.error == 0
-    assert c.job is Job.TIMER
+    assert c.job is JobState.TIMER
     c.advance(1.05)
     assert c.motion_ready()
 
@@ -230,7 +230,7 @@ def test_stop_traj_mode_releases_the_wait() -> None:
     c.stop_traj_mode()
     assert c.outputs[OT_ROS_DONE] == 1
     c.advance(1.0)
-    assert c.job is Job.IDLE
+    assert c.job is JobState.IDLE
     assert c.outputs[OT_ROS_DONE] == 0
     assert c.outputs[OT_ROS_READY] == 0  # falling edge: job no longer ready
     assert not c.job_ready
@@ -250,7 +250,7 @@ def test_stop_traj_mode_before_the_wait_ends_the_job_when_it_gets_there() -> Non
     # OT#890 set during the TIMER: the WAIT is passed as soon as the job gets there.
     c.stop_traj_mode()
     c.advance(1.05)
-    assert c.job is Job.IDLE
+    assert c.job is JobState.IDLE
     assert not c.motion_ready()
 
 
@@ -258,7 +258,7 @@ def test_ot890_written_by_the_io_path_releases_the_wait() -> None:
     c = ready_controller()
     c.set_output(OT_ROS_DONE, 1)
     c.advance(0.2)
-    assert c.job is Job.IDLE
+    assert c.job is JobState.IDLE
     assert not c.motion_ready()
 
 
@@ -368,7 +368,7 @@ def test_removing_the_cause_does_not_restore_motion_ready(
     # rising edge) and the cell is ready again.
     assert c.outputs[OT_ROS_READY] == 1
     assert start(c, 3.0) is None
-    assert c.outputs[OT_ROS_READY] == 0 or c.job is Job.STARTING
+    assert c.outputs[OT_ROS_READY] == 0 or c.job is JobState.STARTING
     c.advance(3.05)
     c.advance(3.10)
     assert c.motion_ready()
@@ -434,7 +434,7 @@ CONDITIONS = [
     Condition("pfl", 8, 5011, _set("pfl", True)),
     Condition("incmove error", 9, 5012, _set("incmove_error", True)),
     Condition("missing service", 9, 5012, _set("missing_services", ["executor"])),
-    Condition("not operating", 10, 5008, _set("job", Job.IDLE)),
+    Condition("not operating", 10, 5008, _set("job", JobState.IDLE)),
     Condition("OT#889 off", 11, 5009, _ot889_off),
     Condition("latch not set", 12, 5010, _set("job_ready", False)),
 ]
@@ -447,7 +447,7 @@ def not_ready_with(*conditions: Condition) -> Controller:
     if c.motion_ready():
         # Conditions 1-7 act on readiness only through OPERATING: drop it in the background.
         # It ranks after all of them, so it does not change which one wins.
-        c.job = Job.IDLE
+        c.job = JobState.IDLE
     assert not c.motion_ready()
     return c
 

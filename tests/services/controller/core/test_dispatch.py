@@ -3,10 +3,11 @@ for their status. Queries are plain strings here; time is passed in, nothing sle
 
 from __future__ import annotations
 
-import msgspec
+import math
+
 import pytest
 
-from motocell.services.controller.core.dispatch import COMMANDS, FAULTS, Dispatcher
+from motocell.services.controller.core.dispatch import Dispatcher, FaultKind, Verb
 from motocell.services.controller.core.io_table import IoTable
 from motocell.services.controller.core.model import (
     OT_IO_CONNECTED,
@@ -18,8 +19,13 @@ from motocell.services.controller.core.model import (
     START_TIMEOUT_S,
     Controller,
 )
-from motocell.shared.bus.liveness import AT_REST_HEARTBEAT_S, HEARTBEAT_S
-from motocell.shared.bus.schemas import Alarm, CommandReply, CommandRequest
+from motocell.shared.bus.liveness import (
+    ASK_AGAIN_S,
+    AT_REST_HEARTBEAT_S,
+    HEARTBEAT_S,
+    QUERY_TIMEOUT_S,
+)
+from motocell.shared.bus.schemas import Alarm, CommandReply, CommandRequest, encode
 from motocell.shared.config import ControllerModel
 from motocell.shared.protocol.constants import InvalidSubcode, IoResult, NotReadySubcode, Result
 
@@ -39,7 +45,7 @@ def replies(d: Dispatcher[str]) -> dict[str, CommandReply]:
     return dict(d.take_replies())
 
 
-def answer(d: Dispatcher[str], verb: str, request: CommandRequest | None = None) -> CommandReply:
+def answer(d: Dispatcher[str], verb: Verb, request: CommandRequest | None = None) -> CommandReply:
     """One command at t = 0 that is answered at once."""
     d.command(verb, request or CommandRequest(), "q", 0.0)
     return replies(d)["q"]
@@ -49,17 +55,18 @@ def result(reply: CommandReply) -> tuple[int, int]:
     return reply.result, reply.subcode
 
 
+def whole(d: Dispatcher[str]) -> None:
+    """Every other service present, and asked for once: no question for tokens is due."""
+    d.services_present(REQUIRED)
+    d.tokens_asked(0.0)
+
+
 def ready(d: Dispatcher[str]) -> None:
     """Motion-ready by START_TRAJ_MODE from servo off: 0.10 s of simulated time."""
-    d.command("start_traj_mode", CommandRequest(), "ready", 0.0)
+    d.command(Verb.START_TRAJ_MODE, CommandRequest(), "ready", 0.0)
     for now in (0.05, 0.10):
         d.advance(now)
     assert result(replies(d)["ready"]) == (Result.SUCCESS, 0)
-
-
-def test_every_verb_and_fault_is_named_once() -> None:
-    assert len(set(COMMANDS)) == len(COMMANDS)
-    assert len(set(FAULTS)) == len(FAULTS)
 
 
 # -- servo power --------------------------------------------------------------------------
@@ -67,7 +74,7 @@ def test_every_verb_and_fault_is_named_once() -> None:
 
 def test_start_servos_answers_once_the_servo_is_on() -> None:
     d = dispatcher()
-    d.command("start_servos", CommandRequest(), "q", 0.0)
+    d.command(Verb.START_SERVOS, CommandRequest(), "q", 0.0)
     assert replies(d) == {}
     d.advance(SERVO_ON_DELAY_S)
     assert result(replies(d)["q"]) == (Result.SUCCESS, 0)
@@ -77,12 +84,12 @@ def test_start_servos_answers_once_the_servo_is_on() -> None:
 def test_start_servos_under_estop_fails_at_once() -> None:
     d = dispatcher()
     d.model.set_estop(True)
-    assert result(answer(d, "start_servos")) == (Result.FAILURE, 0)
+    assert result(answer(d, Verb.START_SERVOS)) == (Result.FAILURE, 0)
 
 
 def test_start_servos_that_never_completes_fails_at_the_deadline() -> None:
     d = dispatcher()
-    d.command("start_servos", CommandRequest(), "q", 0.0)
+    d.command(Verb.START_SERVOS, CommandRequest(), "q", 0.0)
     d.model.set_servo(False, 0.01)  # a servo-off fault cancels the power-up
     d.advance(START_TIMEOUT_S - 0.01)
     assert replies(d) == {}
@@ -93,14 +100,14 @@ def test_start_servos_that_never_completes_fails_at_the_deadline() -> None:
 def test_start_servos_leaves_energy_saving() -> None:
     d = dispatcher()
     d.model.eco = True
-    d.command("start_servos", CommandRequest(), "q", 0.0)
+    d.command(Verb.START_SERVOS, CommandRequest(), "q", 0.0)
     assert not d.model.eco
 
 
 def test_stop_servos_turns_the_servo_off() -> None:
     d = dispatcher()
     ready(d)
-    assert result(answer(d, "stop_servos")) == (Result.SUCCESS, 0)
+    assert result(answer(d, Verb.STOP_SERVOS)) == (Result.SUCCESS, 0)
     assert not d.model.servo_on
     assert not d.model.motion_ready()
 
@@ -109,7 +116,7 @@ def test_reset_alarm_clears_alarms_and_errors() -> None:
     d = dispatcher()
     d.model.raise_alarm(4107)
     d.model.set_error(3)
-    assert result(answer(d, "reset_alarm")) == (Result.SUCCESS, 0)
+    assert result(answer(d, Verb.RESET_ALARM)) == (Result.SUCCESS, 0)
     assert (d.model.alarms, d.model.error) == ([], 0)
 
 
@@ -118,7 +125,7 @@ def test_reset_alarm_clears_alarms_and_errors() -> None:
 
 def test_start_traj_mode_answers_when_motion_ready() -> None:
     d = dispatcher()
-    d.command("start_traj_mode", CommandRequest(), "q", 0.0)
+    d.command(Verb.START_TRAJ_MODE, CommandRequest(), "q", 0.0)
     d.advance(0.05)
     assert replies(d) == {}
     d.advance(0.10)
@@ -128,12 +135,12 @@ def test_start_traj_mode_answers_when_motion_ready() -> None:
 def test_start_traj_mode_decided_at_once_is_answered_at_once() -> None:
     d = dispatcher()
     d.model.set_estop(True)
-    assert result(answer(d, "start_traj_mode")) == (Result.NOT_READY, NotReadySubcode.ESTOP)
+    assert result(answer(d, Verb.START_TRAJ_MODE)) == (Result.NOT_READY, NotReadySubcode.ESTOP)
 
 
 def test_start_traj_mode_times_out_with_the_reason() -> None:
     d = dispatcher()
-    d.command("start_traj_mode", CommandRequest(), "q", 0.0)
+    d.command(Verb.START_TRAJ_MODE, CommandRequest(), "q", 0.0)
     d.model.set_hold(True)
     d.advance(START_TIMEOUT_S)
     assert result(replies(d)["q"]) == (Result.NOT_READY, NotReadySubcode.HOLD)
@@ -142,7 +149,7 @@ def test_start_traj_mode_times_out_with_the_reason() -> None:
 def test_stop_traj_mode_releases_the_job() -> None:
     d = dispatcher()
     ready(d)
-    assert result(answer(d, "stop_traj_mode")) == (Result.SUCCESS, 0)
+    assert result(answer(d, Verb.STOP_TRAJ_MODE)) == (Result.SUCCESS, 0)
     assert d.model.outputs[OT_ROS_DONE] == 1
     d.advance(0.2)
     assert not d.model.operating
@@ -150,9 +157,9 @@ def test_stop_traj_mode_releases_the_job() -> None:
 
 def test_an_earlier_waiting_reply_is_answered_when_a_later_command_is_handled() -> None:
     d = dispatcher()
-    d.command("start_servos", CommandRequest(), "first", 0.0)
+    d.command(Verb.START_SERVOS, CommandRequest(), "first", 0.0)
     d.model.advance(SERVO_ON_DELAY_S)
-    d.command("start_servos", CommandRequest(), "second", SERVO_ON_DELAY_S)
+    d.command(Verb.START_SERVOS, CommandRequest(), "second", SERVO_ON_DELAY_S)
     assert set(replies(d)) == {"first", "second"}
 
 
@@ -161,121 +168,117 @@ def test_an_earlier_waiting_reply_is_answered_when_a_later_command_is_handled() 
 
 def test_select_tool_sets_the_groups_tool() -> None:
     d = dispatcher(groups=2)
-    assert result(answer(d, "select_tool", CommandRequest(group=1, value=7))) == (0, 0)
+    assert result(answer(d, Verb.SELECT_TOOL, CommandRequest(group=1, value=7))) == (0, 0)
     assert d.model.tools == [0, 7]
 
 
 @pytest.mark.parametrize("group", [-1, 2])
 def test_select_tool_for_a_group_the_cell_lacks_is_invalid(group: int) -> None:
-    reply = answer(dispatcher(groups=2), "select_tool", CommandRequest(group=group, value=1))
+    reply = answer(dispatcher(groups=2), Verb.SELECT_TOOL, CommandRequest(group=group, value=1))
     assert result(reply) == (Result.INVALID, InvalidSubcode.GROUPNO)
 
 
 @pytest.mark.parametrize("tool", [-1, 64])
 def test_select_tool_beyond_the_tool_files_is_invalid(tool: int) -> None:
-    reply = answer(dispatcher(), "select_tool", CommandRequest(value=tool))
+    reply = answer(dispatcher(), Verb.SELECT_TOOL, CommandRequest(value=tool))
     assert result(reply) == (Result.INVALID, InvalidSubcode.DATA_TOOLNO)
 
 
 def test_write_then_read_a_bit() -> None:
     d = dispatcher()
-    write = answer(d, "write_bit", CommandRequest(value=WRITABLE_BIT, args=[1]))
+    write = answer(d, Verb.WRITE_BIT, CommandRequest(value=WRITABLE_BIT, args=[1]))
     assert write.result == IoResult.OK
-    read = answer(d, "read_bit", CommandRequest(value=WRITABLE_BIT))
+    read = answer(d, Verb.READ_BIT, CommandRequest(value=WRITABLE_BIT))
     assert (read.result, read.value) == (IoResult.OK, 1)
 
 
 def test_a_write_without_a_value_is_refused_as_a_bad_value() -> None:
-    reply = answer(dispatcher(), "write_bit", CommandRequest(value=WRITABLE_BIT))
+    reply = answer(dispatcher(), Verb.WRITE_BIT, CommandRequest(value=WRITABLE_BIT))
     assert reply.result == IoResult.WRITE_VALUE_INVALID
 
 
 def test_a_read_of_an_unknown_address_reports_it() -> None:
-    reply = answer(dispatcher(), "read_bit", CommandRequest(value=9))
+    reply = answer(dispatcher(), Verb.READ_BIT, CommandRequest(value=9))
     assert reply.result == IoResult.READ_ADDRESS_INVALID
 
 
 def test_write_then_read_a_register() -> None:
     d = dispatcher()
-    assert answer(d, "write_register", CommandRequest(value=5, args=[1234])).result == 0
-    assert answer(d, "read_register", CommandRequest(value=1_000_005)).value == 1234
+    assert answer(d, Verb.WRITE_REGISTER, CommandRequest(value=5, args=[1234])).result == 0
+    assert answer(d, Verb.READ_REGISTER, CommandRequest(value=1_000_005)).value == 1234
 
 
 def test_write_then_read_a_group() -> None:
     d = dispatcher()
-    assert answer(d, "write_group", CommandRequest(value=1001, args=[0xA5])).result == 0
-    assert answer(d, "read_group", CommandRequest(value=1001)).value == 0xA5
-
-
-def test_an_unknown_verb_gets_no_reply() -> None:
-    d = dispatcher()
-    d.command("dance", CommandRequest(), "q", 0.0)
-    assert replies(d) == {}
+    assert answer(d, Verb.WRITE_GROUP, CommandRequest(value=1001, args=[0xA5])).result == 0
+    assert answer(d, Verb.READ_GROUP, CommandRequest(value=1001)).value == 0xA5
 
 
 # -- faults -------------------------------------------------------------------------------
 
 
-def inject(d: Dispatcher[str], kind: str, value: int = 1, *args: int) -> None:
+def inject(d: Dispatcher[str], kind: FaultKind, value: int = 1, *args: int) -> None:
     d.fault(kind, CommandRequest(value=value, args=list(args)), "f", 0.0)
     assert result(replies(d)["f"]) == (Result.SUCCESS, 0)
 
 
-@pytest.mark.parametrize("kind", FAULTS)
-def test_every_fault_is_acknowledged(kind: str) -> None:
+@pytest.mark.parametrize("kind", FaultKind)
+def test_every_fault_is_acknowledged(kind: FaultKind) -> None:
     inject(dispatcher(), kind)
 
 
 def test_estop_fault_stops_motion_and_clears_again() -> None:
     d = dispatcher()
     ready(d)
-    inject(d, "estop")
+    inject(d, FaultKind.ESTOP)
     assert (d.model.estop, d.model.servo_on, d.model.motion_ready()) == (True, False, False)
-    inject(d, "estop", 0)
+    inject(d, FaultKind.ESTOP, 0)
     assert not d.model.estop
 
 
 def test_hold_fault() -> None:
     d = dispatcher()
-    inject(d, "hold")
+    inject(d, FaultKind.HOLD)
     assert d.model.hold
 
 
 def test_alarm_fault_with_code_and_subcode() -> None:
     d = dispatcher()
-    inject(d, "alarm", 1, 4107, 3)
+    inject(d, FaultKind.ALARM, 1, 4107, 3)
     assert d.model.alarms == [Alarm(4107, 3)]
 
 
 def test_alarm_fault_without_a_code_raises_9999() -> None:
     d = dispatcher()
-    inject(d, "alarm")
+    inject(d, FaultKind.ALARM)
     assert d.model.alarms == [Alarm(9999, 0)]
 
 
 def test_alarm_fault_off_clears_the_alarms() -> None:
     d = dispatcher()
-    inject(d, "alarm", 1, 4107)
-    inject(d, "alarm", 0)
+    inject(d, FaultKind.ALARM, 1, 4107)
+    inject(d, FaultKind.ALARM, 0)
     assert d.model.alarms == []
 
 
 @pytest.mark.parametrize(("value", "args", "error"), [(1, [42], 42), (1, [], 9999), (0, [42], 0)])
 def test_error_fault(value: int, args: list[int], error: int) -> None:
     d = dispatcher()
-    inject(d, "error", value, *args)
+    inject(d, FaultKind.ERROR, value, *args)
     assert d.model.error == error
 
 
 def test_servo_fault_powers_up_after_the_delay() -> None:
     d = dispatcher()
-    inject(d, "servo")
+    inject(d, FaultKind.SERVO)
     d.advance(SERVO_ON_DELAY_S)
     assert d.model.servo_on
 
 
-@pytest.mark.parametrize(("kind", "attribute"), [("play", "play"), ("remote", "remote")])
-def test_mode_faults_switch_the_mode(kind: str, attribute: str) -> None:
+@pytest.mark.parametrize(
+    ("kind", "attribute"), [(FaultKind.PLAY, "play"), (FaultKind.REMOTE, "remote")]
+)
+def test_mode_faults_switch_the_mode(kind: FaultKind, attribute: str) -> None:
     d = dispatcher()
     inject(d, kind, 0)
     assert getattr(d.model, attribute) is False
@@ -286,8 +289,8 @@ def test_mode_faults_switch_the_mode(kind: str, attribute: str) -> None:
 def test_pfl_fault_while_ready_latches() -> None:
     d = dispatcher()
     ready(d)
-    inject(d, "pfl")
-    inject(d, "pfl", 0)
+    inject(d, FaultKind.PFL)
+    inject(d, FaultKind.PFL, 0)
     assert d.model.pfl_active
     assert d.model.not_ready_subcode() == NotReadySubcode.PFL_ACTIVE
 
@@ -295,7 +298,7 @@ def test_pfl_fault_while_ready_latches() -> None:
 def test_ot889_fault_drops_readiness() -> None:
     d = dispatcher()
     ready(d)
-    inject(d, "ot889", 0)
+    inject(d, FaultKind.OT889, 0)
     assert d.model.outputs[OT_ROS_READY] == 0
     assert not d.model.motion_ready()
 
@@ -331,6 +334,42 @@ def test_a_start_is_quiet_and_a_loss_after_it_is_a_warning(
     d.services_present({REQUIRED[0]})
     assert caplog.records[-1].levelname == "WARNING"
     assert "services missing: gateway/0" in caplog.records[-1].getMessage()
+
+
+def test_the_tokens_are_asked_for_at_start() -> None:
+    d = dispatcher()
+    d.services_present(REQUIRED)
+    assert d.next_token_question() == 0.0
+    assert d.next_deadline() == 0.0
+
+
+def test_a_whole_cell_is_not_asked_again() -> None:
+    d = dispatcher()
+    d.services_present(REQUIRED)
+    d.tokens_asked(0.0)
+    d.tokens_answered(0.01)
+    assert d.next_token_question() == math.inf
+
+
+def test_while_a_service_is_missing_the_tokens_are_asked_again() -> None:
+    """As ``Asking`` says: a while after the last question ended, or after its time-out."""
+    d = dispatcher()
+    d.services_present({REQUIRED[0]})
+    d.tokens_asked(0.0)
+    assert d.next_token_question() == QUERY_TIMEOUT_S + ASK_AGAIN_S
+    d.tokens_answered(0.2)
+    assert d.next_token_question() == 0.2 + ASK_AGAIN_S
+    d.status_due(0.2)
+    assert d.next_deadline() == 0.2 + ASK_AGAIN_S
+
+
+def test_a_service_lost_after_the_cell_was_whole_is_asked_for_again() -> None:
+    d = dispatcher()
+    d.services_present(REQUIRED)
+    d.tokens_asked(0.0)
+    d.tokens_answered(0.01)
+    d.services_present({REQUIRED[0]})
+    assert d.next_token_question() == 0.01 + ASK_AGAIN_S
 
 
 def test_connection_counts_set_the_connected_outputs() -> None:
@@ -398,7 +437,7 @@ def test_a_repeated_stall_notice_raises_one_alarm() -> None:
 
 def test_reset_alarm_then_start_traj_mode_recovers_from_a_soft_limit() -> None:
     d = soft_limit_hit()
-    assert result(answer(d, "reset_alarm")) == (Result.SUCCESS, 0)
+    assert result(answer(d, Verb.RESET_ALARM)) == (Result.SUCCESS, 0)
     assert d.model.alarms == []
     assert not d.model.motion_ready()
     ready(d)
@@ -414,7 +453,7 @@ def test_start_traj_mode_alone_recovers_from_a_soft_limit() -> None:
 
 def test_a_bad_query_payload_is_answered_invalid() -> None:
     d = dispatcher()
-    d.bad_payload("cmd/select_tool", "q", msgspec.DecodeError("truncated"))
+    d.bad_payload("cmd/select_tool", "q", "truncated")
     reply = replies(d)["q"]
     assert result(reply) == (Result.INVALID, InvalidSubcode.DATA)
     assert reply.detail == "truncated"
@@ -422,7 +461,7 @@ def test_a_bad_query_payload_is_answered_invalid() -> None:
 
 def test_a_bad_notice_is_only_logged() -> None:
     d = dispatcher()
-    d.bad_payload("connections", None, msgspec.DecodeError("truncated"))
+    d.bad_payload("connections", None, "truncated")
     assert replies(d) == {}
 
 
@@ -438,6 +477,7 @@ def test_the_first_status_is_always_due_and_numbered_after_first_seq() -> None:
 def test_an_unchanged_status_waits_for_the_heartbeat_it_announced() -> None:
     """Nothing can move: the slow heartbeat; the dispatcher's next deadline is the refresh."""
     d = dispatcher()
+    whole(d)
     first = d.status_due(0.0)
     assert first is not None
     assert not first.motion_ready
@@ -451,6 +491,7 @@ def test_an_unchanged_status_waits_for_the_heartbeat_it_announced() -> None:
 
 def test_a_motion_ready_status_announces_the_short_heartbeat() -> None:
     d = dispatcher()
+    whole(d)
     ready(d)
     status = d.status_due(10.0)
     assert status is not None
@@ -462,7 +503,7 @@ def test_a_motion_ready_status_announces_the_short_heartbeat() -> None:
 def test_a_changed_status_is_due_at_once() -> None:
     d = dispatcher()
     d.status_due(0.0)
-    inject(d, "estop")
+    inject(d, FaultKind.ESTOP)
     status = d.status_due(0.001)
     assert status is not None
     assert status.estop
@@ -471,12 +512,42 @@ def test_a_changed_status_is_due_at_once() -> None:
 def test_replies_name_the_status_published_before_them() -> None:
     d = dispatcher()
     d.status_due(0.0)
-    d.fault("estop", CommandRequest(value=1), "f", 0.0)
+    d.fault(FaultKind.ESTOP, CommandRequest(value=1), "f", 0.0)
     d.status_due(0.001)
     assert replies(d)["f"].status_seq == FIRST_SEQ + 2
 
 
 def test_replies_are_taken_once() -> None:
     d = dispatcher()
-    answer(d, "reset_alarm")
+    answer(d, Verb.RESET_ALARM)
     assert d.take_replies() == []
+
+
+# -- any request --------------------------------------------------------------------------
+
+ANY_REQUESTS = [
+    CommandRequest(),
+    CommandRequest(value=1),
+    CommandRequest(group=-(2**63), value=-(2**63), args=[-(2**63)] * 3),
+    CommandRequest(group=2**64 - 1, value=2**64 - 1, args=[2**64 - 1] * 3),
+]
+"""Requests that decode: empty, bare, and every field at the ends of what msgpack carries."""
+
+
+@pytest.mark.parametrize("request_", ANY_REQUESTS)
+def test_any_request_that_decodes_gets_one_reply_and_a_status_that_encodes(
+    request_: CommandRequest,
+) -> None:
+    for handle in [*Verb, *FaultKind]:
+        d = dispatcher()
+        if isinstance(handle, Verb):
+            d.command(handle, request_, handle, 0.0)
+        else:
+            d.fault(handle, request_, handle, 0.0)
+        d.advance(START_TIMEOUT_S)
+        status = d.status_due(START_TIMEOUT_S)
+        assert status is not None
+        encode(status)
+        [(replied_to, reply)] = d.take_replies()
+        assert replied_to == handle
+        encode(reply)

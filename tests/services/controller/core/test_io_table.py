@@ -7,8 +7,8 @@ from __future__ import annotations
 import pytest
 
 from motocell.services.controller.core.io_table import IoTable
-from motocell.services.controller.core.job import Job
 from motocell.services.controller.core.model import OT_ROS_DONE, Controller
+from motocell.services.controller.core.states import JobState
 from motocell.shared.config import ControllerModel
 
 OK, READ_BAD, WRITE_ADDRESS_BAD, WRITE_VALUE_BAD = 0, 1001, 1002, 1003
@@ -249,6 +249,6 @@ def test_writing_ot890_through_the_table_releases_the_init_ros_job() -> None:
     assert io.read_bit(11120) == (1, OK)  # OT#889
     assert io.write_bit(OT_ROS_DONE, 1) == OK
     controller.advance(0.2)
-    assert controller.job is Job.IDLE
+    assert controller.job is JobState.IDLE
     assert io.read_bit(11120) == (0, OK)
     assert not controller.motion_ready()
