@@ -31,9 +31,9 @@ _FORBIDDEN_IN_NAME = set("/*$#?")
 """Key-expression syntax: a name with these would select more than one cell's keys."""
 WELL_KNOWN_ENDPOINT = "tcp/127.0.0.1:7447"
 """Where the first cell started here has its router, for the help: the value of
-``services.launcher.core.WELL_KNOWN_ENDPOINT`` (tests/tools/test_cli.py checks the help names
-that one), not an import of it, which would load the launcher and the cell-file reader with it,
-a fifth of the CPU `motocell ps` and `motocell fault` spend."""
+``services.launcher.core.endpoints.WELL_KNOWN_ENDPOINT`` (tests/tools/test_cli.py checks the
+help names that one), not an import of it, which would load the launcher and the cell-file
+reader with it, a fifth of the CPU `motocell ps` and `motocell fault` spend."""
 NOTHING_RUNNING = (
     "no cell is running here (start one with `motocell up`; reach a cell started elsewhere "
     "with --zenoh-connect)"

@@ -12,8 +12,8 @@ import time
 from collections.abc import Sequence
 
 from motocell.services.gateway.bus import ZenohBus
-from motocell.services.gateway.core.io import IoHandler
 from motocell.services.gateway.core.motion import MotionHandler
+from motocell.services.gateway.core.robot_io import RobotIoHandler
 from motocell.services.gateway.metrics import GatewayStats
 from motocell.services.gateway.reporter import Reporter
 from motocell.services.gateway.tcp import RequestServer, SocketListener
@@ -38,7 +38,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         byte_order = ByteOrder(cell.byte_order)
         bus = ZenohBus(ctx.session)
         cell_port = ZenohCell(cell, ctx.keys, bus)
-        io = IoHandler(cell_port)
+        io = RobotIoHandler(cell_port)
         # Sync ids start from the clock so they differ from a previous gateway's.
         motion = MotionHandler(cell, cell_port, io, sync_seed=time.time_ns() // 1000)
         stats = GatewayStats(len(cell.groups))
@@ -53,7 +53,7 @@ def main(argv: Sequence[str] | None = None) -> None:
             name="motion",
             listener=SocketListener(motion_socket),
             byte_order=byte_order,
-            respond=motion.handle,
+            respond=motion.respond,
             error_reply=motion.error_reply,
             moving=moving,
             on_disconnect=motion.stop_motion,
@@ -63,7 +63,7 @@ def main(argv: Sequence[str] | None = None) -> None:
             name="io",
             listener=SocketListener(io_socket),
             byte_order=byte_order,
-            respond=io.answer,
+            respond=io.respond,
             error_reply=io.error_reply,
             moving=moving,
             observe=stats.observe,

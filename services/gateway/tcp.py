@@ -25,7 +25,7 @@ import time
 from collections.abc import Callable
 from typing import Protocol
 
-from motocell.services.gateway.core.answer import Answer
+from motocell.services.gateway.core.response import Response
 from motocell.shared.protocol.codec import CLOSED, NEED_DATA, ByteOrder, Role, SimpleMessageCodec
 from motocell.shared.protocol.errors import PeerProtocolError
 from motocell.shared.protocol.messages import Message, UnknownMessage
@@ -44,7 +44,7 @@ JOIN_S = 5.0
 """How long closing waits for a connection's thread: a request being handled ends within its
 own timeouts (START_TRAJ_MODE's is the longest, 6 s, and is rare)."""
 
-Respond = Callable[[Message | UnknownMessage], Answer]
+Respond = Callable[[Message | UnknownMessage], Response]
 Observe = Callable[[int, Message | None, int], None]
 ErrorReply = Callable[[PeerProtocolError], Message]
 
@@ -129,17 +129,17 @@ def serve_requests(
                 return
             assert isinstance(event, Message | UnknownMessage)
             started = time.monotonic_ns()
-            answer = respond(event)
+            response = respond(event)
             try:
-                if answer.reply is not None:
-                    client.sendall(codec.send(answer.reply))
-                observe(event.msg_type, answer.reply, time.monotonic_ns() - started)
+                if response.reply is not None:
+                    client.sendall(codec.send(response.reply))
+                observe(event.msg_type, response.reply, time.monotonic_ns() - started)
             finally:
                 # Even when the client is gone: a point the gateway counted as pending must
                 # reach its interpolator, or the slot would never free.
-                if answer.then is not None:
-                    answer.then()
-            if answer.close:
+                if response.then is not None:
+                    response.then()
+            if response.close:
                 return
 
 

@@ -3,9 +3,9 @@ few things the gateway asks of other services.
 
 The high-rate streams are read on demand, not as they arrive: each group's queue state (every
 tick while its ring changes) and slot wait in latest-value channels (``Bus.latest``), and
-whoever decides on the state first drains them (``current``). Delivering each sample to a
-Python callback woke the gateway thousands of times a second, every wake-up competing for the
-GIL with the motion port's thread, for state read a few hundred times a second at most. The
+whoever decides on the state first drains them (``current``). A Python callback per sample
+would wake the gateway thousands of times a second, every wake-up competing for the GIL with
+the motion port's thread, for state read a few hundred times a second at most. The
 newest sample is all a reader needs: a queue state replaces the last, and a slot's ``taken_id``
 only grows within an interpolator instance (``GroupCredit.on_slot``).
 
@@ -33,9 +33,6 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import TypeVar
-
-import msgspec
 
 from motocell.services.gateway.bus import Bus
 from motocell.services.gateway.core.cell_state import (
@@ -53,13 +50,12 @@ from motocell.shared.bus.schemas import (
     Point,
     QueueState,
     Slot,
+    decoded_payload,
     encode,
 )
 from motocell.shared.config import Cell
 
 log = logging.getLogger("gateway")
-
-T = TypeVar("T")
 
 STATUS_WAIT_S = 0.5
 """The controller publishes its status before it replies; this only bounds a lost sample."""
@@ -76,20 +72,8 @@ _slot_decoder = Decoder(Slot)
 _reply_decoder = Decoder(CommandReply)
 
 
-def _decoded(payload: bytes | None, decoder: Decoder[T], key: str) -> T | None:
-    """None for no sample or one that does not decode (logged: a peer's bad sample must not
-    stop the gateway)."""
-    if not payload:
-        return None
-    try:
-        return decoder.decode(payload)
-    except msgspec.DecodeError:
-        log.warning("undecodable sample on %s ignored", key)
-        return None
-
-
-class _Answer:
-    """One command's reply, filled in on the bus's threads."""
+class _CommandQuery:
+    """One command query in flight: its reply, filled in on the bus's threads."""
 
     def __init__(self, key: str) -> None:
         self.key = key
@@ -97,7 +81,7 @@ class _Answer:
         self.done = threading.Event()
 
     def on_reply(self, payload: bytes) -> None:
-        reply = _decoded(payload, _reply_decoder, self.key)
+        reply = decoded_payload(payload, _reply_decoder, self.key)
         if reply is not None and self.reply is None:
             self.reply = reply
             self.done.set()
@@ -107,7 +91,7 @@ class _Answer:
 
 
 @dataclass
-class _Work:
+class _BusChores:
     """What one watchdog pass found to do on the bus, done once the lock is released."""
 
     again: list[str]
@@ -186,10 +170,10 @@ class ZenohCell:
         for group, (queue_channel, slot_channel) in enumerate(
             zip(self._queues, self._slots, strict=True)
         ):
-            queue = _decoded(queue_channel.take(), _queue_decoder, self._queue_keys[group])
+            queue = decoded_payload(queue_channel.take(), _queue_decoder, self._queue_keys[group])
             if queue is not None:
                 self.state.on_queue(group, queue, now)
-            slot = _decoded(slot_channel.take(), _slot_decoder, self._slot_keys[group])
+            slot = decoded_payload(slot_channel.take(), _slot_decoder, self._slot_keys[group])
             if slot is not None:
                 self.state.on_slot(group, slot)
 
@@ -224,29 +208,29 @@ class ZenohCell:
         subscribe to it again, ask for what is missing. Returns when the next pass is due (by
         ``clock``), None when nothing can be due before something wakes the watchdog."""
         with self._lock:
-            work = self._due(self._clock())
-        self._do(work)
+            chores = self._due(self._clock())
+        self._do(chores)
         with self._lock:
             return self._next_wake()
 
-    def _due(self, now: float) -> _Work:
+    def _due(self, now: float) -> _BusChores:
         self._drain(now)
         again = self.state.expire(now)
         slots = self.state.slots_to_ask(now)
         tokens = not self.controller_alive() and self._token_asking.due(now)
         if tokens:
             self._token_asking.asked(now)
-        return _Work(again, slots, tokens)
+        return _BusChores(again, slots, tokens)
 
-    def _do(self, work: _Work) -> None:
-        for stream in work.again:
+    def _do(self, chores: _BusChores) -> None:
+        for stream in chores.again:
             if stream == STATUS_STREAM:
                 self._subscribe_status_again()
             elif stream in self._queue_groups:
                 self._subscribe_group_again(self._queue_groups[stream])
-        for group in work.slots:
+        for group in chores.slots:
             self._ask_slot(group)
-        if work.tokens:
+        if chores.tokens:
             self._alive.ask()
 
     def _next_wake(self) -> float | None:
@@ -263,10 +247,10 @@ class ZenohCell:
         with self._lock:
             old = (self._queues[group], self._slots[group])
             self._queues[group], self._slots[group] = queue_channel, slot_channel
-            queue = _decoded(old[0].take(), _queue_decoder, self._queue_keys[group])
+            queue = decoded_payload(old[0].take(), _queue_decoder, self._queue_keys[group])
             if queue is not None:
                 self.state.on_queue(group, queue, self._clock())
-            slot = _decoded(old[1].take(), _slot_decoder, self._slot_keys[group])
+            slot = decoded_payload(old[1].take(), _slot_decoder, self._slot_keys[group])
             if slot is not None:
                 self.state.on_slot(group, slot)
         for channel in old:
@@ -284,7 +268,7 @@ class ZenohCell:
         key = self._slot_keys[group]
 
         def on_reply(payload: bytes) -> None:
-            slot = _decoded(payload, _slot_decoder, key)
+            slot = decoded_payload(payload, _slot_decoder, key)
             if slot is not None:
                 with self._lock:
                     self.state.on_slot(group, slot)
@@ -297,7 +281,7 @@ class ZenohCell:
         self.bus.query(key, None, on_reply, on_done, QUERY_TIMEOUT_S)
 
     def _on_status(self, payload: bytes) -> None:
-        status = _decoded(payload, _status_decoder, self.keys.controller_status)
+        status = decoded_payload(payload, _status_decoder, self.keys.controller_status)
         if status is None:
             return
         with self._lock:
@@ -350,8 +334,8 @@ class ZenohCell:
     ) -> CommandReply | None:
         """One command query; None when nobody answered within ``timeout``. The wait is
         bounded here too, so a query the bus never ends cannot hang a port."""
-        answer = _Answer(key)
+        query = _CommandQuery(key)
         payload = encode(request or CommandRequest())
-        self.bus.query(key, payload, answer.on_reply, answer.on_done, timeout)
-        answer.done.wait(timeout)
-        return answer.reply
+        self.bus.query(key, payload, query.on_reply, query.on_done, timeout)
+        query.done.wait(timeout)
+        return query.reply

@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import argparse
 
-from motocell.services.launcher.core import PORT_BASE_AUTO, WELL_KNOWN_ENDPOINT
+from motocell.services.launcher.core.endpoints import WELL_KNOWN_ENDPOINT
+from motocell.services.launcher.core.tcp_ports import PORT_BASE_AUTO
 from motocell.shared.service import add_cell_arguments
 
 

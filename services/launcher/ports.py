@@ -9,7 +9,7 @@ import errno
 import socket
 from collections.abc import Sequence
 
-from motocell.services.launcher.core import TcpPort
+from motocell.services.launcher.core.tcp_ports import TcpPort
 from motocell.shared.config import MAX_PORT
 
 

@@ -13,7 +13,11 @@ from pathlib import Path
 
 import zenoh
 
-from motocell.services.launcher.core import WELL_KNOWN_ENDPOINT, WELL_KNOWN_PORT, router_endpoints
+from motocell.services.launcher.core.endpoints import (
+    WELL_KNOWN_ENDPOINT,
+    WELL_KNOWN_PORT,
+    router_endpoints,
+)
 from motocell.shared.bus.access import cell_identities
 from motocell.shared.bus.router import router_settings, zenoh_config
 from motocell.shared.bus.runtime import zenoh_runtime

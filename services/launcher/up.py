@@ -7,13 +7,15 @@ a Zenoh router on loopback with the access control derived from the key map; eve
 joins it as a client with its own credentials. The first cell on a machine takes the
 well-known port 7447, a later one a free port; observers find each through the registry.
 ``--open-bus`` runs without credentials or access control (and links a later cell's router to
-7447, as before). A child that dies is logged and restarted; meanwhile the controller sees its
-liveliness token gone and the cell answers NOT_READY. A child that cannot start as configured
-(EXIT_CONFIG) stops the cell instead, with the same status; what can be checked before any
-child starts (the ports, the names ``--skip`` gives) is, so a user's mistake costs one line.
-Once the cell is whole and its ports listen, one INFO line says so (``readiness``).
+7447, so one observer there sees every open cell). A child that dies is logged and restarted;
+meanwhile the controller sees its liveliness token gone and the cell answers NOT_READY. A child
+that cannot start as configured (EXIT_CONFIG) stops the cell instead, with the same status;
+what can be checked before any child starts (the ports, the names ``--skip`` gives) is, so a
+user's mistake costs one line.
+Once the cell is whole and its ports listen, one INFO line says so (``ready_line``).
 
-``core`` decides (children, router endpoints, restarts); ``children`` and ``router`` do the
+``core`` decides (children, ports, router endpoints, restarts); ``loop`` supervises the
+children; ``processes``, ``router``, ``ports``, ``ready_line`` and ``realtime_line`` do the
 I/O; this module puts them together for the two commands.
 """
 
@@ -31,20 +33,19 @@ from pathlib import Path
 
 import zenoh
 
-from motocell.services.launcher.children import Child, stop_children, supervise
-from motocell.services.launcher.core import (
+from motocell.services.launcher.core.children import (
     EXECUTOR,
-    PORT_BASE_AUTO,
-    RestartPolicy,
     UpOptions,
     child_specs,
-    port_base_problem,
     services_here,
-    tcp_ports,
 )
+from motocell.services.launcher.core.restarts import RestartPolicy
+from motocell.services.launcher.core.tcp_ports import PORT_BASE_AUTO, port_base_problem, tcp_ports
+from motocell.services.launcher.loop import supervise
 from motocell.services.launcher.ports import PortError, check_router_endpoints, check_tcp_ports
-from motocell.services.launcher.readiness import ReadyNotice
-from motocell.services.launcher.realtime import RealtimeNotice
+from motocell.services.launcher.processes import Child, stop_children
+from motocell.services.launcher.ready_line import ReadyNotice
+from motocell.services.launcher.realtime_line import RealtimeNotice
 from motocell.services.launcher.router import cell_router_endpoints, open_cell_router, serve_router
 from motocell.shared import registry
 from motocell.shared.bus.access import Identity, cell_identities

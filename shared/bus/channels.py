@@ -9,7 +9,6 @@ non-empty msgpack array, so an empty sample can only be a doorbell.
 from __future__ import annotations
 
 import contextlib
-import logging
 import math
 import os
 import select
@@ -18,12 +17,9 @@ import time
 from collections.abc import Callable
 from typing import Protocol, TypeVar
 
-import msgspec
 import zenoh
 
-from motocell.shared.bus.schemas import Decoder
-
-log = logging.getLogger("bus")
+from motocell.shared.bus.schemas import Decoder, decoded_payload
 
 T = TypeVar("T")
 
@@ -118,18 +114,10 @@ def is_doorbell(sample: zenoh.Sample) -> bool:
 
 
 def decoded(sample: zenoh.Sample | None, decoder: Decoder[T]) -> T | None:
-    """The sample's payload; None for no sample, a doorbell, or one that does not decode
-    (logged: a peer's bad sample must not stop the reading thread)."""
+    """The sample's payload as ``decoded_payload`` gives it; None for no sample."""
     if sample is None:
         return None
-    payload = sample.payload.to_bytes()
-    if not payload:
-        return None
-    try:
-        return decoder.decode(payload)
-    except msgspec.DecodeError:
-        log.warning("undecodable sample on %s ignored", sample.key_expr)
-        return None
+    return decoded_payload(sample.payload.to_bytes(), decoder, str(sample.key_expr))
 
 
 def newest(channel: Channel, decoder: Decoder[T]) -> T | None:

@@ -7,6 +7,7 @@ lists are ROS order, one entry per axis of the group.
 
 from __future__ import annotations
 
+import logging
 from typing import Generic, TypeVar
 
 import msgspec
@@ -342,3 +343,18 @@ class Decoder(Generic[T]):
 
     def decode(self, data: bytes | bytearray | memoryview) -> T:
         return self._decoder.decode(data)
+
+
+log = logging.getLogger("bus")
+
+
+def decoded_payload(payload: bytes | None, decoder: Decoder[T], key: str) -> T | None:
+    """``payload`` decoded; None for no payload, an empty one (a doorbell), or one that does not
+    decode, which is logged: a peer's bad sample must not stop the thread reading it."""
+    if not payload:
+        return None
+    try:
+        return decoder.decode(payload)
+    except msgspec.DecodeError:
+        log.warning("undecodable sample on %s ignored", key)
+        return None

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from motocell.services.launcher.core import WELL_KNOWN_ENDPOINT
+from motocell.services.launcher.core.endpoints import WELL_KNOWN_ENDPOINT
 from motocell.shared import registry
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
 from motocell.testing.running_cell import RunningCell, running_cell

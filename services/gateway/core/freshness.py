@@ -5,8 +5,7 @@ The controller status and each group's queue state are republished while unchang
 sample announces the most its publisher will wait before the next (``heartbeat_ms``: 100 ms
 while motion is possible, 1 s while nothing can move). A stream not heard for STALE_HEARTBEATS
 of the heartbeat its newest sample announced has stopped reaching the gateway, whatever the
-reason (once a queue state stayed frozen here for minutes while the executor published it at
-10 Hz); what it last said is then treated as missing (``CellState.expire``), which is logged
+reason; what it last said is then treated as missing (``CellState.expire``), which is logged
 once, and the owner subscribes again, once per such span until the stream is heard again.
 
 The owner does not check periodically: it checks when ``next_check`` says a stream could have

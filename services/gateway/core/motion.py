@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import logging
 
-from motocell.services.gateway.core.answer import Answer
 from motocell.services.gateway.core.cell_port import CellPort, readiness
-from motocell.services.gateway.core.io import IoHandler
 from motocell.services.gateway.core.points import Verdict, invalid
+from motocell.services.gateway.core.response import Response
+from motocell.services.gateway.core.robot_io import RobotIoHandler
 from motocell.services.gateway.core.trajectories import Trajectories
 from motocell.shared.bus.schemas import CommandRequest
 from motocell.shared.config import Cell
@@ -66,7 +66,7 @@ M_REGISTER_TYPES = frozenset({int(MsgType.MOTO_READ_MREGISTER), int(MsgType.MOTO
 
 
 class MotionHandler:
-    def __init__(self, cell: Cell, port: CellPort, io: IoHandler, sync_seed: int) -> None:
+    def __init__(self, cell: Cell, port: CellPort, io: RobotIoHandler, sync_seed: int) -> None:
         self.cell = cell
         self.port = port
         self.io = io
@@ -86,16 +86,16 @@ class MotionHandler:
             )
         return invalid_reply(error)
 
-    def handle(self, request: Message | UnknownMessage) -> Answer:
+    def respond(self, request: Message | UnknownMessage) -> Response:
         """What to send for one request. A request that is itself a reply (comm type 3) is
         processed but never answered (MotoROS 1.9.4, "don't reply to replies")."""
         reply = self._dispatch(request)
         then = self.trajectories.send_accepted if self.trajectories.unsent else None
         if isinstance(reply, _Close):
-            return Answer(None, close=True, then=then)
+            return Response(None, close=True, then=then)
         if request.comm_type == CommType.SERVICE_REPLY:
-            return Answer(None, then=then)
-        return Answer(reply, then=then)
+            return Response(None, then=then)
+        return Response(reply, then=then)
 
     def _dispatch(self, request: Message | UnknownMessage) -> Message | _Close:
         if isinstance(request, UnknownMessage):
@@ -115,7 +115,7 @@ class MotionHandler:
             case ReadIOBit() | WriteIOBit() | ReadIOGroup() | WriteIOGroup():
                 # Served here too for backward compatibility, by the I/O port's handler
                 # (motoros1 §2.2).
-                return self.io.handle(request)
+                return self.io.reply(request)
             case ReadMRegister() | WriteMRegister():
                 # M-registers are an I/O-port service only: the motion port does not know the
                 # types, so INVALID 3003 with group and sequence -1 (motoros1 §2.2, motoros1 §2.7).

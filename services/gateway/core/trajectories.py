@@ -19,6 +19,7 @@ from motocell.services.gateway.core.points import (
     invalid,
     position_bounds,
 )
+from motocell.services.gateway.core.states import TRANSITIONS, TrajectoryEvent, TrajectoryState
 from motocell.shared.bus.schemas import Point
 from motocell.shared.config import Cell
 from motocell.shared.motion.interpolation import max_segment_entries, time_to_ns
@@ -36,7 +37,7 @@ NO_SYNC: Sync = (0, ())
 class GroupTrajectory:
     """What the gateway remembers of the trajectory a group is executing."""
 
-    active: bool = False
+    state: TrajectoryState = TrajectoryState.NONE
     not_ready_count: int = 0
     start_id: int = 0
     """The point id of the sequence-0 point that began it."""
@@ -44,6 +45,11 @@ class GroupTrajectory:
     """Segments published since sequence 0."""
     last_sequence: int = -1
     last_time: float = 0.0
+
+    def on(self, event: TrajectoryEvent) -> Verdict | None:
+        """Take ``event`` (``states.TRANSITIONS``); the refusal its row answers the point with."""
+        self.state, refusal = TRANSITIONS[(self.state, event)]
+        return refusal
 
 
 class Trajectories:
@@ -70,28 +76,26 @@ class Trajectories:
         return bool(self._outbox)
 
     def send_accepted(self) -> None:
-        """Publish the points accepted since the last call. Run after the reply is written: a
-        real controller answers in 0.34 ms, and the publish would add its own cost to every
-        point's reply."""
+        """Publish the points accepted since the last call. Run after the reply is written:
+        the publish would add its own cost to every point's reply, which a real controller
+        gives in about a third of a millisecond (docs/reply-path.md)."""
         for group, point in self._outbox:
             self.port.send_point(group, point)
         self._outbox.clear()
 
     def end_all(self) -> None:
-        """Every group's trajectory is over: the next point must be a sequence 0 again."""
+        """STOP_MOTION: every group's trajectory is over."""
         for track in self.tracks:
-            track.active = False
+            track.on(TrajectoryEvent.STOPPED)
 
     def _track(self, group: int) -> GroupTrajectory:
+        """The group's trajectory, told first what ended it since it began, if anything did."""
         track = self.tracks[group]
         state = self.port.state
-        if track.active and (
-            track.not_ready_count != state.not_ready_count
-            or state.groups[group].trajectory_lost(track.start_id)
-        ):
-            # Motion-ready dropped since the trajectory began, or the interpolator dropped it
-            # (its ring was cleared): the client has to start again with sequence 0 (motoros1 §3.3).
-            track.active = False
+        if track.not_ready_count != state.not_ready_count:
+            track.on(TrajectoryEvent.READINESS_DROPPED)
+        elif state.groups[group].trajectory_lost(track.start_id):
+            track.on(TrajectoryEvent.DROPPED_BY_INTERPOLATOR)
         return track
 
     def point(self, body: JointTrajPtFull) -> Verdict:
@@ -221,11 +225,9 @@ class Trajectories:
                 return int(Result.NOT_READY), int(NotReadySubcode.INC_MOVE_ERROR)
             return check_start(data, axis_map, queue.command_pulses) or OK
         track = self._track(group)
-        if not track.active:
-            # MotoROS would interpolate from a stale state after a stop; a trajectory must
-            # (re)start with sequence 0 (incremental-motion §2.5: after a stop the client plans
-            # a new trajectory from the robot's current position).
-            return invalid(InvalidSubcode.SEQUENCE)
+        refusal = track.on(TrajectoryEvent.LATER_POINT)
+        if refusal is not None:
+            return refusal
         verdict = check_speeds(data, axis_map)
         if verdict is None and data.time <= track.last_time:
             # MotoROS silently drops a point whose time does not increase (motoros1 §4.2);
@@ -237,7 +239,7 @@ class Trajectories:
     def _duplicate(self, data: PointData, sequence: int) -> bool:
         track = self.tracks[data.group_no]
         return (
-            track.active
+            track.state is TrajectoryState.RUNNING
             and sequence > 0
             and sequence == track.last_sequence
             and data.time == track.last_time
@@ -264,7 +266,7 @@ class Trajectories:
         numbered = self.port.state.groups[group].number(point, entries)
         self._outbox.append((group, numbered))
         if sequence == 0:
-            track.active = True
+            track.on(TrajectoryEvent.STARTED)
             track.start_id = numbered.point_id
             track.segments = 0
             track.not_ready_count = self.port.state.not_ready_count

@@ -13,8 +13,8 @@ from dataclasses import dataclass, field
 
 import pytest
 
-from motocell.services.gateway.core.answer import Answer
 from motocell.services.gateway.core.motion import MotionHandler
+from motocell.services.gateway.core.response import Response
 from motocell.services.gateway.tcp import (
     RECV_BYTES,
     RequestServer,
@@ -50,11 +50,11 @@ class Responder:
     """Sequences whose after-reply action ran (a point's publication)."""
     close_on: int | None = None
 
-    def __call__(self, message: Message | UnknownMessage) -> Answer:
+    def __call__(self, message: Message | UnknownMessage) -> Response:
         assert isinstance(message, Message)
         sequence = message.body.sequence  # type: ignore[union-attr]
         self.seen.append(sequence)
-        return Answer(
+        return Response(
             motion_reply(message, Result.SUCCESS, 0),
             close=sequence == self.close_on,
             then=lambda: self.then.append(sequence),

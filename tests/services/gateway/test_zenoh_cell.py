@@ -11,8 +11,8 @@ from collections.abc import Iterator
 
 import pytest
 
-from motocell.services.gateway.core.io import IoHandler
 from motocell.services.gateway.core.motion import START_TRAJ_MODE_TIMEOUT_S, MotionHandler
+from motocell.services.gateway.core.robot_io import RobotIoHandler
 from motocell.services.gateway.zenoh_cell import ZenohCell
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.liveness import (
@@ -102,8 +102,8 @@ def harness() -> Iterator[Harness]:
 
 
 def motion_request(harness: Harness, request: Message) -> Message | None:
-    handler = MotionHandler(two_groups(), harness.cell, IoHandler(harness.cell), sync_seed=1)
-    return handler.handle(request).reply
+    handler = MotionHandler(two_groups(), harness.cell, RobotIoHandler(harness.cell), sync_seed=1)
+    return handler.respond(request).reply
 
 
 # -- construction and the first pass -----------------------------------------------------
@@ -254,7 +254,7 @@ def test_samples_that_do_not_decode_are_ignored_and_logged(
     harness.whole()
     with harness.cell.current() as state:
         before = (state.status, [group.queue for group in state.groups], state.groups[0].taken)
-    with caplog.at_level(logging.WARNING, logger="gateway"):
+    with caplog.at_level(logging.WARNING, logger="bus"):
         for key in (KEYS.controller_status, KEYS.group_queue(0), KEYS.group_slot(0)):
             harness.bus.publish(key, GARBAGE)
         with harness.cell.current() as state:
@@ -318,9 +318,9 @@ def test_start_traj_mode_unanswered_is_not_ready_with_the_controllers_subcode(
 def test_io_unanswered_is_the_api_error_of_a_read_or_a_write(harness: Harness) -> None:
     for verb in ("read_bit", "write_bit"):
         harness.bus.answers[KEYS.controller_cmd(verb)] = lambda query: query.finish()
-    io = IoHandler(harness.cell)
-    read = io.answer(read_io_bit(10010)).reply
-    write = io.answer(write_io_bit(10010, 1)).reply
+    io = RobotIoHandler(harness.cell)
+    read = io.respond(read_io_bit(10010)).reply
+    write = io.respond(write_io_bit(10010, 1)).reply
     assert read is not None and write is not None
     assert isinstance(read.body, ReadIOBitReply)
     assert isinstance(write.body, WriteIOBitReply)

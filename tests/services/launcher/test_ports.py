@@ -8,7 +8,7 @@ from collections.abc import Iterator
 
 import pytest
 
-from motocell.services.launcher.core import TcpPort
+from motocell.services.launcher.core.tcp_ports import TcpPort
 from motocell.services.launcher.ports import (
     PortError,
     check_router_endpoints,

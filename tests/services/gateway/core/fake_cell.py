@@ -7,10 +7,10 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 
-from motocell.services.gateway.core.answer import Answer
 from motocell.services.gateway.core.cell_state import CellState
-from motocell.services.gateway.core.io import IoHandler
 from motocell.services.gateway.core.motion import MotionHandler
+from motocell.services.gateway.core.response import Response
+from motocell.services.gateway.core.robot_io import RobotIoHandler
 from motocell.shared.bus.schemas import (
     CommandReply,
     CommandRequest,
@@ -167,15 +167,15 @@ def gateway(cell: Cell | None = None) -> tuple[MotionHandler, FakeCell]:
     """A motion handler on a ready fake cell."""
     cell = cell or one_group()
     fake = FakeCell(len(cell.groups), cell.pending_points).ready()
-    return MotionHandler(cell, fake, IoHandler(fake), SYNC_SEED), fake
+    return MotionHandler(cell, fake, RobotIoHandler(fake), SYNC_SEED), fake
 
 
-def exchange(handler: MotionHandler, request: Message | UnknownMessage) -> Answer:
-    """One request as the TCP server handles it: the answer, then its ``then``."""
-    answer = handler.handle(request)
-    if answer.then is not None:
-        answer.then()
-    return answer
+def exchange(handler: MotionHandler, request: Message | UnknownMessage) -> Response:
+    """One request as the TCP server handles it: the response, then its ``then``."""
+    response = handler.respond(request)
+    if response.then is not None:
+        response.then()
+    return response
 
 
 def reply_of(message: Message | None) -> MotoMotionReply:

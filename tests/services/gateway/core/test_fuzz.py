@@ -24,8 +24,8 @@ from dataclasses import dataclass
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from motocell.services.gateway.core.answer import Answer
 from motocell.services.gateway.core.motion import MotionHandler
+from motocell.services.gateway.core.response import Response
 from motocell.services.gateway.tcp import serve_requests
 from motocell.shared.config import Cell, parse_cell
 from motocell.shared.protocol.codec import CLOSED, NEED_DATA, ByteOrder, Role, SimpleMessageCodec
@@ -108,9 +108,9 @@ def test_every_2016_gets_one_reply_and_a_bad_group_is_never_taken(
     handler, cell = port
     for body in bodies:
         sent = len(cell.sent)
-        answer = exchange(handler, Message(MsgType.MOTO_JOINT_TRAJ_PT_FULL_EX, 2, 0, body))
-        assert not answer.close
-        reply = motion_reply_of(answer.reply)
+        response = exchange(handler, Message(MsgType.MOTO_JOINT_TRAJ_PT_FULL_EX, 2, 0, body))
+        assert not response.close
+        reply = motion_reply_of(response.reply)
         assert (reply.command, reply.sequence) == (
             MsgType.MOTO_JOINT_TRAJ_PT_FULL_EX,
             body.sequence,
@@ -135,8 +135,8 @@ def test_every_14_gets_one_reply_for_its_group(
 ) -> None:
     handler, _ = port
     body = JointTrajPtFull(group, sequence, valid, time, ZEROS, ZEROS, ZEROS)
-    answer = exchange(handler, Message(MsgType.JOINT_TRAJ_PT_FULL, 2, 0, body))
-    reply = motion_reply_of(answer.reply)
+    response = exchange(handler, Message(MsgType.JOINT_TRAJ_PT_FULL, 2, 0, body))
+    reply = motion_reply_of(response.reply)
     assert (reply.group_no, reply.sequence, reply.command) == (group, sequence, 14)
     if not 0 <= group < handler.groups:
         assert (reply.result, reply.subcode) == (Result.INVALID, InvalidSubcode.GROUPNO)
@@ -170,10 +170,10 @@ def serve(handler: MotionHandler, data: bytes, order: ByteOrder) -> Served:
     failures: list[BaseException] = []
     closes: list[bool] = []
 
-    def respond(request: Message | UnknownMessage) -> Answer:
-        answer = handler.handle(request)
-        closes.append(answer.close)
-        return answer
+    def respond(request: Message | UnknownMessage) -> Response:
+        response = handler.respond(request)
+        closes.append(response.close)
+        return response
 
     def run() -> None:
         try:

@@ -257,18 +257,18 @@ def test_stop_traj_mode_fails_when_the_controller_refuses() -> None:
 
 def test_disconnect_closes_without_a_reply() -> None:
     handler, cell = gateway()
-    answer = exchange(handler, command(Command.DISCONNECT))
-    assert answer.close
-    assert answer.reply is None
+    response = exchange(handler, command(Command.DISCONNECT))
+    assert response.close
+    assert response.reply is None
     assert cell.verbs("controller") == ["stop_traj_mode"]
 
 
 def test_disconnect_that_cannot_stop_replies_failure_and_keeps_the_connection() -> None:
     handler, cell = gateway()
     cell.state.on_queue(0, queue(depth=4), NOW)
-    answer = exchange(handler, command(Command.DISCONNECT))
-    assert not answer.close
-    assert verdict_of(answer.reply) == FAILURE
+    response = exchange(handler, command(Command.DISCONNECT))
+    assert not response.close
+    assert verdict_of(response.reply) == FAILURE
 
 
 def test_an_unknown_command_is_invalid_3006() -> None:
@@ -351,9 +351,9 @@ def test_an_unknown_type_is_invalid_3003() -> None:
 def test_a_type_without_a_handler_closes_the_connection() -> None:
     handler, _ = gateway()
     feedback = JointFeedback(0, 6, 0.0, (0.0,) * 10, (0.0,) * 10, (0.0,) * 10)
-    answer = exchange(handler, state_message(MsgType.JOINT_FEEDBACK, feedback))
-    assert answer.close
-    assert answer.reply is None
+    response = exchange(handler, state_message(MsgType.JOINT_FEEDBACK, feedback))
+    assert response.close
+    assert response.reply is None
 
 
 def test_m_registers_are_not_served_on_the_motion_port() -> None:
@@ -385,9 +385,9 @@ def test_a_request_that_is_a_reply_is_processed_but_not_answered() -> None:
     request = msgspec.structs.replace(
         traj_point(0, 0, 0.0, ZEROS, ZEROS), comm_type=int(CommType.SERVICE_REPLY)
     )
-    answer = exchange(handler, request)
-    assert answer.reply is None
-    assert not answer.close
+    response = exchange(handler, request)
+    assert response.reply is None
+    assert not response.close
     assert len(cell.sent) == 1
 
 

@@ -57,11 +57,11 @@ def both(time: float, velocities: tuple[float, ...] = ZEROS) -> list[JointTrajPt
 # -- JOINT_TRAJ_PT_FULL (14) ---------------------------------------------------------------
 def test_sequence_0_is_answered_first_and_published_after_the_reply() -> None:
     handler, cell = gateway()
-    answer = handler.handle(point(0, 0.0))
-    assert verdict_of(answer.reply) == OK
+    response = handler.respond(point(0, 0.0))
+    assert verdict_of(response.reply) == OK
     assert cell.sent == []
-    assert answer.then is not None
-    answer.then()
+    assert response.then is not None
+    response.then()
     [(group, sent)] = cell.sent
     assert group == 0
     assert (sent.point_id, sent.sequence, sent.epoch, sent.time) == (1, 0, EPOCH, 0.0)
@@ -71,9 +71,9 @@ def test_sequence_0_is_answered_first_and_published_after_the_reply() -> None:
 
 def test_a_refused_point_publishes_nothing() -> None:
     handler, cell = gateway()
-    answer = handler.handle(point(1, 0.1))
-    assert verdict_of(answer.reply) == invalid(InvalidSubcode.SEQUENCE)
-    assert answer.then is None
+    response = handler.respond(point(1, 0.1))
+    assert verdict_of(response.reply) == invalid(InvalidSubcode.SEQUENCE)
+    assert response.then is None
     assert cell.state.groups[0].published == 0
 
 
@@ -312,10 +312,12 @@ def test_a_failing_check_in_a_later_group_publishes_nothing_for_any_group() -> N
     exchange(handler, ex(0, *both(0.0)))
     sent_before = list(cell.sent)
     fast = (7.0, 0, 0, 0, 0, 0)
-    answer = exchange(handler, ex(1, ex_group(0, 0.1, ZEROS, ZEROS), ex_group(1, 0.1, ZEROS, fast)))
-    assert verdict_of(answer.reply) == invalid(InvalidSubcode.DATA_SPEED)
-    assert reply_of(answer.reply).group_no == 1
-    assert answer.then is None
+    response = exchange(
+        handler, ex(1, ex_group(0, 0.1, ZEROS, ZEROS), ex_group(1, 0.1, ZEROS, fast))
+    )
+    assert verdict_of(response.reply) == invalid(InvalidSubcode.DATA_SPEED)
+    assert reply_of(response.reply).group_no == 1
+    assert response.then is None
     assert cell.sent == sent_before
     assert [group.published for group in cell.state.groups] == [1, 1]
     assert [track.segments for track in handler.trajectories.tracks] == [0, 0]
@@ -368,10 +370,10 @@ def test_2016_a_group_number_the_cell_lacks_is_invalid_3004_and_the_port_goes_on
     # check may look the bad number up (it raised IndexError and closed the port).
     listed = [ex_group(0, 0.1, ZEROS, ZEROS)]
     listed.insert(position, ex_group(bad, 0.1, ZEROS, ZEROS))
-    answer = exchange(handler, ex(1, *listed))
-    assert not answer.close
-    assert verdict_of(answer.reply) == invalid(InvalidSubcode.GROUPNO)
-    assert reply_of(answer.reply).group_no == bad
+    response = exchange(handler, ex(1, *listed))
+    assert not response.close
+    assert verdict_of(response.reply) == invalid(InvalidSubcode.GROUPNO)
+    assert reply_of(response.reply).group_no == bad
     assert len(cell.sent) == 4
     assert verdict_of(exchange(handler, ex(2, *both(0.2))).reply) == OK
 

@@ -1,4 +1,6 @@
-"""What a request handler gives the TCP server to do."""
+"""What the TCP server does for one request, as a handler decides it: the Simple Message reply
+to write (None: none is sent), whether to close the connection after it, and what to run once
+the reply is written."""
 
 from __future__ import annotations
 
@@ -9,7 +11,7 @@ from motocell.shared.protocol.messages import Message
 
 
 @dataclass(frozen=True)
-class Answer:
+class Response:
     reply: Message | None
     close: bool = False
     then: Callable[[], None] | None = None

@@ -4,15 +4,14 @@ the services, or both) and the one command that allows it, said once."""
 from __future__ import annotations
 
 import logging
-from typing import cast
 
 import pytest
-import zenoh
 
-from motocell.services.launcher.realtime import RealtimeNotice, refused_line
+from motocell.services.launcher.realtime_line import RealtimeNotice, refused_line
 from motocell.shared.bus.keys import CellKeys
-from motocell.shared.bus.schemas import ExecutorMetrics, Percentiles, encode
+from motocell.shared.bus.schemas import ExecutorMetrics, Percentiles
 from motocell.shared.realtime import ELSEWHERE, RT_PRIORITY, SERVICE_PRIORITY, fix_command
+from tests.services.launcher.fake_session import Session
 
 COMMAND = "sudo setcap cap_sys_nice+ep /usr/bin/python3.11"
 
@@ -21,7 +20,7 @@ def test_nothing_is_said_when_everything_was_granted() -> None:
     assert refused_line(clock=False, services=False, command=COMMAND) is None
 
 
-def test_a_clock_without_sched_fifo_is_said_as_before() -> None:
+def test_a_clock_without_sched_fifo_is_said_with_what_it_risks() -> None:
     line = refused_line(clock=True, services=False, command=COMMAND)
     assert line == (
         f"the executor runs WITHOUT real-time priority (SCHED_FIFO {RT_PRIORITY} refused) and "
@@ -52,45 +51,19 @@ def test_both_refused_are_one_line_with_one_command() -> None:
 # -- the notice over a scripted bus ----------------------------------------------------------
 
 
-class Sample:
-    def __init__(self, payload: bytes) -> None:
-        self.payload = zenoh.ZBytes(payload)
-        self.key_expr = "executor/metrics"
-
-
-class Subscriber:
-    def __init__(self) -> None:
-        self.waiting: list[Sample] = []
-        self.undeclared = False
-
-    def try_recv(self) -> Sample | None:
-        return self.waiting.pop() if self.waiting else None
-
-    def undeclare(self) -> None:
-        self.undeclared = True
-
-
-class Session:
-    def __init__(self) -> None:
-        self.subscriber = Subscriber()
-
-    def declare_subscriber(self, _key: str, _handler: object) -> Subscriber:
-        return self.subscriber
-
-
 def report(session: Session, *, realtime: bool) -> None:
     window = Percentiles(count=0, p50_us=0.0, p99_us=0.0, max_us=0.0)
     metrics = ExecutorMetrics(
         tick=1, lateness=window, missed_total=0, queue_depths=[], realtime=realtime
     )
-    session.subscriber.waiting.append(Sample(encode(metrics)))
+    session.put(metrics)
 
 
 def notice(
     session: Session, *, services_realtime: bool, executor_pid: int | None
 ) -> RealtimeNotice:
     return RealtimeNotice(
-        cast(zenoh.Session, session),
+        session.zenoh(),
         CellKeys("cell1"),
         lambda: executor_pid,
         services_realtime=services_realtime,
@@ -115,7 +88,8 @@ def test_both_refused_wait_for_the_executor_and_are_said_once(
     assert watching.check()
     # A pid this process cannot look at: the general advice.
     assert warnings(caplog) == [refused_line(clock=True, services=True, command=ELSEWHERE)]
-    assert session.subscriber.undeclared
+    assert session.subscriber is not None
+    assert session.subscriber.undeclared == 1
 
 
 def test_services_refused_with_the_clock_granted_are_said_once_the_executor_reports(

@@ -1,10 +1,11 @@
-"""I/O requests (port 50242, and the bit/group ones on the motion port too): forwarded to the
-controller, which owns the I/O table; the reply carries its result code (motoros1 §8)."""
+"""The robot's I/O signals and M-registers as Simple Message requests (the I/O port 50242, and
+the bit and group ones on the motion port too): forwarded to the controller, which owns the I/O
+table; the reply carries its result code (motoros1 §8)."""
 
 from __future__ import annotations
 
-from motocell.services.gateway.core.answer import Answer
 from motocell.services.gateway.core.cell_port import CellPort
+from motocell.services.gateway.core.response import Response
 from motocell.shared.bus.schemas import CommandRequest
 from motocell.shared.protocol.constants import InvalidSubcode, IoResult, MsgType
 from motocell.shared.protocol.errors import PeerProtocolError
@@ -24,20 +25,20 @@ IO_TIMEOUT_S = 1.0
 WRITES = (MsgType.MOTO_WRITE_IO_BIT, MsgType.MOTO_WRITE_IO_GROUP, MsgType.MOTO_WRITE_MREGISTER)
 
 
-class IoHandler:
+class RobotIoHandler:
     def __init__(self, cell: CellPort) -> None:
         self.cell = cell
 
-    def answer(self, request: Message | UnknownMessage) -> Answer:
-        """The I/O port's answer: always a reply, never a close (motoros1 §8)."""
-        return Answer(self.handle(request))
+    def respond(self, request: Message | UnknownMessage) -> Response:
+        """The I/O port's response: always a reply, never a close (motoros1 §8)."""
+        return Response(self.reply(request))
 
     @staticmethod
     def error_reply(error: PeerProtocolError) -> Message:
         """A frame the I/O port cannot read: its error reply, and the connection is kept."""
         return io_error_reply(error.subcode)
 
-    def handle(self, request: Message | UnknownMessage) -> Message:
+    def reply(self, request: Message | UnknownMessage) -> Message:
         """Every request is answered and the connection is always kept (motoros1 §8)."""
         if isinstance(request, UnknownMessage):
             return io_error_reply(InvalidSubcode.MSGTYPE)

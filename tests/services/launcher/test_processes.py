@@ -1,6 +1,6 @@
-"""The launcher's children as real processes: one that cannot start as configured stops the
-cell (exit status 2, not a restart loop); each runs in a process group of its own, so a
-terminal's Ctrl-C reaches the launcher alone."""
+"""The launcher's children as real processes under its loop: one that cannot start as
+configured stops the cell (exit status 2, not a restart loop); each runs in a process group of
+its own, so a terminal's Ctrl-C reaches the launcher alone; one that dies is restarted."""
 
 from __future__ import annotations
 
@@ -12,8 +12,10 @@ from pathlib import Path
 
 import pytest
 
-from motocell.services.launcher.children import Child, stop_children, supervise
-from motocell.services.launcher.core import ChildSpec, RestartPolicy
+from motocell.services.launcher.core.children import ChildSpec
+from motocell.services.launcher.core.restarts import RestartPolicy
+from motocell.services.launcher.loop import supervise
+from motocell.services.launcher.processes import Child, stop_children
 from motocell.shared.config import EXIT_CONFIG
 from motocell.shared.service import StopFlag
 from motocell.shared.service_names import ServiceName
@@ -54,14 +56,6 @@ def test_every_child_has_a_process_group_of_its_own() -> None:
         stop_children(children)
     assert os.getpgrp() not in groups
     assert len(groups) == len(children)
-
-
-def test_nothing_is_started_once_a_stop_was_asked() -> None:
-    children = [child("controller/0", *SLEEPER)]
-    stop = StopFlag()
-    stop.set()
-    assert supervise(children, RestartPolicy(), stop, lambda: None) == 0
-    assert children[0].process is None
 
 
 @pytest.mark.cell

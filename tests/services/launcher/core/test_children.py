@@ -1,5 +1,4 @@
-"""The launcher's decisions: a cell's children and their command lines, the router's endpoints,
-and the restart policy. No process is started; time is passed in."""
+"""Which services a cell runs here and their command lines. No process is started."""
 
 from __future__ import annotations
 
@@ -7,21 +6,13 @@ import itertools
 
 import pytest
 
-from motocell.services.launcher.core import (
-    RESTART_DELAY_S,
-    WELL_KNOWN_ENDPOINT,
+from motocell.services.launcher.core.children import (
     ChildSpec,
-    Restart,
-    RestartPolicy,
-    TcpPort,
     UpOptions,
     child_specs,
-    port_base_problem,
-    router_endpoints,
     services_here,
-    tcp_ports,
 )
-from motocell.shared.config import EXIT_CONFIG, Cell, load_cell, parse_cell
+from motocell.shared.config import Cell, load_cell, parse_cell
 from motocell.shared.service_names import UnknownServiceError
 
 ENDPOINT = "tcp/127.0.0.1:7500"
@@ -145,100 +136,3 @@ def test_port_options_go_to_the_services_that_serve_tcp_only() -> None:
         if name not in ("gateway/0", "broadcaster/0"):
             assert "--host" not in spec.argv
             assert "--port-base" not in spec.argv
-
-
-# -- TCP ports ----------------------------------------------------------------------------
-
-
-def test_the_ports_are_those_of_the_services_run_here() -> None:
-    everything = [TcpPort("motion", 50240), TcpPort("state", 50241), TcpPort("I/O", 50242)]
-    served = ONE_ARM.listening_at(None, 50240)
-    assert tcp_ports(served, services_here(ONE_ARM, ())) == everything
-    assert tcp_ports(served, services_here(ONE_ARM, ("gateway",))) == [everything[1]]
-    assert tcp_ports(served, services_here(ONE_ARM, ("broadcaster",))) == everything[::2]
-
-
-@pytest.mark.parametrize("given", ["1", "50240", "65533", "auto"])
-def test_a_port_base_whose_three_ports_exist_or_auto_is_fine(given: str) -> None:
-    assert port_base_problem(given) is None
-
-
-@pytest.mark.parametrize("given", ["0", "-1", "65534", "70000"])
-def test_a_port_base_beyond_the_port_range_says_so_and_how_to_get_free_ports(given: str) -> None:
-    problem = str(port_base_problem(given))
-    assert f"--port-base {given} is out of range" in problem
-    assert "`--port-base auto` picks three free ports" in problem
-
-
-def test_a_port_base_that_is_not_a_number_says_so() -> None:
-    assert "--port-base fifty is not a number" in str(port_base_problem("fifty"))
-
-
-# -- router endpoints ---------------------------------------------------------------------
-
-
-def no_spare_port() -> int:
-    raise AssertionError("no spare port should be needed")
-
-
-def test_a_router_listens_where_it_is_told() -> None:
-    listen, connect = router_endpoints(["tcp/127.0.0.1:9000"], False, no_spare_port, link=True)
-    assert (listen, connect) == (["tcp/127.0.0.1:9000"], [])
-
-
-def test_the_first_cell_takes_the_well_known_port() -> None:
-    assert router_endpoints([], True, no_spare_port, link=True) == ([WELL_KNOWN_ENDPOINT], [])
-
-
-def test_a_later_cell_listens_on_a_spare_port_and_links_to_the_first() -> None:
-    listen, connect = router_endpoints([], False, lambda: 9123, link=True)
-    assert (listen, connect) == (["tcp/127.0.0.1:9123"], [WELL_KNOWN_ENDPOINT])
-
-
-def test_a_secured_cell_links_to_no_other_router() -> None:
-    listen, connect = router_endpoints([], False, lambda: 9123, link=False)
-    assert (listen, connect) == (["tcp/127.0.0.1:9123"], [])
-
-
-# -- restarts -----------------------------------------------------------------------------
-
-
-def test_a_dead_child_is_noticed_once_then_waits_then_restarts() -> None:
-    policy = RestartPolicy(delay_s=1.0)
-    assert policy.dead("executor", 10.0) is Restart.NOTICED
-    assert policy.dead("executor", 10.2) is Restart.WAIT
-    assert policy.dead("executor", 10.999) is Restart.WAIT
-    assert policy.dead("executor", 11.0) is Restart.NOW
-
-
-def test_a_child_that_cannot_start_as_configured_stops_the_cell() -> None:
-    assert RestartPolicy().dead("gateway", 0.0, EXIT_CONFIG) is Restart.GIVE_UP
-    assert RestartPolicy().dead("gateway", 0.0, 1) is Restart.NOTICED
-
-
-def test_a_child_that_dies_again_after_its_restart_is_noticed_again() -> None:
-    policy = RestartPolicy(delay_s=1.0)
-    policy.dead("gateway", 0.0)
-    assert policy.dead("gateway", 1.0) is Restart.NOW
-    assert policy.dead("gateway", 5.0) is Restart.NOTICED
-    assert policy.dead("gateway", 5.5) is Restart.WAIT
-    assert policy.dead("gateway", 6.0) is Restart.NOW
-
-
-def test_children_have_their_own_delays() -> None:
-    policy = RestartPolicy(delay_s=1.0)
-    policy.dead("executor", 0.0)
-    assert policy.dead("interpolator/0", 0.5) is Restart.NOTICED
-    assert policy.dead("executor", 1.0) is Restart.NOW
-    assert policy.dead("interpolator/0", 1.0) is Restart.WAIT
-    assert policy.dead("interpolator/0", 1.5) is Restart.NOW
-
-
-def test_a_late_look_restarts_at_once() -> None:
-    policy = RestartPolicy(delay_s=1.0)
-    policy.dead("controller", 0.0)
-    assert policy.dead("controller", 60.0) is Restart.NOW
-
-
-def test_the_default_delay_is_a_second() -> None:
-    assert RestartPolicy().delay_s == RESTART_DELAY_S == 1.0

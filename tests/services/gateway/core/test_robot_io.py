@@ -7,7 +7,7 @@ from __future__ import annotations
 import msgspec
 import pytest
 
-from motocell.services.gateway.core.io import IO_TIMEOUT_S, IoHandler
+from motocell.services.gateway.core.robot_io import IO_TIMEOUT_S, RobotIoHandler
 from motocell.shared.bus.schemas import CommandReply, CommandRequest
 from motocell.shared.protocol.constants import InvalidSubcode, IoResult, MsgType, ReplyType, Result
 from motocell.shared.protocol.errors import PeerProtocolError
@@ -86,11 +86,11 @@ EXCHANGES = [
 ]
 
 
-def io(reply: CommandReply | None = ANSWERED) -> tuple[IoHandler, FakeCell]:
+def io(reply: CommandReply | None = ANSWERED) -> tuple[RobotIoHandler, FakeCell]:
     cell = FakeCell(1)
     for verb in VERBS:
         cell.replies[f"controller/{verb}"] = reply
-    return IoHandler(cell), cell
+    return RobotIoHandler(cell), cell
 
 
 @pytest.mark.parametrize(("request_", "verb", "command", "reply_type", "body"), EXCHANGES)
@@ -98,7 +98,7 @@ def test_each_request_is_one_controller_command(
     request_: Message, verb: str, command: CommandRequest, reply_type: MsgType, body: Body
 ) -> None:
     handler, cell = io()
-    reply = handler.handle(request_)
+    reply = handler.reply(request_)
     assert (reply.msg_type, reply.reply_type, reply.body) == (
         reply_type,
         ReplyType.SUCCESS,
@@ -115,7 +115,7 @@ def test_each_request_is_one_controller_command(
 
 def test_the_controllers_result_code_is_the_replys() -> None:
     handler, _ = io(CommandReply(int(IoResult.READ_ADDRESS_INVALID)))
-    reply = handler.handle(read_io_bit(1))
+    reply = handler.reply(read_io_bit(1))
     assert reply.body == ReadIOBitReply(0, IoResult.READ_ADDRESS_INVALID)
     assert reply.reply_type == ReplyType.FAILURE
 
@@ -125,7 +125,7 @@ def test_a_controller_that_does_not_answer_is_an_api_error(
     request_: Message, verb: str, command: CommandRequest, reply_type: MsgType, body: Body
 ) -> None:
     handler, _ = io(None)
-    reply = handler.handle(request_)
+    reply = handler.reply(request_)
     writes = ("write_bit", "write_group", "write_register")
     code = IoResult.WRITE_API_ERROR if verb in writes else IoResult.READ_API_ERROR
     failed = msgspec.structs.replace(body, result_code=int(code))
@@ -146,7 +146,7 @@ def unknown_type_reply(subcode: InvalidSubcode = InvalidSubcode.MSGTYPE) -> Moto
 )
 def test_other_types_get_the_unknown_type_reply(request_: Message | UnknownMessage) -> None:
     handler, cell = io()
-    reply = handler.handle(request_)
+    reply = handler.reply(request_)
     assert reply.msg_type == MsgType.MOTO_MOTION_REPLY
     assert reply.body == unknown_type_reply()
     assert cell.calls == []
@@ -154,12 +154,12 @@ def test_other_types_get_the_unknown_type_reply(request_: Message | UnknownMessa
 
 def test_the_answer_always_replies_and_never_closes() -> None:
     handler, _ = io(None)
-    answer = handler.answer(read_io_bit(1))
-    assert answer.reply is not None
-    assert not answer.close
-    assert answer.then is None
+    response = handler.respond(read_io_bit(1))
+    assert response.reply is not None
+    assert not response.close
+    assert response.then is None
 
 
 def test_an_unreadable_frame_gets_the_io_error_reply() -> None:
     error = PeerProtocolError("short", InvalidSubcode.MSGSIZE, msg_type=2003)
-    assert IoHandler.error_reply(error).body == unknown_type_reply(InvalidSubcode.MSGSIZE)
+    assert RobotIoHandler.error_reply(error).body == unknown_type_reply(InvalidSubcode.MSGSIZE)

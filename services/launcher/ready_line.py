@@ -14,7 +14,7 @@ from typing import Any
 
 import zenoh
 
-from motocell.services.launcher.core import TcpPort
+from motocell.services.launcher.core.tcp_ports import TcpPort
 from motocell.services.launcher.ports import listening
 from motocell.shared.bus.channels import newest
 from motocell.shared.bus.keys import CellKeys
