@@ -13,19 +13,25 @@ zenoh-python 1.10 has no ``select`` over channels and no ``recv`` with a timeout
   blocks on the queue channel's ``recv`` instead: only the executor's next queue state can let
   it go on, and a cleared ring (STOP_MOTION waits 50 ms for the slots to free) is seen at once;
 - its metrics and stopping: a ``Waker`` puts an empty sample on the key the thread waits on, at
-  the deadline the thread sets and once at stop. It never leaves this session
-  (``Locality.SESSION_LOCAL``).
+  the deadline the thread sets and once at stop. It never leaves this session (a doorbell).
 """
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Iterator
+from typing import TypeVar
 
-import zenoh
+import msgspec
 
-from motocell.shared.bus.channels import Doorbell, Waker, decoded, newest
+from motocell.services.interpolator.bus import Bus
+from motocell.shared.bus.channels import StopSignal, Waker
+from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import ControllerStatus, Decoder, Point, QueueState
-from motocell.shared.service import ServiceContext
+
+log = logging.getLogger("interpolator")
+
+T = TypeVar("T")
 
 POINT_CHANNEL_SIZE = 1024
 """Points (and doorbells) held in Zenoh until read. Far above what the gateway lets a group
@@ -37,24 +43,32 @@ _queue_decoder = Decoder(QueueState)
 _status_decoder = Decoder(ControllerStatus)
 
 
+def _decoded(payload: bytes | None, decoder: Decoder[T], key: str) -> T | None:
+    """None for no sample, a doorbell, or one that does not decode (logged: a peer's bad
+    sample must not stop the reading thread)."""
+    if not payload:
+        return None
+    try:
+        return decoder.decode(payload)
+    except msgspec.DecodeError:
+        log.warning("undecodable sample on %s ignored", key)
+        return None
+
+
 class Inputs:
-    def __init__(self, ctx: ServiceContext, group: int) -> None:
-        session, keys = ctx.session, ctx.keys
-        self._points = session.declare_subscriber(
-            keys.group_point(group), zenoh.handlers.FifoChannel(POINT_CHANNEL_SIZE)
-        )
-        self._queues = session.declare_subscriber(
-            keys.group_queue(group), zenoh.handlers.RingChannel(1)
-        )
-        self._statuses = session.declare_subscriber(
-            keys.controller_status, zenoh.handlers.RingChannel(1)
-        )
-        self._point_bell = Doorbell(session, keys.group_point(group))
-        self._queue_bell = Doorbell(session, keys.group_queue(group))
+    def __init__(self, bus: Bus, keys: CellKeys, group: int, stop: StopSignal) -> None:
+        self._point_key = keys.group_point(group)
+        self._queue_key = keys.group_queue(group)
+        self._status_key = keys.controller_status
+        self._points = bus.fifo(self._point_key, POINT_CHANNEL_SIZE)
+        self._queues = bus.latest(self._queue_key)
+        self._statuses = bus.latest(self._status_key)
+        self._point_bell = bus.doorbell(self._point_key)
+        self._queue_bell = bus.doorbell(self._queue_key)
         self._waiting_on = self._point_bell
-        self._waker = Waker(self._ring_waiting, ctx.stop, "interpolator-waker")
-        self._woken_by: zenoh.Sample | None = None
-        self._queue_woken_by: zenoh.Sample | None = None
+        self._waker = Waker(self._ring_waiting, stop, "interpolator-waker")
+        self._woken_by: bytes | None = None
+        self._queue_woken_by: bytes | None = None
 
     def _ring_waiting(self) -> None:
         """Ring the doorbell of the channel the thread waits on now."""
@@ -68,8 +82,8 @@ class Inputs:
         self._waker.close()
         self._point_bell.close()
         self._queue_bell.close()
-        for subscriber in (self._points, self._queues, self._statuses):
-            subscriber.undeclare()
+        for channel in (self._points, self._queues, self._statuses):
+            channel.undeclare()
 
     def wait(self, for_ring: bool, deadline: float) -> None:
         """Block until the executor's next queue state (``for_ring``) or the next point arrives,
@@ -85,21 +99,23 @@ class Inputs:
 
     def status(self) -> ControllerStatus | None:
         """The controller's newest status since the last call, if any."""
-        return newest(self._statuses, _status_decoder)
+        return _decoded(self._statuses.try_recv(), _status_decoder, self._status_key)
 
     def queue(self) -> QueueState | None:
         """The executor's newest queue state of the group since the last call, if any."""
         woken_by, self._queue_woken_by = self._queue_woken_by, None
-        newer = decoded(self._queues.try_recv(), _queue_decoder)  # None: nothing, or a doorbell
-        return newer if newer is not None else decoded(woken_by, _queue_decoder)
+        newer = _decoded(self._queues.try_recv(), _queue_decoder, self._queue_key)
+        if newer is not None:
+            return newer
+        return _decoded(woken_by, _queue_decoder, self._queue_key)
 
     def points(self) -> Iterator[Point]:
         """The points that arrived, in order; doorbells (empty samples) are skipped."""
-        sample, self._woken_by = self._woken_by, None
-        if sample is None:
-            sample = self._points.try_recv()
-        while sample is not None:
-            point = decoded(sample, _point_decoder)
+        payload, self._woken_by = self._woken_by, None
+        if payload is None:
+            payload = self._points.try_recv()
+        while payload is not None:
+            point = _decoded(payload, _point_decoder, self._point_key)
             if point is not None:
                 yield point
-            sample = self._points.try_recv()
+            payload = self._points.try_recv()

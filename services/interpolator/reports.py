@@ -5,13 +5,13 @@ it, asks), and its metrics every METRICS_S while anyone subscribes to them."""
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 
-import zenoh
-
-from motocell.services.interpolator.core import Feeder
+from motocell.services.interpolator.bus import Bus
+from motocell.services.interpolator.core.feeder import Feeder
+from motocell.services.interpolator.core.states import Phase
+from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import InterpolatorMetrics, Slot, encode
-from motocell.shared.bus.session import ENCODING, observed, publisher
-from motocell.shared.service import ServiceContext
 
 METRICS_S = 1.0
 
@@ -20,28 +20,29 @@ class Reports:
     """The slot (published on every change, answered when asked) and the metrics, with the
     time the slot was full."""
 
-    def __init__(self, ctx: ServiceContext, group_index: int, feeder: Feeder) -> None:
+    def __init__(
+        self,
+        bus: Bus,
+        keys: CellKeys,
+        group_index: int,
+        feeder: Feeder,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
         self.feeder = feeder
-        self._slot_key = ctx.keys.group_slot(group_index)
-        self.slot_pub = publisher(ctx.session, self._slot_key, realtime=True)
-        self.metrics_pub = publisher(ctx.session, ctx.keys.group_metrics(group_index), latest=True)
+        self.clock = clock
+        self.slot_pub = bus.publisher(keys.group_slot(group_index), realtime=True)
+        self.metrics_pub = bus.publisher(keys.group_metrics(group_index), latest=True)
         self.published_slot: Slot | None = None
         self._slot_bytes = encode(feeder.slot())
         """What a slot query is answered: encoded in the loop's thread, read on Zenoh's."""
-        self._asked = ctx.session.declare_queryable(
-            self._slot_key, zenoh.handlers.Callback(self._answer, indirect=False)
-        )
-        self.next_metrics = time.monotonic() + METRICS_S
+        self._asked = bus.answer(keys.group_slot(group_index), lambda: self._slot_bytes)
+        self.next_metrics = clock() + METRICS_S
         self.busy_s = 0.0
-        self.last = time.monotonic()
-
-    def _answer(self, query: zenoh.Query) -> None:
-        query.reply(self._slot_key, self._slot_bytes, encoding=ENCODING)
-        query.drop()
+        self.last = clock()
 
     def before_progress(self) -> None:
-        now = time.monotonic()
-        if self.feeder.segment is not None:
+        now = self.clock()
+        if self.feeder.phase is Phase.SENDING:
             self.busy_s += now - self.last  # the slot was full since the last pass
         self.last = now
 
@@ -53,10 +54,10 @@ class Reports:
             self.slot_pub.put(data)
             self._slot_bytes = data
             self.published_slot = slot
-        now = time.monotonic()
+        now = self.clock()
         if now >= self.next_metrics:
             self.next_metrics = now + METRICS_S
-            if observed(self.metrics_pub):
+            if self.metrics_pub.observed():
                 counts = feeder.counts
                 metrics = InterpolatorMetrics(
                     counts.points_accepted,

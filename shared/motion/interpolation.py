@@ -168,9 +168,13 @@ class Trajectory:
         self.last = start
         self.pulses: IntArray = np.array(start_pulses[: axis_map.axes], dtype=np.int64)
 
+    def reaches(self, end: Knot) -> bool:
+        """Whether a segment can end at ``end``: its time is after the last knot's."""
+        return end.time_ns > self.last.time_ns
+
     def segment_to(self, end: Knot) -> Segment:
-        """Start the segment from the last knot to ``end``; its time must be later."""
-        if end.time_ns <= self.last.time_ns:
+        """Start the segment from the last knot to ``end``; it must be ``reaches``-able."""
+        if not self.reaches(end):
             raise ValueError(
                 f"point time {end.time_ns} ns is not after the previous {self.last.time_ns} ns"
             )

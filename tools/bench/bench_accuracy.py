@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from motocell.services.interpolator.core import MAX_BATCH
+from motocell.services.interpolator.core.feeder import MAX_BATCH
 from motocell.shared.bus.schemas import Tick
 from motocell.shared.config import Group, load_catalogue
 from motocell.shared.motion.interpolation import Knot, Trajectory, time_to_ns

@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from motocell.services.interpolator.core import MAX_BATCH, Feeder
+from motocell.services.interpolator.core.feeder import MAX_BATCH, Feeder
 from motocell.shared.bus.schemas import IncrementBatch, Point, QueueState
 from motocell.shared.config import load_cell
 from motocell.shared.motion.interpolation import Knot, Trajectory

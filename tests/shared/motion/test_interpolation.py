@@ -351,6 +351,8 @@ def test_point_whose_time_does_not_increase_is_refused(delta_ns: int) -> None:
     k2 = knot(16 * MS, [0.03] * 6)
     trajectory = Trajectory(AxisMap(ARM6), PERIOD, k0, start)
     first = trajectory.segment_to(k1).take(100)
+    assert not trajectory.reaches(knot(8 * MS + delta_ns, [0.02] * 6))
+    assert trajectory.reaches(k2)
     with pytest.raises(ValueError, match="not after the previous"):
         trajectory.segment_to(knot(8 * MS + delta_ns, [0.02] * 6))
     # The refused point does not advance the trajectory: the next segment starts at k1.

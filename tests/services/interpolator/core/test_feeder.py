@@ -14,7 +14,7 @@ import pytest
 
 from motocell.services.executor.core import ExecutorCore
 from motocell.services.executor.rings import BatchOutcome
-from motocell.services.interpolator.core import MAX_BATCH, Feeder, queue_point
+from motocell.services.interpolator.core.feeder import MAX_BATCH, Feeder
 from motocell.shared.bus.schemas import ControllerStatus, IncrementBatch, Point, QueueState, Slot
 from motocell.shared.config import Group, load_cell, parse_cell
 from motocell.shared.motion.kinematics import IntArray
@@ -320,16 +320,6 @@ def test_a_status_without_the_groups_tool_means_tool_0() -> None:
     h.feeder.tool = 5
     h.feeder.on_status(status_with_tools([]))
     assert h.feeder.tool == 0
-
-
-@pytest.mark.parametrize("limit", [3, 32])
-def test_points_beyond_the_pending_limit_are_dropped(limit: int) -> None:
-    points: deque[Point] = deque()
-    for n in range(limit):
-        assert queue_point(points, point(n + 1, n, n * 0.1), limit)
-    assert not queue_point(points, point(99, 99, 9.9), limit)
-    assert len(points) == limit
-    assert points[-1].point_id == limit
 
 
 # -- streaming against a real ExecutorCore ----------------------------------------------------

@@ -1,8 +1,9 @@
 """The interpolator's logic without I/O: points in, numbered increment batches out, with
 credit-based flow control against the executor's ring.
 
-Where a trajectory stands is the state machine ``TRANSITIONS`` (one row per phase and event);
-what the ring can take is ``RingView``; the segment being sent is a ``Work``.
+What each point, each sent segment and each cleared ring does is the row of
+``states.TRANSITIONS`` for the phase the feeder is in; what the ring can take is ``RingView``;
+the segment being sent is an ``OutgoingSegment``.
 """
 
 from __future__ import annotations
@@ -11,10 +12,10 @@ import logging
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
-from enum import Enum
 
 import numpy as np
 
+from motocell.services.interpolator.core.states import TRANSITIONS, Action, FeederEvent, Phase
 from motocell.shared.bus.schemas import ControllerStatus, IncrementBatch, Point, QueueState, Slot
 from motocell.shared.config import Group
 from motocell.shared.motion.interpolation import Entries, Knot, Segment, Trajectory, time_to_ns
@@ -27,52 +28,8 @@ MAX_BATCH = 50
 """Entries per message: 200 ms of motion at 4 ms, about 1.7 kB."""
 
 
-def queue_point(points: deque[Point], point: Point, limit: int) -> bool:
-    """Keep ``point`` for the feeder; False (dropped) when ``limit`` points already wait. The
-    gateway lets no more be outstanding (``Cell.points_outstanding``) but for type-14
-    sequence-0 points, which never get BUSY (motoros1 §2.4): only a client sending several in a
-    row while a segment waits for room reaches the limit."""
-    if len(points) >= limit:
-        log.error("more than %d points pending; dropping %s", len(points), point)
-        return False
-    points.append(point)
-    return True
-
-
-class Phase(Enum):
-    IDLE = "no trajectory"
-    """Nothing started, or the executor cleared the ring: a point continuing a trajectory is
-    dropped."""
-    STARTED = "a trajectory's first point taken, none of its segments yet"
-    """Its first segment gets the start buffer if the ring is at rest."""
-    SENDING = "a segment's entries going to the ring, as far as it has room"
-    BETWEEN = "between segments: the trajectory waits for its next point"
-
-
-class Event(Enum):
-    FIRST_POINT = "a sequence-0 point"
-    NEXT_POINT = "a point with sequence > 0"
-    SEGMENT_SENT = "the segment's last entry sent"
-    RING_CLEARED = "the executor cleared the ring (a new epoch)"
-
-
-TRANSITIONS: dict[tuple[Phase, Event], Phase] = {
-    (Phase.IDLE, Event.FIRST_POINT): Phase.STARTED,
-    # Nothing to extend: the point is dropped (and taken, so the slot frees).
-    (Phase.IDLE, Event.NEXT_POINT): Phase.IDLE,
-    (Phase.IDLE, Event.RING_CLEARED): Phase.IDLE,
-    # A new start replaces one that never moved.
-    (Phase.STARTED, Event.FIRST_POINT): Phase.STARTED,
-    (Phase.STARTED, Event.NEXT_POINT): Phase.SENDING,
-    (Phase.STARTED, Event.RING_CLEARED): Phase.IDLE,
-    (Phase.SENDING, Event.SEGMENT_SENT): Phase.BETWEEN,
-    # STOP_MOTION, a fault, not ready: the trajectory is over (motoros1 §3.3).
-    (Phase.SENDING, Event.RING_CLEARED): Phase.IDLE,
-    (Phase.BETWEEN, Event.FIRST_POINT): Phase.STARTED,
-    (Phase.BETWEEN, Event.NEXT_POINT): Phase.SENDING,
-    (Phase.BETWEEN, Event.RING_CLEARED): Phase.IDLE,
-}
-"""Points are taken only when no segment is being sent, so SENDING takes no point."""
+class ImpossibleEventError(RuntimeError):
+    """An event its phase cannot have (``Action.IMPOSSIBLE``): a bug in the feeder."""
 
 
 @dataclass
@@ -95,9 +52,28 @@ class RingView:
         return queue is not None and queue.depth == 0 and self.sent == queue.received
 
 
+@dataclass(frozen=True)
+class TakenPoint:
+    """A point the feeder took, with the knot it is to the trajectory."""
+
+    point: Point
+    knot: Knot
+
+    @classmethod
+    def of(cls, point: Point) -> TakenPoint:
+        return cls(
+            point,
+            Knot(
+                time_to_ns(point.time),
+                np.array(point.positions, dtype=np.float64),
+                np.array(point.velocities, dtype=np.float64),
+            ),
+        )
+
+
 @dataclass
-class Work:
-    """The segment being sent."""
+class OutgoingSegment:
+    """The segment being sent, to the ring as far as it has room."""
 
     segment: Segment
     point_id: int
@@ -146,7 +122,7 @@ class Feeder:
         self.trajectory: Trajectory | None = None
         self.trajectory_id = 0
         """The point id of the sequence-0 point behind ``trajectory``."""
-        self.work: Work | None = None
+        self.outgoing: OutgoingSegment | None = None
         self.tool = 0
         self.received_id = 0
         self.taken_id = 0
@@ -154,15 +130,12 @@ class Feeder:
 
     @property
     def segment(self) -> Segment | None:
-        return None if self.work is None else self.work.segment
+        return None if self.outgoing is None else self.outgoing.segment
 
     @property
     def sent(self) -> int:
         """Entries sent in the current epoch (the next batch's first_seq)."""
         return self.ring.sent
-
-    def _on(self, event: Event) -> None:
-        self.phase = TRANSITIONS[(self.phase, event)]
 
     def on_status(self, status: ControllerStatus) -> None:
         """The group's selected tool, for the segments interpolated from now on."""
@@ -172,16 +145,8 @@ class Feeder:
     def on_queue(self, state: QueueState) -> None:
         queue = self.ring.queue
         if queue is not None and state.epoch != queue.epoch:
-            # The executor cleared the ring (stop, fault, not ready): this trajectory is over.
-            # Dropping it also frees the pending slot, as MotoROS 1.9.10 does (motoros1 §3.3).
-            if self.phase is not Phase.IDLE:
-                log.info("queue cleared by the executor; trajectory dropped")
-            self.trajectory = None
-            self.trajectory_id = 0
-            self.work = None
-            self.ring.sent = 0
-            self.taken_id = self.received_id
-            self._on(Event.RING_CLEARED)
+            self.ring.sent = 0  # a new epoch's ring starts empty
+            self._on(FeederEvent.RING_CLEARED)
         self.ring.queue = state
 
     def room(self) -> int:
@@ -194,92 +159,124 @@ class Feeder:
         queue = self.ring.queue
         if queue is None:
             return bool(points)
-        if self.work is not None:
+        if self.phase is Phase.SENDING:
             return True
         return bool(points) and points[0].epoch > queue.epoch
 
     def progress(self, points: deque[Point]) -> None:
-        """Send what the ring has room for and take new points while the slot is free."""
-        while self.ring.queue is not None:
-            if self.work is not None:
-                if not self._send_some(self.work):
+        """Send what the ring has room for and, between segments, take new points."""
+        while (queue := self.ring.queue) is not None:
+            if self.phase is Phase.SENDING:
+                outgoing = self.outgoing
+                assert outgoing is not None
+                if not self._send_some(outgoing):
                     return
-                continue
-            if not points:
-                return
-            if points[0].epoch > self.ring.queue.epoch:
-                return  # checked against a ring this interpolator has not heard of yet
-            self._take(points.popleft())
+            elif points and points[0].epoch <= queue.epoch:
+                self.take(points.popleft())
+            else:
+                return  # no point, or one checked against a ring not heard of yet
 
-    def _send_some(self, work: Work) -> bool:
-        """Send as much of ``work`` as the ring has room for; False while it waits for room.
+    def take(self, point: Point) -> None:
+        """Take ``point`` (``progress`` hands them over between segments): what it is to the
+        trajectory is its event."""
+        self.received_id = max(self.received_id, point.point_id)
+        taken = TakenPoint.of(point)
+        self._on(self._event_of(taken), taken)
+
+    def _event_of(self, taken: TakenPoint) -> FeederEvent:
+        if taken.point.sequence == 0:
+            return FeederEvent.FIRST_POINT
+        trajectory = self.trajectory
+        if trajectory is not None and not trajectory.reaches(taken.knot):
+            return FeederEvent.UNREACHABLE_POINT
+        return FeederEvent.NEXT_POINT
+
+    def _on(self, event: FeederEvent, taken: TakenPoint | None = None) -> None:
+        """Do what ``event``'s row says for the phase the feeder is in, then enter the row's
+        next phase."""
+        row = TRANSITIONS[(self.phase, event)]
+        match row.action:
+            case Action.START_TRAJECTORY if taken is not None:
+                self._start_trajectory(taken)
+            case Action.SEND_FIRST_SEGMENT if taken is not None:
+                hold = self.start_buffer_periods if self.ring.idle() else 0
+                self._start_segment(taken, hold)
+            case Action.SEND_NEXT_SEGMENT if taken is not None:
+                self._start_segment(taken, hold=0)
+            case Action.DROP_ORPHAN if taken is not None:
+                log.warning(
+                    "point %d (sequence %d) without a trajectory start; dropped",
+                    taken.point.point_id,
+                    taken.point.sequence,
+                )
+                self.taken_id = taken.point.point_id
+            case Action.DROP_UNREACHABLE if taken is not None:
+                log.warning(
+                    "point %d dropped: its time is not after the previous point's",
+                    taken.point.point_id,
+                )
+                self.taken_id = taken.point.point_id
+            case Action.SEGMENT_DONE if self.outgoing is not None:
+                self.taken_id = self.outgoing.point_id
+                self.outgoing = None
+            case Action.END_TRAJECTORY:
+                log.info("queue cleared by the executor; trajectory dropped")
+                self.trajectory = None
+                self.trajectory_id = 0
+                self.outgoing = None
+                self.taken_id = self.received_id
+            case Action.TAKE_ALL:
+                self.taken_id = self.received_id
+            case _:
+                raise ImpossibleEventError(
+                    f"{event.name} while {self.phase.name}: {row.action.name}"
+                )
+        self.phase = row.next_phase
+
+    def _start_trajectory(self, taken: TakenPoint) -> None:
+        self.trajectory = Trajectory(
+            self.axis_map, self.period_ns, taken.knot, self._start_pulses()
+        )
+        self.trajectory_id = self.taken_id = taken.point.point_id
+        self.counts.points_accepted += 1
+
+    def _start_segment(self, taken: TakenPoint, hold: int) -> None:
+        assert self.trajectory is not None
+        point = taken.point
+        self.outgoing = OutgoingSegment(
+            self.trajectory.segment_to(taken.knot),
+            point.point_id,
+            tool=self.tool,
+            hold=hold,
+            # The first segment of a 2016 trajectory starts in step with its partner groups.
+            sync=(point.sync_id, point.sync_groups) if point.sync_groups else None,
+        )
+        self.counts.points_accepted += 1
+
+    def _send_some(self, outgoing: OutgoingSegment) -> bool:
+        """Send as much of ``outgoing`` as the ring has room for; False while it waits for room.
         It waits for room for a whole batch (or the rest of the segment): with a full ring
         draining one entry a tick, sending whatever fits would mean a message per entry."""
         room = self.ring.room()
-        if room < min(MAX_BATCH, work.remaining):
+        if room < min(MAX_BATCH, outgoing.remaining):
             if not self.counts.waiting_for_room:
                 self.counts.waiting_for_room = True
                 self.counts.busy_episodes += 1
             return False
         self.counts.waiting_for_room = False
-        entries = self._next_entries(work, min(room, MAX_BATCH))
-        if work.remaining == 0:
-            self.work = None
-            self.taken_id = work.point_id
-            self._on(Event.SEGMENT_SENT)
-        self._send(entries, work)
+        entries = self._next_entries(outgoing, min(room, MAX_BATCH))
+        if outgoing.remaining == 0:
+            self._on(FeederEvent.SEGMENT_SENT)
+        self._send(entries, outgoing)
         return True
 
-    def _take(self, point: Point) -> None:
-        assert self.ring.queue is not None
-        self.received_id = max(self.received_id, point.point_id)
-        knot = Knot(
-            time_to_ns(point.time),
-            np.array(point.positions, dtype=np.float64),
-            np.array(point.velocities, dtype=np.float64),
-        )
-        if point.sequence == 0:
-            self.trajectory = Trajectory(self.axis_map, self.period_ns, knot, self._start_pulses())
-            self.trajectory_id = self.taken_id = point.point_id
-            self.counts.points_accepted += 1
-            self._on(Event.FIRST_POINT)
-            return
-        if self.trajectory is None:
-            log.warning(
-                "point %d (sequence %d) without a trajectory start; dropped",
-                point.point_id,
-                point.sequence,
-            )
-            self.taken_id = point.point_id
-            self._on(Event.NEXT_POINT)
-            return
-        try:
-            segment = self.trajectory.segment_to(knot)
-        except ValueError as exc:
-            log.warning("point %d dropped: %s", point.point_id, exc)
-            self.taken_id = point.point_id
-            return
-        # A trajectory that starts from rest moves after the start buffer, so every later
-        # point has that much more time to arrive before the ring runs dry.
-        starting = self.phase is Phase.STARTED and self.ring.idle()
-        self.work = Work(
-            segment,
-            point.point_id,
-            tool=self.tool,
-            hold=self.start_buffer_periods if starting else 0,
-            # The first segment of a 2016 trajectory starts in step with its partner groups.
-            sync=(point.sync_id, point.sync_groups) if point.sync_groups else None,
-        )
-        self.counts.points_accepted += 1
-        self._on(Event.NEXT_POINT)
-
-    def _next_entries(self, work: Work, limit: int) -> Entries:
+    def _next_entries(self, outgoing: OutgoingSegment, limit: int) -> Entries:
         """Up to ``limit`` entries: hold entries first (zero increments, at the trajectory's
         start time), then the segment's own."""
-        held = min(limit, work.hold)
+        held = min(limit, outgoing.hold)
         if held == 0:
-            return work.segment.take(limit)
-        work.hold -= held
+            return outgoing.segment.take(limit)
+        outgoing.hold -= held
         assert self.trajectory is not None
         hold = Entries(
             times_ns=np.full(held, self.trajectory.anchor_ns, dtype=np.int64),
@@ -288,7 +285,7 @@ class Feeder:
         )
         if held == limit:
             return hold
-        rest = work.segment.take(limit - held)
+        rest = outgoing.segment.take(limit - held)
         return Entries(
             times_ns=np.concatenate((hold.times_ns, rest.times_ns)),
             increments=np.concatenate((hold.increments, rest.increments)),
@@ -303,7 +300,7 @@ class Feeder:
             return self.trajectory.pulses
         return np.array(self.ring.queue.command_pulses[: self.axis_map.axes], dtype=np.int64)
 
-    def _send(self, entries: Entries, work: Work) -> None:
+    def _send(self, entries: Entries, outgoing: OutgoingSegment) -> None:
         assert self.ring.queue is not None
         count = len(entries)
         rows = np.zeros((count, MAX_AXES), dtype="<i4")
@@ -315,14 +312,14 @@ class Feeder:
                 count=count,
                 increments=rows.tobytes(),
                 partial=np.flatnonzero(entries.partial).tolist(),
-                tool=work.tool,
+                tool=outgoing.tool,
                 times_ns=entries.times_ns.tolist(),
-                sync_id=work.sync[0] if work.sync else 0,
-                sync_groups=work.sync[1] if work.sync else [],
+                sync_id=outgoing.sync[0] if outgoing.sync else 0,
+                sync_groups=outgoing.sync[1] if outgoing.sync else [],
                 through=self.taken_id,
             )
         )
-        work.sync = None
+        outgoing.sync = None
         self.ring.sent += count
         self.counts.increments_sent += count
 

@@ -1,0 +1,108 @@
+"""``ZenohBus``, the thin adapter the interpolator's shells see the bus through, on a real Zenoh
+router on loopback: it must behave as the scripted bus of the other tests does."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import pytest
+import zenoh
+
+from motocell.services.interpolator.bus import ZenohBus
+from motocell.shared.bus.router import router_settings, zenoh_config
+from motocell.shared.bus.session import open_session
+from motocell.shared.ports import free_port
+from motocell.testing.processes import wait_until
+from tests.services.interpolator.fake_bus import WAIT_S
+
+KEY = "motocell/test/group/0/point"
+
+
+@pytest.fixture
+def sessions() -> Iterator[tuple[zenoh.Session, zenoh.Session]]:
+    """Two client sessions of one router on a free loopback port."""
+    listen = f"tcp/127.0.0.1:{free_port()}"
+    router = zenoh.open(zenoh_config(router_settings([listen])))
+    opened = [open_session("client", [listen], wait=False) for _ in range(2)]
+    yield opened[0], opened[1]
+    for session in opened:
+        session.close()
+    router.close()
+
+
+def test_a_fifo_channel_keeps_every_sample_in_order(
+    sessions: tuple[zenoh.Session, zenoh.Session],
+) -> None:
+    sender, receiver = sessions
+    channel = ZenohBus(receiver).fifo(KEY, 8)
+    publisher = ZenohBus(sender).publisher(KEY, realtime=True)
+    wait_until(publisher.observed, WAIT_S, "the subscriber matched")
+    assert channel.try_recv() is None
+    publisher.put(b"\x91\x01")
+    publisher.put(b"\x91\x02")
+    assert channel.recv() == b"\x91\x01"
+    assert channel.recv() == b"\x91\x02"
+    assert channel.try_recv() is None
+    channel.undeclare()
+    wait_until(lambda: not publisher.observed(), WAIT_S, "the subscriber gone")
+
+
+def test_a_latest_value_channel_keeps_only_the_newest(
+    sessions: tuple[zenoh.Session, zenoh.Session],
+) -> None:
+    sender, receiver = sessions
+    bus = ZenohBus(receiver)
+    channel = bus.latest(KEY)
+    # Delivered in the same order in the same session: once the FIFO has the second sample,
+    # so has the latest-value channel.
+    barrier = bus.fifo(KEY, 8)
+    publisher = ZenohBus(sender).publisher(KEY, latest=True)
+    wait_until(publisher.observed, WAIT_S, "the subscribers matched")
+    publisher.put(b"\x91\x01")
+    publisher.put(b"\x91\x02")
+    assert [barrier.recv(), barrier.recv()] == [b"\x91\x01", b"\x91\x02"]
+    assert channel.try_recv() == b"\x91\x02"
+    assert channel.try_recv() is None
+    channel.undeclare()
+    barrier.undeclare()
+
+
+def test_a_doorbell_wakes_its_own_session_only(
+    sessions: tuple[zenoh.Session, zenoh.Session],
+) -> None:
+    other, own = sessions
+    bus = ZenohBus(own)
+    channel = bus.fifo(KEY, 8)
+    elsewhere = ZenohBus(other).fifo(KEY, 8)
+    doorbell = bus.doorbell(KEY)
+    publisher = bus.publisher(KEY)
+    wait_until(publisher.observed, WAIT_S, "the other session's subscriber matched")
+    doorbell.ring()
+    assert channel.recv() == b""
+    publisher.put(b"\x91\x03")  # after the doorbell, from the same session
+    assert channel.recv() == b"\x91\x03"
+    assert elsewhere.recv() == b"\x91\x03"  # the doorbell never reached it
+    doorbell.close()
+    channel.undeclare()
+    elsewhere.undeclare()
+
+
+def test_a_query_is_answered_with_the_payload_of_the_moment(
+    sessions: tuple[zenoh.Session, zenoh.Session],
+) -> None:
+    asker, answerer = sessions
+    now = [b"\x91\x04"]
+    answering = ZenohBus(answerer).answer(KEY, lambda: now[0])
+
+    def ask() -> list[bytes]:
+        return [
+            reply.ok.payload.to_bytes()
+            for reply in asker.get(KEY, timeout=WAIT_S)
+            if reply.ok is not None
+        ]
+
+    # The queryable's declaration reaches the asker's session some time after it returns.
+    wait_until(lambda: ask() != [], WAIT_S, "an answer")
+    now[0] = b"\x91\x05"
+    assert ask() == [b"\x91\x05"]
+    answering.undeclare()
