@@ -18,20 +18,18 @@ zenoh-python 1.10 has no ``select`` over channels and no ``recv`` with a timeout
 
 from __future__ import annotations
 
-import logging
 from collections.abc import Iterator
-from typing import TypeVar
-
-import msgspec
 
 from motocell.services.interpolator.bus import Bus
 from motocell.shared.bus.channels import StopSignal, Waker
 from motocell.shared.bus.keys import CellKeys
-from motocell.shared.bus.schemas import ControllerStatus, Decoder, Point, QueueState
-
-log = logging.getLogger("interpolator")
-
-T = TypeVar("T")
+from motocell.shared.bus.schemas import (
+    ControllerStatus,
+    Decoder,
+    Point,
+    QueueState,
+    decoded_payload,
+)
 
 POINT_CHANNEL_SIZE = 1024
 """Points (and doorbells) held in Zenoh until read. Far above what the gateway lets a group
@@ -41,18 +39,6 @@ counts is ``queue_point``'s."""
 _point_decoder = Decoder(Point)
 _queue_decoder = Decoder(QueueState)
 _status_decoder = Decoder(ControllerStatus)
-
-
-def _decoded(payload: bytes | None, decoder: Decoder[T], key: str) -> T | None:
-    """None for no sample, a doorbell, or one that does not decode (logged: a peer's bad
-    sample must not stop the reading thread)."""
-    if not payload:
-        return None
-    try:
-        return decoder.decode(payload)
-    except msgspec.DecodeError:
-        log.warning("undecodable sample on %s ignored", key)
-        return None
 
 
 class Inputs:
@@ -99,15 +85,15 @@ class Inputs:
 
     def status(self) -> ControllerStatus | None:
         """The controller's newest status since the last call, if any."""
-        return _decoded(self._statuses.try_recv(), _status_decoder, self._status_key)
+        return decoded_payload(self._statuses.try_recv(), _status_decoder, self._status_key)
 
     def queue(self) -> QueueState | None:
         """The executor's newest queue state of the group since the last call, if any."""
         woken_by, self._queue_woken_by = self._queue_woken_by, None
-        newer = _decoded(self._queues.try_recv(), _queue_decoder, self._queue_key)
+        newer = decoded_payload(self._queues.try_recv(), _queue_decoder, self._queue_key)
         if newer is not None:
             return newer
-        return _decoded(woken_by, _queue_decoder, self._queue_key)
+        return decoded_payload(woken_by, _queue_decoder, self._queue_key)
 
     def points(self) -> Iterator[Point]:
         """The points that arrived, in order; doorbells (empty samples) are skipped."""
@@ -115,7 +101,7 @@ class Inputs:
         if payload is None:
             payload = self._points.try_recv()
         while payload is not None:
-            point = _decoded(payload, _point_decoder, self._point_key)
+            point = decoded_payload(payload, _point_decoder, self._point_key)
             if point is not None:
                 yield point
             payload = self._points.try_recv()
