@@ -1,19 +1,23 @@
 """The state broadcaster: at the state period, one snapshot of the cell, to the TCP state clients
-(port_base + 1) and on Zenoh. ``core`` decides when and what; ``loop`` runs the one thread that
-carries a tick to the sockets; this module wires."""
+(``Cell.state_port``) and on Zenoh.
+
+Wiring only: ``core`` decides when and what, ``loop`` runs the one thread that carries a tick
+to the sockets, ``ticks``, ``controller_watch`` and ``reports`` are its bus (``bus``), and
+``state_port`` its TCP server.
+"""
 
 from __future__ import annotations
 
 import logging
 from collections.abc import Sequence
 
+from motocell.services.broadcaster.bus import ZenohBus
 from motocell.services.broadcaster.controller_watch import ControllerWatch
-from motocell.services.broadcaster.core import Broadcaster
+from motocell.services.broadcaster.core.broadcaster import Broadcaster
 from motocell.services.broadcaster.loop import StateLoop
-from motocell.services.broadcaster.reports import Reports
+from motocell.services.broadcaster.reports import StatePortReports
 from motocell.services.broadcaster.state_port import Acceptor, StatePort
 from motocell.services.broadcaster.ticks import TickSource
-from motocell.shared.bus.session import answer, observed, publisher
 from motocell.shared.protocol.codec import ByteOrder
 from motocell.shared.service import (
     add_listening_arguments,
@@ -30,44 +34,41 @@ def main(argv: Sequence[str] | None = None) -> None:
     add_listening_arguments(parser)
     args = parser.parse_args(argv)
     with running_service("broadcaster", "0", args) as ctx:
-        byte_order = ByteOrder(ctx.cell.byte_order)
-        state_socket = listen(ctx.cell.host, ctx.cell.state_port)
+        cell, keys = ctx.cell, ctx.keys
+        byte_order = ByteOrder(cell.byte_order)
+        bus = ZenohBus(ctx.session)
+        state_socket = listen(cell.host, cell.state_port)
         ctx.description.listening("state", state_socket.getsockname())
-        watch = ControllerWatch(ctx.session, ctx.keys)
-        broadcaster = Broadcaster(ctx.cell, watch)
-        state_pub = publisher(ctx.session, ctx.keys.state, realtime=True, latest=True)
-        positions = ctx.session.declare_queryable(
-            ctx.keys.broadcaster_cmd("positions"),
-            lambda query: answer(query, broadcaster.positions()),
-        )
-        reports = Reports(ctx.session, ctx.keys)
-        ticks = TickSource(ctx.session, ctx.keys, ctx.stop)
+        controller = ControllerWatch(bus, keys)
+        broadcaster = Broadcaster(cell, controller)
+        state = bus.publisher(keys.state, realtime=True, latest=True)
+        positions = bus.serve(keys.broadcaster_cmd("positions"), broadcaster.positions)
+        reports = StatePortReports(bus, keys)
+        ticks = TickSource(bus, keys, ctx.stop)
         acceptor = Acceptor(state_socket, ticks.ring)
-        state_port = StatePort(acceptor)
         loop = StateLoop(
             broadcaster,
             ticks,
-            state_port,
+            StatePort(acceptor),
             byte_order=byte_order,
-            publish_state=state_pub.put,
-            observed=lambda: observed(state_pub),
+            state=state,
             reports=reports,
         )
-        log.info("state port on %s:%d (%s-endian)", ctx.cell.host, ctx.cell.state_port, byte_order)
+        log.info("state port on %s:%d (%s-endian)", cell.host, cell.state_port, byte_order)
         ticks.start()
         acceptor.start()
         ctx.alive.announce()
         try:
-            while not ctx.stop.is_set():
-                loop.cycle()
+            loop.run(ctx.stop)
         finally:
             ctx.stop.set()  # on an error too: it ends the waker
-            ticks.close()
+            # The port first: its acceptor wakes the tick source for each connection.
             loop.close()
-            for adapter in (reports, watch):
-                adapter.close()
+            ticks.close()
+            reports.close()
+            controller.close()
             positions.undeclare()
-            state_pub.undeclare()
+            state.undeclare()
 
 
 if __name__ == "__main__":

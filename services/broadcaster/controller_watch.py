@@ -1,40 +1,45 @@
-"""The controller as the broadcaster sees it over Zenoh: its newest status and its token."""
+"""The controller as the broadcaster sees it on the bus: its newest status and its token."""
 
 from __future__ import annotations
 
-import zenoh
+import logging
 
-from motocell.shared.bus.channels import newest
+import msgspec
+
+from motocell.services.broadcaster.bus import Bus
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import ControllerStatus, Decoder
-from motocell.shared.bus.session import Liveness
+
+log = logging.getLogger("broadcaster")
 
 _status_decoder = Decoder(ControllerStatus)
 
 
 class ControllerWatch:
-    """A ``core.ControllerView`` fed by Zenoh. Statuses wait in a one-sample ring channel and
-    are read when a snapshot is due: only the newest matters, and no Zenoh thread runs Python
-    for them."""
+    """A ``core.broadcaster.ControllerView`` over a ``Bus``. Statuses wait in a latest-value
+    channel and are read when a snapshot is due: only the newest matters, and no Zenoh thread
+    runs Python for them."""
 
-    def __init__(self, session: zenoh.Session, keys: CellKeys) -> None:
+    def __init__(self, bus: Bus, keys: CellKeys) -> None:
         self._status: ControllerStatus | None = None
         self._token = keys.alive("controller", "0")
-        self._liveness = Liveness(session, self._token)
-        self._liveness.ask()
-        self._subscriber = session.declare_subscriber(
-            keys.controller_status, zenoh.handlers.RingChannel(1)
-        )
+        self._tokens = bus.tokens(self._token)
+        self._tokens.ask()
+        self._statuses = bus.latest(keys.controller_status)
 
     def status(self) -> ControllerStatus | None:
-        status = newest(self._subscriber, _status_decoder)
-        if status is not None:
-            self._status = status
+        """The newest status that decoded; a bad one is logged and the one before kept."""
+        payload = self._statuses.take()
+        if payload:
+            try:
+                self._status = _status_decoder.decode(payload)
+            except msgspec.DecodeError:
+                log.warning("undecodable controller status ignored")
         return self._status
 
     def alive(self) -> bool:
-        return self._token in self._liveness.present()
+        return self._token in self._tokens.present()
 
     def close(self) -> None:
-        self._subscriber.undeclare()
-        self._liveness.close()
+        self._statuses.undeclare()
+        self._tokens.close()

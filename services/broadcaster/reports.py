@@ -4,11 +4,9 @@ every second, and ``broadcaster/metrics`` every second while anyone subscribes t
 
 from __future__ import annotations
 
-import zenoh
-
+from motocell.services.broadcaster.bus import Bus
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import BroadcasterMetrics, CommandRequest, encode
-from motocell.shared.bus.session import observed, publisher
 from motocell.shared.metrics import Window
 
 REFRESH_S = 1.0
@@ -21,12 +19,14 @@ AGE_WINDOW = 1024
 """Ages kept per second: 250 cycles at the fastest state period, with room."""
 
 
-class Reports:
-    def __init__(self, session: zenoh.Session, keys: CellKeys) -> None:
+class StatePortReports:
+    """A ``bus.StateReports`` over a ``Bus``."""
+
+    def __init__(self, bus: Bus, keys: CellKeys) -> None:
         # Dropped rather than blocking under congestion: this runs on the state loop, and the
         # next second's notice makes a lost one good.
-        self._connections = publisher(session, keys.controller_cmd("connections"), latest=True)
-        self._metrics = publisher(session, keys.metrics("broadcaster"), latest=True)
+        self._connections = bus.publisher(keys.controller_cmd("connections"), latest=True)
+        self._metrics = bus.publisher(keys.metrics("broadcaster"), latest=True)
         self._ages = Window(AGE_WINDOW)
         self._reported_clients: int | None = None
         self._next_s = 0.0
@@ -44,7 +44,7 @@ class Reports:
             self._reported_clients = clients
         if due:
             self._next_s = now + REFRESH_S
-            if observed(self._metrics):
+            if self._metrics.observed():
                 metrics = BroadcasterMetrics(clients, self._ages.summary(), replaced, stuck_closed)
                 self._metrics.put(encode(metrics))
             self._ages.clear()

@@ -18,8 +18,8 @@ import threading
 from collections import deque
 from collections.abc import Callable
 
-from motocell.services.broadcaster.backlog import STUCK_S, Backlog, Cycle
-from motocell.services.broadcaster.core import Admission, admission
+from motocell.services.broadcaster.core.admission import Admission, admission
+from motocell.services.broadcaster.core.backlog import STUCK_S, Backlog, Cycle
 
 log = logging.getLogger("broadcaster")
 

@@ -1,13 +1,12 @@
-"""The executor's ticks as the broadcaster's thread reads them: straight from a Zenoh ring channel,
-with no Python callback and no queue in between.
+"""The executor's ticks as the broadcaster's thread reads them: straight from a ring channel of
+the bus, with no Python callback and no queue in between.
 
 While ticks come, the thread blocks in the channel's ``recv``. zenoh-python 1.10 has no ``recv``
-with a timeout, so a ``Waker`` rings a doorbell (an empty sample put on the tick key that never
-leaves this session) when ticks have been silent too long, and at stop. While the executor's
-clock rests no tick is expected: the thread sleeps on a pipe until the next beat it must send
-from the last tick (``core.Pacing``), then takes whatever tick came meanwhile; that wake-up is
-its only one per beat. Either wait ends early when the state port's acceptor has a new client
-(``ring``).
+with a timeout, so a ``Waker`` rings the channel's doorbell when ticks have been silent too long,
+and at stop. While the executor's clock rests no tick is expected: the thread sleeps on a pipe
+until the next beat it must send from the last tick (``core.states.PACING``), then takes
+whatever tick came meanwhile; that wake-up is its only one per beat. Either wait ends early when
+the state port's acceptor has a new client (``ring``).
 """
 
 from __future__ import annotations
@@ -20,9 +19,9 @@ import select
 import time
 
 import msgspec
-import zenoh
 
-from motocell.shared.bus.channels import Doorbell, StopSignal, Waker, is_doorbell
+from motocell.services.broadcaster.bus import Bus
+from motocell.shared.bus.channels import StopSignal, Waker
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import Decoder, Tick
 
@@ -36,12 +35,11 @@ _tick_decoder = Decoder(Tick)
 
 
 class TickSource:
-    def __init__(self, session: zenoh.Session, keys: CellKeys, stop: StopSignal) -> None:
-        self._subscriber = session.declare_subscriber(
-            keys.executor_tick, zenoh.handlers.RingChannel(CHANNEL_SIZE)
-        )
-        self._doorbell = Doorbell(session, keys.executor_tick)
-        self._waker = Waker(self._doorbell.ring, stop, "tick-waker")
+    """A ``bus.TickFeed`` over a ``Bus``, with the ``Waker`` thread that ends its waits."""
+
+    def __init__(self, bus: Bus, keys: CellKeys, stop: StopSignal) -> None:
+        self._channel = bus.channel(keys.executor_tick, CHANNEL_SIZE)
+        self._waker = Waker(self._channel.ring, stop, "tick-waker")
         self._stop = stop
         self._rung_read, self._rung_write = os.pipe()
         for fd in (self._rung_read, self._rung_write):
@@ -56,9 +54,9 @@ class TickSource:
         executor's clock runs); else sleep until ``deadline`` and take what came."""
         if ticks_expected:
             self._waker.wake_at(deadline)
-            return self._newest(self._subscriber.recv())
+            return self._newest(self._channel.recv())
         self._sleep_until(deadline)
-        return self._newest(self._subscriber.try_recv())
+        return self._newest(self._channel.try_recv())
 
     def _sleep_until(self, deadline: float | None) -> None:
         poller = select.poll()
@@ -69,12 +67,12 @@ class TickSource:
             with contextlib.suppress(BlockingIOError):
                 os.read(self._rung_read, 64)
 
-    def _newest(self, sample: zenoh.Sample | None) -> Tick | None:
+    def _newest(self, payload: bytes | None) -> Tick | None:
         newest: bytes | None = None
-        while sample is not None:
-            if not is_doorbell(sample):
-                newest = sample.payload.to_bytes()
-            sample = self._subscriber.try_recv()
+        while payload is not None:
+            if payload:  # empty: the doorbell
+                newest = payload
+            payload = self._channel.try_recv()
         if newest is None:
             return None
         try:
@@ -87,12 +85,11 @@ class TickSource:
         """Wake ``next`` now, whichever way it waits (from another thread)."""
         with contextlib.suppress(BlockingIOError):  # a wake-up is pending already
             os.write(self._rung_write, b"\0")
-        self._doorbell.ring()
+        self._channel.ring()
 
     def close(self) -> None:
         """Once the stop flag is set: the waker ends with it."""
         self._waker.close()
-        self._doorbell.close()
-        self._subscriber.undeclare()
+        self._channel.close()
         os.close(self._rung_read)
         os.close(self._rung_write)

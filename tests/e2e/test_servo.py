@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import zenoh
 
-from motocell.services.broadcaster.core import IN_MOTION_PULSES
+from motocell.services.broadcaster.core.robot_status import IN_MOTION_PULSES
 from motocell.shared.bus.schemas import CommandRequest, State, Tick
 from motocell.shared.bus.session import call
 from motocell.shared.protocol.constants import Command, Result

@@ -22,8 +22,8 @@ import statistics
 import time
 from collections.abc import Sequence
 
-from motocell.services.broadcaster.core import Broadcaster
-from motocell.services.broadcaster.frames import state_frames
+from motocell.services.broadcaster.core.broadcaster import Broadcaster
+from motocell.services.broadcaster.core.frames import state_frames
 from motocell.shared.bus.schemas import ControllerStatus, Decoder, GroupTick, Tick, encode
 from motocell.shared.config import Cell, parse_cell
 from motocell.shared.protocol.codec import ByteOrder

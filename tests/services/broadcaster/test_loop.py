@@ -1,163 +1,185 @@
-"""The broadcaster's cycle, tick to socket, without Zenoh: ticks from a list, a real state port
-on loopback, the ``state`` samples and the reports kept for inspection."""
+"""The broadcaster's cycle, tick to socket, against fakes of its Protocols: ticks from a list, a
+state port that keeps what each client was sent, the ``state`` samples and the reports kept for
+inspection. The frames are read back by a client's codec."""
 
 from __future__ import annotations
 
-import socket
-import threading
-from collections.abc import Iterator
+from collections.abc import Sequence
 
 import msgspec
 import pytest
 
-from motocell.services.broadcaster.core import Broadcaster
+from motocell.services.broadcaster.core.backlog import Cycle
+from motocell.services.broadcaster.core.broadcaster import Broadcaster
 from motocell.services.broadcaster.loop import StateLoop
-from motocell.services.broadcaster.state_port import Acceptor, StatePort
 from motocell.shared.bus.schemas import Decoder, State, Tick
 from motocell.shared.protocol.codec import NEED_DATA, ByteOrder, Role, SimpleMessageCodec
 from motocell.shared.protocol.constants import MsgType
 from motocell.shared.protocol.messages import JointFeedback, Message
-from motocell.shared.service import listen
-from tests.services.broadcaster.test_core import MS, FakeController, cell, group_tick, tick
+from motocell.shared.service import StopFlag
+from tests.services.broadcaster.fake_bus import FakePublication, RecordedReports, ScriptedTicks
+from tests.services.broadcaster.scripted import MS, FakeController, cell, group_tick, tick
 
 PULSES_PER_RADIAN = 58670
+STATE_PERIOD_S = 0.004
 
 
-class Ticks:
-    """Ticks from a list (None: woken without one), each ``step_s`` after the last."""
-
-    def __init__(self, step_s: float) -> None:
-        self.ticks: list[Tick | None] = []
-        self.now = 0.0
-        self.step_s = step_s
-        self.waits: list[tuple[float | None, bool]] = []
-
-    def next(self, deadline: float | None, ticks_expected: bool) -> Tick | None:
-        self.waits.append((deadline, ticks_expected))
-        self.now += self.step_s
-        return self.ticks.pop(0)
-
-
-class Reports:
+class FakeClient:
     def __init__(self) -> None:
-        self.ages: list[int] = []
-        self.clients: list[int] = []
+        self.cycles: list[Cycle] = []
 
-    def written(self, age_ns: int) -> None:
-        self.ages.append(age_ns)
 
-    def report(self, now: float, clients: int, replaced: int, stuck_closed: int) -> None:
-        self.clients.append(clients)
+class FakePort:
+    """A ``StateClients``: connections wait until ``admit``; each client keeps the cycles it was
+    sent."""
 
-    @property
-    def next_due(self) -> float:
-        return 1e9
+    def __init__(self) -> None:
+        self.waiting: list[FakeClient] = []
+        self.clients: list[FakeClient] = []
+        self.admitted_while_queued: list[bool] = []
+        self.flushed: list[float] = []
+        self.replaced = 0
+        self.closed_stuck = 0
+        self.closed = False
+
+    def connect(self) -> FakeClient:
+        client = FakeClient()
+        self.waiting.append(client)
+        return client
+
+    def admit(self, motion_queued: bool) -> None:
+        self.admitted_while_queued.append(motion_queued)
+        self.clients += self.waiting
+        self.waiting = []
+
+    def send(self, cycle: Cycle, now: float) -> None:
+        for client in self.clients:
+            client.cycles.append(cycle)
+
+    def flush(self, now: float) -> None:
+        self.flushed.append(now)
+
+    def replaced_total(self) -> int:
+        return self.replaced
+
+    def close(self) -> None:
+        self.closed = True
+        self.clients = []
 
 
 class Harness:
     def __init__(self, byte_order: ByteOrder) -> None:
-        self.woken = threading.Event()
-        acceptor = Acceptor(listen("127.0.0.1", 0), self.woken.set)
-        acceptor.start()
-        self.port = StatePort(acceptor)
-        self.ticks = Ticks(step_s=0.06)  # more than the silence (50 ms): a wake is a beat
-        self.published: list[State] = []
-        self.observed = True
-        """Whether a subscriber on the bus matches ``state``."""
-        self.reports = Reports()
-        decoder = Decoder(State)
+        self.byte_order = byte_order
+        self.port = FakePort()
+        self.ticks = ScriptedTicks(step_s=0.06)  # more than the silence (50 ms): a wake is a beat
+        self.state = FakePublication("state", realtime=True, latest=True)
+        self.state.subscribed = True
+        self.reports = RecordedReports()
         self.loop = StateLoop(
-            Broadcaster(cell(state_period_ms=4.0), FakeController()),
+            Broadcaster(cell(state_period_ms=STATE_PERIOD_S * 1000), FakeController()),
             self.ticks,
             self.port,
             byte_order=byte_order,
-            publish_state=lambda data: self.published.append(decoder.decode(data)),
-            observed=lambda: self.observed,
+            state=self.state,
             reports=self.reports,
             clock=lambda: self.ticks.now,
+            clock_ns=lambda: 5_000_000_000,
         )
-        self.byte_order = byte_order
-        self.clients: list[socket.socket] = []
 
     def run(self, *ticks: Tick | None) -> None:
         self.ticks.ticks += ticks
         while self.ticks.ticks:
             self.loop.cycle()
 
-    def connect(self) -> SimpleMessageCodec:
-        self.woken.clear()
-        sock = socket.create_connection(self.port.acceptor.server.getsockname(), timeout=5.0)
-        self.clients.append(sock)
-        assert self.woken.wait(5.0), "the acceptor took the connection"
-        return SimpleMessageCodec(Role.CLIENT, self.byte_order)
+    @property
+    def published(self) -> list[State]:
+        decoder = Decoder(State)
+        return [decoder.decode(payload) for payload in self.state.payloads]
 
-    def read(self, index: int, codec: SimpleMessageCodec, count: int) -> list[Message]:
-        messages: list[Message] = []
-        while len(messages) < count:
-            event = codec.next_event()
-            if event is NEED_DATA:
-                codec.receive_data(self.clients[index].recv(65536))
-            else:
-                assert isinstance(event, Message)
-                messages.append(event)
+    def read(self, client: FakeClient) -> list[Message]:
+        codec = SimpleMessageCodec(Role.CLIENT, self.byte_order)
+        codec.receive_data(b"".join(frame for cycle in client.cycles for frame in cycle))
+        messages = []
+        while (event := codec.next_event()) is not NEED_DATA:
+            assert isinstance(event, Message)
+            messages.append(event)
         return messages
-
-    def close(self) -> None:
-        self.loop.close()
-        for sock in self.clients:
-            sock.close()
 
 
 @pytest.fixture(params=[ByteOrder.LITTLE, ByteOrder.BIG])
-def harness(request: pytest.FixtureRequest) -> Iterator[Harness]:
-    made = Harness(request.param)
-    yield made
-    made.close()
+def harness(request: pytest.FixtureRequest) -> Harness:
+    return Harness(request.param)
 
 
-def moved(n: int, radians: int) -> Tick:
-    return tick(n, n * 4 * MS, group_tick([radians * PULSES_PER_RADIAN] + [0] * 7))
+def moved(n: int, radians: int, depth: int = 0) -> Tick:
+    pulses = [radians * PULSES_PER_RADIAN] + [0] * 7
+    return tick(n, n * 4 * MS, group_tick(pulses, depth=depth))
+
+
+def first_joints(messages: Sequence[Message]) -> list[float]:
+    return [m.body.positions[0] for m in messages if isinstance(m.body, JointFeedback)]
 
 
 def test_a_due_tick_reaches_a_new_client_and_zenoh_in_the_same_cycle(harness: Harness) -> None:
-    codec = harness.connect()
+    client = harness.port.connect()
     harness.run(moved(1, 2))
-    feedback, status = harness.read(0, codec, 2)
+    feedback, status = harness.read(client)
     assert (feedback.msg_type, status.msg_type) == (MsgType.JOINT_FEEDBACK, MsgType.ROBOT_STATUS)
-    assert isinstance(feedback.body, JointFeedback)
-    assert feedback.body.positions[0] == pytest.approx(2.0)
+    assert first_joints([feedback]) == pytest.approx([2.0])
     assert [state.tick for state in harness.published] == [1]
     assert harness.reports.clients == [1]
-    assert len(harness.reports.ages) == 1
+    assert harness.reports.ages == [5_000_000_000 - 4 * MS]
+
+
+def test_the_state_sample_carries_the_commanded_joints_and_poses(harness: Harness) -> None:
+    harness.run(moved(1, 2))
+    (state,) = harness.published
+    (arm,) = state.groups
+    assert arm.command_positions[0] == pytest.approx(2.0)
+    assert arm.flange is not None
 
 
 def test_no_state_sample_and_no_poses_while_nobody_observes(harness: Harness) -> None:
-    codec = harness.connect()
-    harness.observed = False
+    client = harness.port.connect()
+    harness.state.subscribed = False
     harness.run(moved(1, 1))
     assert harness.published == []
-    assert len(harness.read(0, codec, 2)) == 2  # the TCP clients get their frames all the same
-    harness.observed = True
+    assert len(harness.read(client)) == 2  # the TCP clients get their frames all the same
+    harness.state.subscribed = True
     harness.run(moved(2, 2))
     assert [state.tick for state in harness.published] == [2]
 
 
 def test_every_client_gets_every_cycle_in_order(harness: Harness) -> None:
-    codecs = [harness.connect() for _ in range(3)]
+    clients = [harness.port.connect() for _ in range(3)]
     harness.run(moved(1, 1), moved(2, 2), moved(3, 3))
-    for index, codec in enumerate(codecs):
-        messages = harness.read(index, codec, 6)
-        positions = [m.body.positions[0] for m in messages if isinstance(m.body, JointFeedback)]
-        assert positions == pytest.approx([1.0, 2.0, 3.0])
+    for client in clients:
+        assert first_joints(harness.read(client)) == pytest.approx([1.0, 2.0, 3.0])
 
 
 def test_silence_beats_with_the_last_tick_but_is_not_an_age(harness: Harness) -> None:
-    codec = harness.connect()
+    client = harness.port.connect()
     harness.run(moved(1, 1), None)
-    messages = harness.read(0, codec, 4)
+    messages = harness.read(client)
     assert [m.msg_type for m in messages].count(MsgType.ROBOT_STATUS) == 2
     assert [state.tick for state in harness.published] == [1, 1]
     assert len(harness.reports.ages) == 1
+
+
+def test_a_beat_that_changes_nothing_sends_the_same_frames_again(harness: Harness) -> None:
+    client = harness.port.connect()
+    harness.run(moved(1, 1), None, None)
+    first, *beats = client.cycles
+    assert all(beat is first for beat in beats)
+
+
+def test_a_cycle_without_a_snapshot_flushes_the_backlogs(harness: Harness) -> None:
+    harness.port.connect()
+    harness.run(moved(1, 1))
+    assert harness.port.flushed == []
+    harness.run(moved(2, 1))  # 4 ms after the first, the state period is 4 ms: due
+    harness.run(tick(3, 9 * MS))  # not due
+    assert harness.port.flushed == [harness.ticks.now]
 
 
 def test_without_clients_the_state_still_goes_on_zenoh(harness: Harness) -> None:
@@ -167,22 +189,69 @@ def test_without_clients_the_state_still_goes_on_zenoh(harness: Harness) -> None
     assert harness.reports.clients == [0, 0]
 
 
+def test_newcomers_are_admitted_knowing_whether_motion_is_queued(harness: Harness) -> None:
+    harness.run(moved(1, 1, depth=3), moved(2, 1))
+    assert harness.port.admitted_while_queued == [False, True]
+
+
 def test_closing_tells_the_reports_the_clients_are_gone(harness: Harness) -> None:
-    harness.connect()
+    harness.port.connect()
     harness.run(moved(1, 1))
     harness.loop.close()
+    assert harness.port.closed
     assert harness.reports.clients == [1, 0]
+
+
+def test_the_loop_wakes_for_the_reports_when_no_beat_is_due(harness: Harness) -> None:
+    harness.reports.next_due = 7.0
+    harness.run(None, moved(1, 1), None)
+    deadlines = [deadline for deadline, _ in harness.ticks.waits]
+    silence_s = 0.05
+    assert deadlines == pytest.approx([None, 7.0, 0.12 + silence_s])
 
 
 def test_at_rest_the_loop_sleeps_until_the_next_beat_instead_of_waiting_for_ticks(
     harness: Harness,
 ) -> None:
-    harness.connect()
+    harness.port.connect()
     resting = msgspec.structs.replace(moved(1, 1), resting=True)
     harness.run(moved(0, 1), resting, None)
     waits = harness.ticks.waits
     assert [expected for _, expected in waits] == [True, True, False]
-    state_period_s = 0.004
     deadline, _ = waits[2]
-    assert deadline == pytest.approx(2 * harness.ticks.step_s + state_period_s)
+    assert deadline == pytest.approx(2 * harness.ticks.step_s + STATE_PERIOD_S)
     assert [state.tick for state in harness.published] == [0, 1, 1]
+
+
+class StoppingTicks(ScriptedTicks):
+    """Sets ``stop`` as it hands over its last tick, as the tick source wakes at stop."""
+
+    def __init__(self, stop: StopFlag) -> None:
+        super().__init__(step_s=0.004)
+        self.stop = stop
+
+    def next(self, deadline: float | None, ticks_expected: bool) -> Tick | None:
+        got = super().next(deadline, ticks_expected)
+        if not self.ticks:
+            self.stop.set()
+        return got
+
+
+def test_run_cycles_until_stopped() -> None:
+    stop = StopFlag()
+    ticks = StoppingTicks(stop)
+    ticks.ticks += [moved(1, 1), moved(2, 1)]
+    state = FakePublication("state", realtime=True, latest=True)
+    state.subscribed = True
+    loop = StateLoop(
+        Broadcaster(cell(state_period_ms=STATE_PERIOD_S * 1000), FakeController()),
+        ticks,
+        FakePort(),
+        byte_order=ByteOrder.LITTLE,
+        state=state,
+        reports=RecordedReports(),
+        clock=lambda: ticks.now,
+    )
+    loop.run(stop)
+    assert ticks.ticks == []
+    assert len(state.payloads) == 2

@@ -10,8 +10,8 @@ from collections.abc import Iterator
 
 import pytest
 
-from motocell.services.broadcaster.backlog import STUCK_S
-from motocell.services.broadcaster.core import MAX_STATE_CLIENTS
+from motocell.services.broadcaster.core.admission import MAX_STATE_CLIENTS
+from motocell.services.broadcaster.core.backlog import STUCK_S
 from motocell.services.broadcaster.state_port import Acceptor, StatePort
 from motocell.shared.service import listen
 from motocell.testing.processes import wait_until

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from motocell.services.broadcaster.core import Broadcaster
-from motocell.services.broadcaster.frames import state_frames
+from motocell.services.broadcaster.core.broadcaster import Broadcaster
+from motocell.services.broadcaster.core.frames import state_frames
 from motocell.shared.protocol.codec import ByteOrder
 from motocell.tools.bench.state_cycle import ReadyController, four_groups, measure, moving_ticks
 

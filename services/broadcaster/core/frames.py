@@ -5,7 +5,7 @@ client.
 The frames go out 250 times a second to up to four clients, so they are packed by precompiled
 ``struct``s from the protocol's own layouts (``shared.protocol.layouts``) instead of through the
 generic codec, each group's block once for its JOINT_FEEDBACK and JOINT_FEEDBACK_EX, behind
-heads packed once: the bytes are the codec's (tests/services/broadcaster/test_frames.py
+heads packed once: the bytes are the codec's (tests/services/broadcaster/core/test_frames.py
 compares them), the work a fraction.
 """
 

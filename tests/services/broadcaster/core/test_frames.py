@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from motocell.services.broadcaster.frames import FEEDBACK_FIELDS, state_frames
+from motocell.services.broadcaster.core.frames import FEEDBACK_FIELDS, state_frames
 from motocell.shared.bus.schemas import GroupState, RobotStatusFields, State
 from motocell.shared.protocol.codec import NEED_DATA, ByteOrder, Role, SimpleMessageCodec, encode
 from motocell.shared.protocol.constants import CommType, MsgType, ReplyType

@@ -3,7 +3,7 @@ and a client that takes nothing for STUCK_S is given up."""
 
 from __future__ import annotations
 
-from motocell.services.broadcaster.backlog import STUCK_S, Backlog
+from motocell.services.broadcaster.core.backlog import STUCK_S, Backlog
 
 
 class Socket:
@@ -81,7 +81,7 @@ def test_the_bound_starts_again_once_the_backlog_is_empty() -> None:
 
 def test_each_message_is_written_on_its_own() -> None:
     """As MotoROS's one ``mpSend`` per message: a client reading one message per ``recv``
-    finds the boundaries (issue: the ``moto`` client)."""
+    finds the boundaries (the ``moto`` client does)."""
     socket, backlog = Socket(), Backlog()
     backlog.offer((b"feedback0", b"feedback1", b"status"))
     assert backlog.write(socket.send, 0.0)

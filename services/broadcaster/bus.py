@@ -1,0 +1,200 @@
+"""The broadcaster's bus, behind Protocols: what its loop needs (``TickFeed``, ``StateReports``,
+a ``Publication`` for ``state``), what its bus shells need of a Zenoh session (``Bus``), and
+``ZenohBus``, the thin adapter over a real session.
+
+The shells (``ticks.TickSource``, ``controller_watch.ControllerWatch``,
+``reports.StatePortReports``) are written against ``Bus``, so their unit tests script the bus
+instead of running a router: payloads go in and out as bytes (the shells decode them, so a test
+can send garbage). No Python runs on Zenoh's threads for ticks or statuses: they wait in
+Zenoh's own channel handlers for the broadcaster's thread (docs/conventions.md, The bus).
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from typing import Protocol
+
+import zenoh
+
+from motocell.shared.bus.channels import Doorbell
+from motocell.shared.bus.schemas import CommandReply, Tick
+from motocell.shared.bus.session import Liveness, answer, observed, publisher
+
+# -- what the loop needs ---------------------------------------------------------------------
+
+
+class TickFeed(Protocol):
+    def next(self, deadline: float | None, ticks_expected: bool) -> Tick | None:
+        """The newest tick; None when woken without one at ``deadline`` (time.monotonic(),
+        None: no deadline). ``ticks_expected``: block for a tick; else sleep until
+        ``deadline`` and take what came."""
+        ...
+
+
+class StateReports(Protocol):
+    """What the loop tells the cell about its state port (``reports.StatePortReports``)."""
+
+    def written(self, age_ns: int) -> None:
+        """A tick's frames were handed to the clients ``age_ns`` after its wake-up."""
+        ...
+
+    def report(self, now: float, clients: int, replaced: int, stuck_closed: int) -> None:
+        """Publish what changed, and everything when due (``now``: time.monotonic())."""
+        ...
+
+    @property
+    def next_due(self) -> float:
+        """When ``report`` must run again at the latest (time.monotonic())."""
+        ...
+
+
+class Publication(Protocol):
+    def put(self, payload: bytes) -> None: ...
+
+    def observed(self) -> bool:
+        """Whether any subscriber on the bus matches it now (Zenoh's matching status)."""
+        ...
+
+    def undeclare(self) -> None: ...
+
+
+# -- what the bus shells need of a session ---------------------------------------------------
+
+
+class Channel(Protocol):
+    """A subscription whose samples wait in a Zenoh ring channel for the thread that reads it,
+    which another thread can wake (a doorbell: an empty payload that never leaves the
+    session)."""
+
+    def recv(self) -> bytes:
+        """The oldest payload kept, blocking until there is one; empty: the doorbell."""
+        ...
+
+    def try_recv(self) -> bytes | None:
+        """The oldest payload kept, None if there is none; never blocks."""
+        ...
+
+    def ring(self) -> None:
+        """Wake a thread blocked in ``recv`` (from any thread)."""
+        ...
+
+    def close(self) -> None: ...
+
+
+class Latest(Protocol):
+    """A subscription that keeps only the newest sample until it is read (a Zenoh
+    ``RingChannel(1)``): no Python runs on the bus's threads for it."""
+
+    def take(self) -> bytes | None:
+        """The newest payload since the last read, None if none came; never blocks."""
+        ...
+
+    def undeclare(self) -> None: ...
+
+
+class Tokens(Protocol):
+    """The liveliness tokens present under a key (``shared.bus.session.Liveness``)."""
+
+    def ask(self) -> threading.Event:
+        """Query for tokens the events missed; returns at once."""
+        ...
+
+    def present(self) -> frozenset[str]: ...
+
+    def close(self) -> None: ...
+
+
+class Declared(Protocol):
+    def undeclare(self) -> None: ...
+
+
+class Bus(Protocol):
+    def channel(self, key: str, size: int) -> Channel:
+        """The samples of ``key``, the newest ``size`` kept."""
+        ...
+
+    def latest(self, key: str) -> Latest: ...
+
+    def publisher(self, key: str, *, realtime: bool = False, latest: bool = False) -> Publication:
+        """As ``shared.bus.session.publisher``."""
+        ...
+
+    def tokens(self, key: str) -> Tokens:
+        """Watch the tokens under ``key``; nothing is asked until ``Tokens.ask``."""
+        ...
+
+    def serve(self, key: str, reply: Callable[[], CommandReply]) -> Declared:
+        """Answer every query on ``key`` with ``reply()``, called on the bus's threads."""
+        ...
+
+
+# -- over Zenoh ------------------------------------------------------------------------------
+
+
+class _ZenohChannel:
+    def __init__(self, session: zenoh.Session, key: str, size: int) -> None:
+        self._subscriber = session.declare_subscriber(key, zenoh.handlers.RingChannel(size))
+        self._doorbell = Doorbell(session, key)
+
+    def recv(self) -> bytes:
+        return self._subscriber.recv().payload.to_bytes()
+
+    def try_recv(self) -> bytes | None:
+        sample = self._subscriber.try_recv()
+        return None if sample is None else sample.payload.to_bytes()
+
+    def ring(self) -> None:
+        self._doorbell.ring()
+
+    def close(self) -> None:
+        self._doorbell.close()
+        self._subscriber.undeclare()
+
+
+class _ZenohLatest:
+    def __init__(self, session: zenoh.Session, key: str) -> None:
+        self._subscriber = session.declare_subscriber(key, zenoh.handlers.RingChannel(1))
+
+    def take(self) -> bytes | None:
+        sample = self._subscriber.try_recv()
+        return None if sample is None else sample.payload.to_bytes()
+
+    def undeclare(self) -> None:
+        self._subscriber.undeclare()
+
+
+class _ZenohPublication:
+    def __init__(self, publisher: zenoh.Publisher) -> None:
+        self._publisher = publisher
+
+    def put(self, payload: bytes) -> None:
+        self._publisher.put(payload)
+
+    def observed(self) -> bool:
+        return observed(self._publisher)
+
+    def undeclare(self) -> None:
+        self._publisher.undeclare()
+
+
+class ZenohBus:
+    """``Bus`` over a Zenoh session."""
+
+    def __init__(self, session: zenoh.Session) -> None:
+        self._session = session
+
+    def channel(self, key: str, size: int) -> Channel:
+        return _ZenohChannel(self._session, key, size)
+
+    def latest(self, key: str) -> Latest:
+        return _ZenohLatest(self._session, key)
+
+    def publisher(self, key: str, *, realtime: bool = False, latest: bool = False) -> Publication:
+        return _ZenohPublication(publisher(self._session, key, realtime=realtime, latest=latest))
+
+    def tokens(self, key: str) -> Tokens:
+        return Liveness(self._session, key)
+
+    def serve(self, key: str, reply: Callable[[], CommandReply]) -> Declared:
+        return self._session.declare_queryable(key, lambda query: answer(query, reply()))

@@ -1,0 +1,185 @@
+"""A scripted ``Bus`` and loop-side fakes for the broadcaster's shells: the test publishes payloads
+(garbage included) to what is subscribed, makes tokens appear and vanish, asks what is served,
+and reads what the shell published and declared."""
+
+from __future__ import annotations
+
+import threading
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from motocell.shared.bus.schemas import CommandReply, Tick
+
+WAIT_S = 5.0
+"""Deadline for what another thread is expected to do soon (generous for a loaded host)."""
+
+
+class FakeChannel:
+    """A ring channel: the newest ``size`` payloads; ``recv`` blocks until one comes (at most
+    ``WAIT_S``: a test that would hang fails instead)."""
+
+    def __init__(self, key: str, size: int) -> None:
+        self.key = key
+        self.size = size
+        self._kept: deque[bytes] = deque(maxlen=size)
+        self._arrived = threading.Condition()
+        self.rung = 0
+        self.closed = False
+
+    def put(self, payload: bytes) -> None:
+        with self._arrived:
+            self._kept.append(payload)
+            self._arrived.notify_all()
+
+    def recv(self) -> bytes:
+        with self._arrived:
+            if not self._arrived.wait_for(lambda: bool(self._kept), WAIT_S):
+                raise TimeoutError(f"nothing on {self.key} within {WAIT_S} s")
+            return self._kept.popleft()
+
+    def try_recv(self) -> bytes | None:
+        with self._arrived:
+            return self._kept.popleft() if self._kept else None
+
+    def ring(self) -> None:
+        self.rung += 1
+        self.put(b"")
+
+    def close(self) -> None:
+        self.closed = True
+
+
+class FakeLatest:
+    def __init__(self, key: str) -> None:
+        self.key = key
+        self._payload: bytes | None = None
+        self.undeclared = False
+
+    def put(self, payload: bytes) -> None:
+        self._payload = payload
+
+    def take(self) -> bytes | None:
+        payload, self._payload = self._payload, None
+        return payload
+
+    def undeclare(self) -> None:
+        self.undeclared = True
+
+
+class FakePublication:
+    def __init__(self, key: str, realtime: bool, latest: bool) -> None:
+        self.key = key
+        self.realtime = realtime
+        self.latest = latest
+        self.payloads: list[bytes] = []
+        self.subscribed = False
+        """What ``observed`` says: whether a subscriber on the bus matches."""
+        self.undeclared = False
+
+    def put(self, payload: bytes) -> None:
+        self.payloads.append(payload)
+
+    def observed(self) -> bool:
+        return self.subscribed
+
+    def undeclare(self) -> None:
+        self.undeclared = True
+
+
+class FakeTokens:
+    def __init__(self, key: str) -> None:
+        self.key = key
+        self.tokens: set[str] = set()
+        self.asked = 0
+        self.closed = False
+
+    def ask(self) -> threading.Event:
+        self.asked += 1
+        return threading.Event()
+
+    def present(self) -> frozenset[str]:
+        return frozenset(self.tokens)
+
+    def close(self) -> None:
+        self.closed = True
+
+
+@dataclass
+class FakeServed:
+    key: str
+    reply: Callable[[], CommandReply]
+    undeclared: bool = False
+
+    def undeclare(self) -> None:
+        self.undeclared = True
+
+
+@dataclass
+class FakeBus:
+    channels: dict[str, FakeChannel] = field(default_factory=dict)
+    latests: dict[str, FakeLatest] = field(default_factory=dict)
+    publications: dict[str, FakePublication] = field(default_factory=dict)
+    watched: dict[str, FakeTokens] = field(default_factory=dict)
+    served: dict[str, FakeServed] = field(default_factory=dict)
+
+    # -- Bus -------------------------------------------------------------------------------
+    def channel(self, key: str, size: int) -> FakeChannel:
+        return self.channels.setdefault(key, FakeChannel(key, size))
+
+    def latest(self, key: str) -> FakeLatest:
+        return self.latests.setdefault(key, FakeLatest(key))
+
+    def publisher(
+        self, key: str, *, realtime: bool = False, latest: bool = False
+    ) -> FakePublication:
+        return self.publications.setdefault(key, FakePublication(key, realtime, latest))
+
+    def tokens(self, key: str) -> FakeTokens:
+        return self.watched.setdefault(key, FakeTokens(key))
+
+    def serve(self, key: str, reply: Callable[[], CommandReply]) -> FakeServed:
+        return self.served.setdefault(key, FakeServed(key, reply))
+
+    # -- the rest of the cell --------------------------------------------------------------
+    def publish(self, key: str, payload: bytes) -> None:
+        """A sample arrives on ``key``: into its channel or latest-value subscription."""
+        if key in self.channels:
+            self.channels[key].put(payload)
+        if key in self.latests:
+            self.latests[key].put(payload)
+
+
+class ScriptedTicks:
+    """A ``TickFeed`` from a list (None: woken without a tick), each ``step_s`` after the last
+    on the clock it keeps (``now``); the waits the loop asked for are kept."""
+
+    def __init__(self, step_s: float) -> None:
+        self.ticks: list[Tick | None] = []
+        self.now = 0.0
+        self.step_s = step_s
+        self.waits: list[tuple[float | None, bool]] = []
+
+    def next(self, deadline: float | None, ticks_expected: bool) -> Tick | None:
+        self.waits.append((deadline, ticks_expected))
+        self.now += self.step_s
+        return self.ticks.pop(0)
+
+
+class RecordedReports:
+    """A ``StateReports`` that keeps what it is told."""
+
+    def __init__(self, next_due: float = 1e9) -> None:
+        self.ages: list[int] = []
+        self.clients: list[int] = []
+        self.replaced: list[int] = []
+        self.stuck_closed: list[int] = []
+        self.next_due = next_due
+
+    def written(self, age_ns: int) -> None:
+        self.ages.append(age_ns)
+
+    def report(self, now: float, clients: int, replaced: int, stuck_closed: int) -> None:
+        self.clients.append(clients)
+        self.replaced.append(replaced)
+        self.stuck_closed.append(stuck_closed)
