@@ -82,7 +82,8 @@ FAULT_AT_S = 1.5
 """Seconds after the first point when the client asks for the fault."""
 SETTLE_S = 3.0
 """How long the robot must stay still after the fault before the report: a TCP connection
-whose link was cut retransmits with back-off, seen 1.4 s after a 2 s cut."""
+whose link was cut retransmits with back-off, well after the cut ends (docs/multihost.md,
+Faults)."""
 RETRY_S = 0.1
 """Between START_TRAJ_MODE tries after the fault: the recovery's time is known to this."""
 WHOLE_WITHIN_S = 3.0

@@ -4,7 +4,7 @@ cells streaming side by side.
     python -m motocell.tools.bench.run --only 7 [--quick]
 
 Every cell is a whole ``motocell up`` with its own router (``testing.running_cell``); CPU
-and wake-ups are every thread's, from /proc, as in figure 10 (``harness.CostSampler``), in % of
+and wake-ups are every thread's, from /proc, as in figure 10 (``measuring.CostSampler``), in % of
 one core for all the cells' processes together.
 
 **Idle cells.** Single-arm cells (the default cell: one arm6 on a YRC1000) are started one by
@@ -32,10 +32,9 @@ wire carried them (float32) in pulses. Goal: 0 aborted, over every trajectory of
 
 Missed periods are the increase of ``Tick.missed`` over a window, all cells. They are reported
 against the machine's floor: this VM's timer delivery misses periods even for a bare C
-real-time thread (docs/realtime.md), so 0 in every window is not expected here. For the goal
-figure 7 had before (>= 2 four-group cells moving with 0 missed periods within 70 % of the
-CPU) the figure still reports the largest count whose every window had 0 missed periods and
-CPU within 70 % of the machine.
+real-time thread (docs/realtime.md), so 0 in every window is not expected here. The figure
+also reports the largest count whose every window had 0 missed periods and CPU within 70 % of
+the machine (docs/benchmarks.md, figure 7).
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """Does a cell need a priority above ordinary processes to keep moving on a loaded machine?
-(issue 23; the decision and the measured runs are in docs/realtime.md)
+(the decision and the measured runs are in docs/realtime.md)
 
     python -m motocell.tools.bench.loaded_priority [--runs 3] [--trajectories 8] [--hogs N]
         [--hog-session same|own] [--variants today,nice,rr] [--out FILE]
@@ -92,7 +92,7 @@ class Variant:
     ``none`` (touch nothing)."""
     value: int = 0
     kinds: frozenset[str] = ALL_KINDS
-    """The processes (``harness.process_kinds``) set to it; the others get ordinary scheduling."""
+    """The processes (``measuring.process_kinds``) set to it; the others get ordinary scheduling."""
     python_only: bool = False
     """Only the threads Python runs (named ``python``), not Zenoh's (``rx-0``, ``tx-0``, ...)."""
 

@@ -1,6 +1,6 @@
 /* How late this machine wakes a bare real-time thread: the floor under the executor's clock.
  *
- *   gcc -O2 -o /tmp/rtprobe bench/rtprobe.c && sudo /tmp/rtprobe 60
+ *   gcc -O2 -o /tmp/rtprobe tools/bench/rtprobe.c && sudo /tmp/rtprobe 60
  *
  * One SCHED_FIFO thread (priority 50, as the executor's clock) with 1 ns timer slack sleeps to
  * absolute 4 ms deadlines on CLOCK_MONOTONIC for the given seconds: no Python, no Zenoh, no

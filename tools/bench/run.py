@@ -27,8 +27,8 @@ the executor ran SCHED_FIFO (``ExecutorMetrics.realtime``) and the 1-minute load
 start and end, with a warning (also in the JSON) when either exceeds 0.7 x the CPUs, which makes
 that figure's numbers unreliable.
 
-The full suite takes a quarter of an hour or more (figures 1-9 alone took 15 minutes on an idle
-2-vCPU VM; figures 3 and 7: 3 x 60 s windows each), ``--quick`` a few minutes. Results:
+The full suite takes a quarter of an hour or more (figures 1-9 alone take about 15 minutes on an
+idle 2-vCPU VM; figures 3 and 7: 3 x 60 s windows each), ``--quick`` a few minutes. Results:
 ``<UTC timestamp>.json`` and ``latest.json`` in ``--out``, by default ``bench-results`` under the
 current directory (ignored by git in a checkout's root), so an installed motocell never writes
 into its own package.

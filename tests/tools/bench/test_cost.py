@@ -1,4 +1,4 @@
-"""Figure 10's pure parts, and the harness's CPU and wake-ups from /proc."""
+"""Figure 10's pure parts, and the measuring module's CPU and wake-ups from /proc."""
 
 from __future__ import annotations
 
