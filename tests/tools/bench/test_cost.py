@@ -10,7 +10,6 @@ import pytest
 from motocell.tools.bench.bench_cost import (
     MOVING,
     Measured,
-    Window,
     deviation_percent,
     per_tick_results,
     rate_hz,
@@ -21,6 +20,7 @@ from motocell.tools.bench.measuring import (
     LogTail,
     ProcessCost,
     Usage,
+    Window,
     alarm_codes,
     cost_by_kind,
     parse_schedstat,
