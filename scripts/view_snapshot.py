@@ -1,11 +1,12 @@
 """A picture of what ``motocell view`` shows, for the README, from a real run; Foxglove itself
 needs a desktop.
 
-Starts the dual-arm-positioner sample cell (testkit), runs ``motocell record`` on it (which
-writes the same channels ``motocell view`` serves), moves both arms and the positioner with
-MOTO_JOINT_TRAJ_PT_FULL_EX as motoman_driver does, stops the recording, then draws the last
-``/dual/transforms`` message with the ``/dual/scene`` geometry, decoded from the file with the
-schemas in it, using matplotlib: a rendering of the view's data, not a screenshot of Foxglove.
+Starts the dual-arm-positioner sample cell (``testing.running_cell``), runs ``motocell record``
+on it (which writes the same channels ``motocell view`` serves), moves both arms and the
+positioner with MOTO_JOINT_TRAJ_PT_FULL_EX as motoman_driver does, stops the recording, then
+draws the last ``/dual/transforms`` message with the ``/dual/scene`` geometry, decoded from the
+file with the schemas in it, using matplotlib: a rendering of the view's data, not a
+screenshot of Foxglove.
 
     .venv/bin/python scripts/view_snapshot.py docs/images/view-dual.png
 """

@@ -27,18 +27,18 @@ from motocell.shared.protocol.constants import MAX_AXES, TOOL_NUMBERS
 DEFAULT_MAX_LATENESS_PERIODS = 25
 """100 ms at 4 ms. Far shorter than the 0.4-0.5 s after which a client can be told NOT_READY
 (so nothing queued before NOT_READY ever moves), and far longer than the executor's real
-jitter on a shared 2-core machine: SCHED_FIFO ticks were seen 12.8 ms late once in a full test
-run, and without SCHED_FIFO 8-15 ms under load (docs/realtime.md, Why SCHED_FIFO), either
-of which a 3-period bound turned into a false alarm."""
+jitter on a shared 2-core machine, with SCHED_FIFO or without, which a 3-period bound turns
+into false alarms (measured: docs/behaviour.md, Stalls, and docs/realtime.md,
+Why SCHED_FIFO)."""
 
 MAX_PENDING_POINTS = 32
 """The deepest pending-point FIFO a cell file may ask for (``pending_points``): ample for a
 client that streams a few points ahead (32 points 4 ms apart are 128 ms of motion), and a bound
 on what each interpolator holds."""
 DEFAULT_START_BUFFER_PERIODS = 3
-"""12 ms at 4 ms: the start buffer of a cell file that does not set one. A client that streams
-without look-ahead was measured to leave 6-8 periods empty per trajectory with 0 on this 2-core
-machine and none with 3 (figure 5); no client can see 12 ms more before the first move."""
+"""12 ms at 4 ms: the start buffer of a cell file that does not set one. Enough for a client that
+streams without look-ahead to leave no period empty (figure 5, measured: docs/behaviour.md,
+Start buffer); no client can see 12 ms more before the first move."""
 MAX_START_BUFFER_PERIODS = 50
 """The longest start buffer a cell file may ask for (``start_buffer_periods``): 200 ms at 4 ms,
 far beyond any latency a client's stream should have to absorb."""

@@ -2,8 +2,8 @@
 
 Free ports are picked below the kernel's ephemeral range. A port from that range (what binding
 port 0 gives) can be handed to any outgoing connection between the moment it is found free and
-the moment its owner binds it: a test's cell once failed to start that way ("cannot listen on
-127.0.0.1:38058: Address already in use"). Below the range only a process that picks its ports
+the moment its owner binds it, and the cell then cannot listen ("Address already in use").
+Below the range only a process that picks its ports
 the same way can collide, and each pick is random.
 """
 
@@ -42,7 +42,8 @@ def free_port_block(count: int, host: str = "127.0.0.1") -> int:
 
 def port_base_argument(text: str) -> int:
     """argparse's type for a service's ``--port-base``: the motion port, the state and I/O
-    ports after it. 0 is refused (it once meant "the cell file's" without a word)."""
+    ports after it. 0 is refused like any base whose ports leave 1-65535 (port 0 is no port), never
+    read as a default."""
     try:
         base = int(text)
     except ValueError:

@@ -53,8 +53,8 @@ def clock_cpus(allowed: Set[int]) -> set[int] | None:
 def tighten_timer_slack() -> None:
     """The calling thread's sleeps end at their deadline, not up to 50 µs after it (the default
     slack lets the kernel batch wake-ups). A SCHED_FIFO thread has no slack anyway; this is for
-    a clock refused real-time priority (sleep lateness p50 59 µs instead of 107,
-    docs/realtime.md). Needs no privilege; nothing to do off Linux."""
+    a clock refused real-time priority (measured: docs/realtime.md, What the clock asks the
+    kernel for). Needs no privilege; nothing to do off Linux."""
     if sys.platform.startswith("linux"):
         ctypes.CDLL(None, use_errno=True).prctl(PR_SET_TIMERSLACK, TIMER_SLACK_NS)
 
@@ -90,10 +90,10 @@ def leave_service_priority() -> None:
     theirs. For the launcher's main thread once its router runs: the processes it starts then
     begin at ordinary priority, and a service takes its own only once its imports are done
     (``shared.service``). Imports at SCHED_RR 10, a starting cell's eight interpreters loading
-    numpy and Zenoh, held the CPUs in 100 ms round-robin slices against the running cells'
-    threads of the same priority: a moving neighbour's controller went unheard for 400 ms and
-    its trajectory stopped with alarm 4200 (3 of 3 half-minute runs beside cells starting one
-    after another, docs/realtime.md)."""
+    numpy and Zenoh, would hold the CPUs in 100 ms round-robin slices against the running
+    cells' threads of the same priority, long enough for a moving neighbour's controller to go
+    unheard and its trajectory to stop with alarm 4200 (measured: docs/realtime.md, The other
+    threads)."""
     if sys.platform.startswith("linux"):
         os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
 

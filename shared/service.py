@@ -147,9 +147,9 @@ class StopFlag:
 
     Raising it takes no lock. ``threading.Event.set`` takes its Condition's lock, and a second
     signal arriving while the first handler is inside it runs the handler again on the same
-    thread, which then waits forever for the lock it already holds (a launcher was seen hung
-    that way). Here ``set`` only stores a bool and writes one byte to a non-blocking pipe;
-    waiters sleep in ``poll`` on the read end, which stays readable once set.
+    thread, which then waits forever for the lock it already holds. Here ``set`` only stores a
+    bool and writes one byte to a non-blocking pipe; waiters sleep in ``poll`` on the read end,
+    which stays readable once set.
     """
 
     def __init__(self) -> None:
@@ -244,8 +244,8 @@ class AliveToken:
     ``missing_services``), and the launcher the cell ready, from this token. Declared before
     the service's subscriptions, a change published the moment it appeared (the controller's
     status on the cell becoming whole) could reach the router before the subscription did and
-    never reach the service, which then went on the old value until the next heartbeat: a
-    second on a resting cell (figure 9: motion-ready after 1.9 s in 1 start of 3)."""
+    never reach the service, which would then go on the old value until the next heartbeat: a
+    second on a resting cell, on the way to motion-ready (figure 9)."""
 
     def __init__(self, session: zenoh.Session, key: str, log: logging.Logger, up: str) -> None:
         self._session = session
@@ -347,7 +347,8 @@ def running_service(
 def freeze_what_lives_forever() -> None:
     """Take everything made so far (modules, classes, the session: about 30 000 objects in the
     gateway) out of the garbage collector's sight: they live as long as the process, and each
-    full collection walked them all, a pause of about 8 ms for whichever thread allocated next.
+    full collection would walk them all, a pause of about 8 ms for whichever thread allocated
+    next (docs/realtime.md, Garbage collection).
 
     No collection first: it would cost those 8 ms of every service's start-up, on the way to
     motion-ready, to free a few dozen objects of import-time garbage."""

@@ -52,7 +52,7 @@ def cmdline(pid: int) -> list[str]:
 def connectable(host: str, port: int) -> bool:
     """Something listens at ``host:port``. A probe whose kernel-chosen source port happens to
     be ``port`` itself connects to itself (TCP simultaneous open) with nobody listening: that
-    does not count (seen once in a full run)."""
+    does not count."""
     with socket.socket() as probe:
         if probe.connect_ex((host, port)) != 0:
             return False

@@ -1,5 +1,5 @@
 """The Dockerfile reader follows Docker's COPY rules, refuses what it does not implement, and
-the project's image holds the package with every link resolved (issue 24, item 1). Installing
+the project's image holds the package with every link resolved. Installing
 and running what it holds: tests/e2e/test_image.py."""
 
 from __future__ import annotations

@@ -53,8 +53,8 @@ from motocell.tools.cells import JoinError, Target, join
 
 GOAL_TOLERANCE_RAD = 1e-4
 READY_TIMEOUT_S = 120.0
-"""How long to wait for a cell to start and its ports to answer: a loaded machine was seen to
-need more than the 20 s this once was; a cell that is not coming fails long before."""
+"""How long to wait for a cell to start and its ports to answer: a loaded machine can need more
+than 20 s; a cell that is not coming fails long before."""
 OFFSETS = (0.4, -0.3, 0.25, 0.8, -0.5, 1.2, 0.6, 0.3)
 """How far each axis moves (rad; m for a linear axis): the other way where it would pass a
 joint limit."""

@@ -116,7 +116,8 @@ def _plot_group(
     feedback = _series(states, g, "positions")
     commanded = _series(states, g, "command_positions")
     velocities = {"feedback": _series(states, g, "velocities")}
-    # Recordings from before the servo model carry no commanded velocities.
+    # A recording whose states carry no commanded velocities (an older file) plots the
+    # feedback's alone.
     if all(s["groups"][g].get("command_velocities") for s in states):
         velocities["commanded"] = _series(states, g, "command_velocities")
     joints = feedback.shape[1]

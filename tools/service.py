@@ -51,9 +51,9 @@ def run(args: argparse.Namespace) -> int:
     # Ctrl-C while it loads then stops it cleanly, not with a traceback from its imports.
     signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
     # No priority here: the service takes its own once its imports are done. Imports at the
-    # services' priority refused a second service sooner beside busy loops (0.95 s instead of
-    # 1.97 beside 8), but starved the cells already running (shared.realtime
-    # leave_service_priority), whose motion matters more than a refusal's speed.
+    # services' priority would refuse a second service sooner beside busy loops, but starve the
+    # cells already running (shared.realtime leave_service_priority), whose motion matters more
+    # than a refusal's speed (measured: docs/realtime.md, The other threads).
     os.execv(command[0], command)
 
 

@@ -10,8 +10,8 @@ service name"):
 2. Only starts that both found none (truly simultaneous) settle it among themselves: each bids,
    waits ``SETTLE_S`` and loses to any held claim or a lower id's bid; the winner marks its
    claim held, waits again and withdraws if a lower id's held claim appeared meanwhile (two
-   bids that crossed on the way to the router). Measured on this project's machines: without
-   settling, 5 of 30 simultaneous starts ended with two winners; with 10-50 ms, none did.
+   bids that crossed on the way to the router). Without settling, simultaneous starts can
+   end with two winners (measured: docs/topology.md).
 3. A held claim is final: its holder never gives way to a claim that appears later, however
    low its id (a second start whose look-up was slow, a token anyone with the password
    declares). It logs it and keeps running.

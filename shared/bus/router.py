@@ -84,7 +84,7 @@ def _open_settings(listen: Sequence[str], connect: Sequence[str]) -> dict[str, A
         "mode": "router",
         "listen": {"endpoints": list(listen)},
         "connect": {"endpoints": list(connect)},
-        # No scouting, so nothing to wait for: Zenoh's default delay held every router's
+        # No scouting, so nothing to wait for: Zenoh's default delay holds every router's
         # start for 500 ms, a third of a cell's start-up.
         "scouting": {
             "delay": 0,

@@ -9,8 +9,8 @@ transmit thread for every sample it passes on. A cell's samples are small and a 
 second, so the hand-overs cost more than the work. Every process of a cell, service or router,
 receives on the application thread, which also polls the sockets a router accepted, and keeps
 its transmit thread: the executor's tick and a router's forwarding leave without waiting
-behind received work (a router doing its transmitting on the same thread too was cheaper
-still, but figure 5's slot turnaround p99 grew past its goal).
+behind received work (a router doing its transmitting on the same thread too costs less
+still, but figure 5's slot turnaround p99 then misses its goal).
 
 Measured on figure 10's moving four-group cell (docs/realtime.md, "Zenoh's threads"). A
 ``ZENOH_RUNTIME`` already in the environment is someone's own tuning and is kept.

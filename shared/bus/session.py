@@ -32,9 +32,8 @@ LEASE_MS = 5000
 deletes its liveliness tokens, which is when the cell counts it gone. A crash closes the socket
 and is noticed in milliseconds whatever the lease (docs/liveness.md, section 1); the lease
 only bounds how long a hung (stopped, starved) process passes for alive. Five times the stalls
-a loaded host was seen to cause (issue 12: every service "gone" for about 1 s at load 10-30
-with a 1 s lease); motion does not wait for it, the executor bounds its own lateness
-(docs/liveness.md)."""
+a loaded host causes (docs/liveness.md, section 2); motion does not wait for it, the executor
+bounds its own lateness (docs/liveness.md)."""
 CONNECT_WAIT_S = 30.0
 """How long a service waits for its router to come up (compose starts them together)."""
 CONNECT_RETRY_S = 0.2
@@ -319,11 +318,11 @@ class Liveness:
     and the answers, and only update ``Presence`` under a lock.
 
     The subscriber takes no history: a query (``ask``) asked after it is declared gives the
-    tokens that were there before. With history a token's DELETE could arrive before its
-    history PUT and leave a departed service present for good (seen with clients of a router,
-    6 of 200 races). The owner asks once when it starts, and again only while it waits for a
-    token it needs (a declaration the events might have missed), never periodically: a token
-    that stays is news to nobody, and its DELETE is an event.
+    tokens that were there before. With history a token's DELETE can arrive before its
+    history PUT and leave a departed service present for good (docs/liveness.md). The owner
+    asks once when it starts, and again only while it waits for a token it needs (a
+    declaration the events might have missed), never periodically: a token that stays is news
+    to nobody, and its DELETE is an event.
     """
 
     def __init__(

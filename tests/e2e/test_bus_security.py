@@ -1,4 +1,4 @@
-"""Only the cell's own services act on its bus (issue 12, point 1).
+"""Only the cell's own services act on its bus (docs/security.md).
 
 Foreign clients try everything that could move the robot or raise a fault: no credentials, a
 wrong password, and the two valid outside identities (observer, operator) putting on every

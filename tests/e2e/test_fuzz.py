@@ -44,10 +44,11 @@ MOTION_FRAMES = 2_000
 IO_FRAMES = 500
 STATE_GARBAGE_BYTES = 64 * 1024
 METRICS_LIMIT_BYTES = 2_048
-"""The gateway's metrics message holds one entry per known type at most: a few hundred bytes.
-Before the bound it held one per type ever seen (360 KB after 10,000 unknown types)."""
+"""The gateway's metrics message holds one entry per known type at most: a few hundred bytes,
+whatever types a client invents (docs/behaviour.md, Protocol)."""
 RSS_GROWTH_LIMIT_KIB = 16 * 1024
-"""Before the bound 10,000 unknown types cost the gateway 92-101 MiB; now about 0.1 MiB."""
+"""10,000 unknown types cost a bounded gateway about 0.1 MiB, an unbounded one about 100 MiB
+(docs/behaviour.md, Protocol)."""
 FULL_EX = 8 + MAX_GROUPS * JOINT_BLOCK_SIZE
 """2016's body padded to 4 groups."""
 IO_REQUEST_SIZES = {2003: 4, 2005: 8, 2007: 4, 2009: 8, 2012: 4, 2013: 8}

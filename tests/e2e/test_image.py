@@ -1,4 +1,4 @@
-"""The service image runs (issue 24, item 1), shown without a container engine: its files are
+"""The service image runs, shown without a container engine: its files are
 assembled from the repository exactly as deploy/Dockerfile's COPY lines say
 (tests/dockerfile.py), installed as its RUN line does into a fresh venv, and every service
 module and the image's own command are started from that venv, outside the source tree."""

@@ -1,4 +1,5 @@
-"""A loaded host does not make a live cell lose a service (issue 12, point 3).
+"""A loaded host does not make a live cell lose a service (docs/liveness.md, Checked on a loaded
+host).
 
 A CPU hog per core at normal priority runs while a four-group cell moves MOVES trajectories one
 after another: the controller declares no service missing, every trajectory ends exactly on its
@@ -53,9 +54,8 @@ RETRY_S = 0.1
 DEADLINE_S = 60.0
 """A bound for a lost trajectory or a cell that never gets ready: a hang, not a speed."""
 STALL_S = 2.0
-"""Longer than a loaded host was seen to stall a process (issue 12: every service "gone" and
-back about 1 s later), shorter than the lease; a test whose process went longer without
-running skips (``stalling``)."""
+"""Longer than a loaded host stalls a process (about 1 s: docs/liveness.md, section 2), shorter
+than the lease; a test whose process went longer without running skips (``stalling``)."""
 
 
 @contextmanager
@@ -185,7 +185,7 @@ def test_a_service_stalled_for_less_than_the_lease_is_not_declared_missing(
     cell: RunningCell, bus: zenoh.Session, motion: MotionClient, state: StateListener
 ) -> None:
     """A stall is what a loaded host does to a process at worst: no CPU for a while. The
-    broadcaster (the service a loaded host once had "missing" for 9.7 s) stops for STALL_S."""
+    broadcaster stops for STALL_S."""
     assert STALL_S < WITHIN_LEASE_S, "the lease must outlast a loaded host's stalls"
     assert motion.command(Command.START_TRAJ_MODE).result == Result.SUCCESS
     watch = MissingWatch(bus, cell.keys)

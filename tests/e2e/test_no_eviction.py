@@ -1,4 +1,4 @@
-"""A running service is never evicted (issue 24, item 3): neither a claim token declared with a
+"""A running service is never evicted: neither a claim token declared with a
 service's password nor a second process of a service's name changes anything of a running
 cell (the same processes, still answering, still moving); the second process is refused with
 one line and exit status 2. The rules: shared/bus/claim.py; docs/topology.md."""

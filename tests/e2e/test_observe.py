@@ -149,7 +149,8 @@ def test_watch_shows_status_groups_lateness_clients_and_services(
 def test_every_one_shot_snapshot_has_heard_the_whole_cell(
     cell: RunningCell, motion: MotionClient, state: StateListener, motocell: Motocell
 ) -> None:
-    """It printed ``0 cell(s)`` 4 times in 5 when it rendered before anything had arrived."""
+    """``watch --count 1`` renders only once it has heard the cell: a snapshot taken before
+    anything arrived would say ``0 cell(s)``."""
     assert motion.command(Command.START_TRAJ_MODE).result == Result.SUCCESS
     state.wait_still()
     for _ in range(3):

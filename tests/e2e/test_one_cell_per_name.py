@@ -1,4 +1,4 @@
-"""One cell per name, one process per service name (issue 12, point 2).
+"""One cell per name, one process per service name (docs/topology.md).
 
 A second ``motocell up`` with a running cell's name is refused by the registry, a second
 service of a running cell by its name claim on the bus; neither disturbs the running cell. Of

@@ -1,4 +1,4 @@
-"""One router for a site's cells (issue 24, item 5): three secured cells on one TLS router
+"""One router for a site's cells (docs/site.md): three secured cells on one TLS router
 that `motocell site` configured, each cell's services joined with the site's credentials.
 
 Each cell moves its robot exactly; every identity of one cell is refused on every key of

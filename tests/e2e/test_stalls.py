@@ -1,4 +1,4 @@
-"""A stalled service never causes late motion (issue 13, item 1).
+"""A stalled service never causes late motion (docs/motion-safety.md).
 
 Each test stops one process with SIGSTOP for STALL_S while a long trajectory streams, then
 resumes it. Once the motion client has been told NOT_READY, no tick applies an increment of the
@@ -35,7 +35,7 @@ from tests.e2e.stalling import beyond_the_lease, stall
 pytestmark = pytest.mark.cell
 
 STALL_S = 3.0
-"""As in the issue: shorter than the 5 s lease, so no service is declared gone. A test whose
+"""Shorter than the 5 s lease, so no service is declared gone. A test whose
 process went longer without running (a loaded machine) is skipped (``stalling``)."""
 DEADLINE_S = 60.0
 """For what an idle machine does within a second or two: a bound for a hang, not a speed."""

@@ -1,4 +1,4 @@
-"""``motocell up`` as a user meets it at a terminal (issue 15): quiet when all is well, one
+"""``motocell up`` as a user meets it at a terminal: quiet when all is well, one
 line and exit status 2 for a mistake, a Ctrl-C at any moment of start-up stops everything,
 and a service left out with ``--skip`` runs by hand with ``motocell service``.
 
@@ -195,7 +195,7 @@ def test_a_taken_tcp_port_is_one_line_and_status_2(tmp_path: Path, offset: int) 
 def test_a_port_base_beyond_the_port_range_is_one_line_and_status_2(
     tmp_path: Path, port_base: str
 ) -> None:
-    # 0 once meant the cell file's 50240-50242 without a word.
+    # 0 is no port: refused like any other out of range, never read as the cell file's ports.
     status, output = run_to_the_end(tmp_path, "up", *up_options()[2:], "--port-base", port_base)
     assert status == EXIT_CONFIG, output
     end = int(port_base) + 2

@@ -531,7 +531,7 @@ def test_directory_is_refused(tmp_path: Path) -> None:
     assert "cannot read" in str(info.value)
 
 
-# --- bugs these tests found, now fixed ---
+# --- edge cases: empty and non-finite values, wording, misspelt fields, placement ---------
 
 
 def test_empty_initial_position_is_refused(tmp_path: Path) -> None:

@@ -32,7 +32,7 @@ LIGHT = {
     "hz": ["hz", "controller/status", "--count", "1"],
 }
 """The commands a person (or a script) runs again and again, each with arguments that end it
-by itself; what they cost is nearly all imports (issue 23)."""
+by itself; what they cost is nearly all imports (docs/realtime.md, Start-up)."""
 NOT_FOR_LIGHT = {
     *HEAVY,
     "numpy",

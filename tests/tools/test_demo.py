@@ -60,7 +60,7 @@ def test_a_bad_cell_file_is_one_line(capsys: pytest.CaptureFixture[str]) -> None
 def test_a_port_base_without_three_ports_is_refused(
     port_base: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    # 0 once meant "start a cell" without a word.
+    # 0 is no port: refused like any other out of range, never read as "start a cell".
     with pytest.raises(SystemExit) as exited:
         parse("--port-base", port_base)
     assert exited.value.code == 2

@@ -79,8 +79,8 @@ def test_a_cut_recording_is_plotted_up_to_the_cut_and_says_so(
 
 
 def states_recording(command_velocities: list[float], *, flushed: bool = False) -> bytes:
-    """A one-arm cell's state and ticks, its states with ``command_velocities`` (a recording
-    made before the servo model has none); ``flushed``: each sample in a chunk of its own, as
+    """A one-arm cell's state and ticks, its states with ``command_velocities`` (an older
+    file's have none); ``flushed``: each sample in a chunk of its own, as
     the recorder's flushes leave them."""
     stream = io.BytesIO()
     sink = McapSink(stream)

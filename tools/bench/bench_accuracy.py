@@ -61,11 +61,9 @@ DECIMALS = 6
 differ by ~1e-9, which must not turn an exact 0.5 into a miss."""
 
 
-def random_knots(
-    rng: np.random.Generator, axes: int, limits: np.ndarray, count: int, start_time_ns: int = 0
-) -> list[Knot]:
-    knots = [Knot(start_time_ns, rng.uniform(-1, 1, axes), rng.uniform(-0.5, 0.5, axes) * limits)]
-    time_ns = start_time_ns
+def random_knots(rng: np.random.Generator, axes: int, limits: np.ndarray, count: int) -> list[Knot]:
+    knots = [Knot(0, rng.uniform(-1, 1, axes), rng.uniform(-0.5, 0.5, axes) * limits)]
+    time_ns = 0
     for _ in range(count):
         time_ns += int(rng.integers(10_000_000, 400_000_000))
         knots.append(

@@ -39,7 +39,7 @@ the cell's; the state client's own CPU is shown as a diagnosis.
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -49,11 +49,12 @@ import numpy as np
 from motocell.testing.running_cell import running_cell
 from motocell.tools.bench.clients import StateClientProcess, StreamRecord
 from motocell.tools.bench.measuring import (
+    PROCESS_KINDS,
     START_TIMEOUT_S,
-    CostSampler,
-    ProcessCost,
+    Window,
     bench_cell,
     cost_by_kind,
+    cost_window,
     figure_result,
     process_kinds,
     thread_usage,
@@ -73,7 +74,6 @@ QUICK_SETTLE_S = 2.0
 MOVING_STATE_PERIOD_MS = 4.0
 MOVING_CLIENTS = 4
 RATE_GOAL_PERCENT = 1.0
-KINDS = ("launcher+router", "controller", "executor", "broadcaster", "gateway", "interpolator")
 """The order of the rows."""
 CLIENT = "state client"
 
@@ -89,20 +89,6 @@ IDLE_ARM = Case("idle single-arm cell", 3.0)
 WITH_CLIENT = Case("single-arm cell, 1 state client", 6.0)
 IDLE_FOUR = Case("idle four-group cell", 5.0)
 MOVING = Case("four-group cell moving, 4 state clients at 4 ms", 25.0)
-
-
-@dataclass(frozen=True)
-class Window:
-    rows: list[ProcessCost]
-    start_ns: int
-    end_ns: int
-
-
-def window(pids: Mapping[int, str], seconds: float) -> Window:
-    sampler = CostSampler(pids)
-    time.sleep(seconds)
-    rows = sampler.finish()
-    return Window(rows, sampler.start_ns, time.monotonic_ns())
 
 
 def rate_hz(received_ns: np.ndarray, start_ns: int, end_ns: int) -> float:
@@ -144,13 +130,13 @@ def single_arm(directory: Path, count: int, seconds: float, settle: float, found
         kinds = process_kinds(cell)
         time.sleep(settle)
         for index in range(count):
-            found.windows[IDLE_ARM.label].append(window(kinds, seconds))
+            found.windows[IDLE_ARM.label].append(cost_window(kinds, seconds))
             out = directory / f"client{index}.npz"
             client = StateClientProcess(cell, out, seconds + 2 * settle + 30.0)
             try:
                 time.sleep(settle)
                 pid = client.child.process.pid
-                measured = window({**kinds, pid: CLIENT}, seconds)
+                measured = cost_window({**kinds, pid: CLIENT}, seconds)
                 received = client.stop()["received_ns"]
             except BaseException:
                 client.kill()
@@ -171,7 +157,7 @@ def idle_four(directory: Path, count: int, seconds: float, settle: float, found:
     with bench_cell(directory, "cost4") as cell:
         kinds = process_kinds(cell)
         time.sleep(settle)
-        found.windows[IDLE_FOUR.label] = [window(kinds, seconds) for _ in range(count)]
+        found.windows[IDLE_FOUR.label] = [cost_window(kinds, seconds) for _ in range(count)]
 
 
 def moving(directory: Path, count: int, seconds: float, settle: float, found: Measured) -> None:
@@ -190,7 +176,7 @@ def moving(directory: Path, count: int, seconds: float, settle: float, found: Me
         windows = []
         for _ in range(count):
             before = main_thread_ns(executor)
-            windows.append(window(kinds, seconds))
+            windows.append(cost_window(kinds, seconds))
             used = main_thread_ns(executor) - before
             found.clock_share.append(used / (windows[-1].end_ns - windows[-1].start_ns))
         found.moving_period_ns = cell.cell.cell.period_ns
@@ -230,7 +216,7 @@ def case_results(case: Case, windows: Sequence[Window], note: str = "") -> list[
     tag = f"[{case.label}]"
     totals = [total("all", w.rows) for w in windows]
     kinds = [cost_by_kind(w.rows) for w in windows]
-    present = [k for k in KINDS if all(k in found for found in kinds)]
+    present = [k for k in PROCESS_KINDS if all(k in found for found in kinds)]
     present += sorted({k for found in kinds for k in found} - set(present))
     results = [
         figure_result(

@@ -27,6 +27,7 @@ CPU time per tick, in this process with no cell.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -78,27 +79,15 @@ def servo_tick_us(ticks: int) -> np.ndarray:
     return taken / 1000.0
 
 
-def servo_results(quick: bool) -> list[dict[str, Any]]:
-    ticks = QUICK_SERVO_TICKS if quick else SERVO_TICKS
-    per_run = [percentiles(servo_tick_us(ticks), (50, 99)) for _ in range(RUNS)]
-    where = f"{RUNS} x {ticks:,} ticks in-process, 4 groups moving (arm6, arm6, arm7, positioner2)"
+def in_process_results(
+    name: str, measure: Callable[[int], np.ndarray], ticks: int, how: str
+) -> list[dict[str, Any]]:
+    """p50 and p99 of ``measure``'s microseconds per tick, RUNS runs of ``ticks`` ticks each."""
+    per_run = [percentiles(measure(ticks), (50, 99)) for _ in range(RUNS)]
+    where = f"{RUNS} x {ticks:,} ticks in-process, {how}"
     return [
-        figure_result(
-            FIGURE, "servo model per tick p50", "us", [p[0] for p in per_run], note=where
-        ),
-        figure_result(FIGURE, "servo model per tick p99", "us", [p[1] for p in per_run]),
-    ]
-
-
-def tick_path_results(quick: bool) -> list[dict[str, Any]]:
-    ticks = QUICK_TICK_PATH_TICKS if quick else TICK_PATH_TICKS
-    per_run = [percentiles(tick_path_us(ticks), (50, 99)) for _ in range(RUNS)]
-    where = f"{RUNS} x {ticks:,} ticks in-process, each after a sleep to its deadline"
-    return [
-        figure_result(
-            FIGURE, "executor tick path CPU per tick p50", "us", [p[0] for p in per_run], note=where
-        ),
-        figure_result(FIGURE, "executor tick path CPU per tick p99", "us", [p[1] for p in per_run]),
+        figure_result(FIGURE, f"{name} p50", "us", [p[0] for p in per_run], note=where),
+        figure_result(FIGURE, f"{name} p99", "us", [p[1] for p in per_run]),
     ]
 
 
@@ -127,6 +116,16 @@ def run(quick: bool) -> list[dict[str, Any]]:
         ),
         figure_result(FIGURE, "executor ticks observed", "ticks/s", ticks),
         figure_result(FIGURE, "executor tick samples lost (observer)", "gaps", gaps),
-        *servo_results(quick),
-        *tick_path_results(quick),
+        *in_process_results(
+            "servo model per tick",
+            servo_tick_us,
+            QUICK_SERVO_TICKS if quick else SERVO_TICKS,
+            "4 groups moving (arm6, arm6, arm7, positioner2)",
+        ),
+        *in_process_results(
+            "executor tick path CPU per tick",
+            tick_path_us,
+            QUICK_TICK_PATH_TICKS if quick else TICK_PATH_TICKS,
+            "each after a sleep to its deadline",
+        ),
     ]

@@ -1,7 +1,7 @@
-"""Interpolation throughput: queue entries (one pulse increment per axis, one row per
+"""Figure 2: interpolation throughput, queue entries (one pulse increment per axis, one row per
 interpolation period) computed per second for one group, on one core.
 
-    python -m motocell.tools.bench.bench_interpolation [--quick] [--runs N]
+    python -m motocell.tools.bench.run --only 2 [--quick]
 
 The group is the 6-axis arm of the default cell at a 4 ms period. Cases:
 
@@ -11,16 +11,12 @@ The group is the 6-axis arm of the default cell at a 4 ms period. Cases:
   the batch packing the interpolator service does;
 - one long segment taken in chunks of ``MAX_BATCH`` (50) and of a full ring (200).
 
-Each case runs several times after one warm-up run; the table shows the median and the spread.
+Each case runs several times after one warm-up run; the figure is the median and the spread.
 The goal is 1,000,000 entries/s per group (one group needs 250 entries/s at 4 ms).
 """
 
 from __future__ import annotations
 
-import argparse
-import json
-import platform
-import statistics
 import time
 from collections import deque
 from collections.abc import Callable
@@ -33,12 +29,11 @@ from motocell.shared.bus.schemas import IncrementBatch, Point, QueueState
 from motocell.shared.config import load_cell
 from motocell.shared.motion.interpolation import Knot, Trajectory
 from motocell.shared.motion.kinematics import AxisMap
-from motocell.tools.bench.measuring import RESULTS_DIR
+from motocell.tools.bench.measuring import figure_result
 
+FIGURE = 2
 RUNS = 5
 GOAL = 1_000_000.0
-UNIT = "entries/s"
-RESULTS_FILE = RESULTS_DIR / "interpolation.json"
 
 CELL = load_cell()
 GROUP = CELL.groups[0]
@@ -131,22 +126,14 @@ def long_segment(entries: int, chunk: int) -> Callable[[], float]:
     return once
 
 
-def measure(name: str, runs: int, once: Callable[[], float]) -> dict[str, Any]:
+def measure(name: str, once: Callable[[], float]) -> dict[str, Any]:
     once()  # warm-up: first calls into numpy, caches
-    rates = [once() for _ in range(runs)]
-    return {
-        "name": name,
-        "unit": UNIT,
-        "median": statistics.median(rates),
-        "min": min(rates),
-        "max": max(rates),
-        "runs": rates,
-    }
+    rates = [once() for _ in range(RUNS)]
+    return figure_result(FIGURE, name, "entries/s", rates, goal=(">=", GOAL))
 
 
-def run(quick: bool, runs: int = RUNS) -> list[dict[str, Any]]:
-    """Every case, ``runs`` timed runs each (at least 5)."""
-    runs = max(runs, 5)
+def run(quick: bool) -> list[dict[str, Any]]:
+    """Every case, RUNS timed runs each."""
     segments = QUICK_SEGMENTS if quick else SEGMENTS
     long_entries = QUICK_LONG_ENTRIES if quick else LONG_ENTRIES
     knots = _knots(segments)
@@ -156,43 +143,4 @@ def run(quick: bool, runs: int = RUNS) -> list[dict[str, Any]]:
         (f"6-axis, long segment, take({MAX_BATCH})", long_segment(long_entries, MAX_BATCH)),
         ("6-axis, long segment, take(200)", long_segment(long_entries, 200)),
     ]
-    return [measure(name, runs, once) for name, once in cases]
-
-
-def table(results: list[dict[str, Any]]) -> str:
-    width = max(len(r["name"]) for r in results)
-    lines = [f"{'case':<{width}}  {'median':>11}  {'min - max':>23}  {UNIT}, goal {GOAL:,.0f}"]
-    for r in results:
-        spread = f"{r['min']:,.0f} - {r['max']:,.0f}"
-        verdict = "ok" if r["median"] >= GOAL else "BELOW GOAL"
-        lines.append(f"{r['name']:<{width}}  {r['median']:>11,.0f}  {spread:>23}  {verdict}")
-    return "\n".join(lines)
-
-
-def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description="Interpolation throughput per group")
-    parser.add_argument(
-        "--quick",
-        action="store_true",
-        help=f"{QUICK_SEGMENTS} segments / {QUICK_LONG_ENTRIES} long-segment entries per run",
-    )
-    parser.add_argument("--runs", type=int, default=RUNS, help="runs per case (default 5, min 5)")
-    args = parser.parse_args(argv)
-    results = run(args.quick, args.runs)
-    print(table(results))
-    RESULTS_FILE.parent.mkdir(parents=True, exist_ok=True)
-    report = {
-        "python": platform.python_version(),
-        "numpy": np.__version__,
-        "machine": platform.machine(),
-        "period_ms": PERIOD_NS / 1e6,
-        "goal": GOAL,
-        "quick": args.quick,
-        "results": results,
-    }
-    RESULTS_FILE.write_text(json.dumps(report, indent=2) + "\n")
-    print(f"written to {RESULTS_FILE}")
-
-
-if __name__ == "__main__":
-    main()
+    return [measure(name, once) for name, once in cases]

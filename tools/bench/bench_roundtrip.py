@@ -29,6 +29,7 @@ the percentiles rest on thousands of samples; the table shows median and [min-ma
 from __future__ import annotations
 
 import contextlib
+import functools
 import time
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -43,7 +44,7 @@ from motocell.testing.running_cell import RunningCell
 from motocell.tools.bench.clients import (
     StateClientProcess,
     StreamClientProcess,
-    StreamRefusedError,
+    measured_again,
     stream_bound_s,
 )
 from motocell.tools.bench.measuring import (
@@ -58,7 +59,6 @@ from motocell.tools.bench.measuring import (
     positions_of,
     ramp,
     ramps,
-    refusal_text,
     workdir,
 )
 
@@ -77,8 +77,6 @@ COMMAND_MESSAGES = {"CHECK_MOTION_READY": CHECK_MOTION_READY, "CHECK_QUEUE_CNT":
 """Timed idle, and as the probes (in this order) of a stream while 4 groups move."""
 MOVING = " while 4 groups move"
 RECORDING_S = 600.0
-RETRIES = 2
-"""Runs measured again after a refused stream, when the caller counts refusals (figure 11)."""
 """Bound of the state client's record (it only loads the cell here)."""
 
 Series = dict[str, list[np.ndarray]]
@@ -101,8 +99,9 @@ def _one_run(
     *,
     counts: tuple[int, int],
     direction: float,
-    series: Series,
-) -> None:
+) -> Series:
+    """One run's round trips, by series name."""
+    series: Series = {name: [] for name in series_names()}
     commands, points = counts
     for name, message in COMMAND_MESSAGES.items():
         series[name].append(streamer.requests(message, commands)["rtt_ns"] / 1e6)
@@ -118,6 +117,7 @@ def _one_run(
     record = streamer.stream(probing, bound, probes=probes).check()
     for index, name in enumerate(COMMAND_MESSAGES):
         series[name + MOVING].append(record.probes_ms(index))
+    return series
 
 
 def run(quick: bool) -> list[dict[str, Any]]:
@@ -174,7 +174,7 @@ def measure(
 
     A stream the cell refuses ends the figure, unless ``refusals`` is given: the refusal is
     noted there (the run's index, why), the cell recovered (START_TRAJ_MODE) and the run measured
-    again, at most ``RETRIES`` times.
+    again, at most ``clients.RETRIES`` times.
 
     Then ``ordinary_runs`` runs of 2016 points by a motion client at ordinary priority, under
     the label ``ORDINARY``."""
@@ -197,22 +197,11 @@ def measure(
             if before_run is not None:
                 before_run(index)
             direction = 1.0 if direction_index(index, len(set(conditions))) % 2 == 0 else -1.0
-            for attempt in range(RETRIES + 1):
-                found: Series = {name: [] for name in series_names()}
-                try:
-                    _one_run(
-                        cell, observer, streamer, counts=counts, direction=direction, series=found
-                    )
-                except StreamRefusedError as refused:
-                    if refusals is None or attempt == RETRIES:
-                        raise
-                    refusals.append((index, refusal_text(refused, log.lines("alarm"))))
-                    streamer.recover()
-                    continue
-                for name, runs in found.items():
-                    series[condition][name] += runs
-                log.skip()  # a refusal's alarms: those logged since the last good run
-                break
+            one_run = functools.partial(
+                _one_run, cell, observer, streamer, counts=counts, direction=direction
+            )
+            for name, runs in measured_again(streamer, one_run, log, refusals, index).items():
+                series[condition][name] += runs
         if ordinary_runs:
             streamer.child.close()  # one motion client at a time, as MotoROS allows
             streamer = StreamClientProcess(cell, directory, ordinary=True)

@@ -4,7 +4,7 @@ cells streaming side by side.
     python -m motocell.tools.bench.run --only 7 [--quick]
 
 Every cell is a whole ``motocell up`` with its own router (``testing.running_cell``); CPU
-and wake-ups are every thread's, from /proc, as in figure 10 (``harness.CostSampler``), in % of
+and wake-ups are every thread's, from /proc, as in figure 10 (``measuring.CostSampler``), in % of
 one core for all the cells' processes together.
 
 **Idle cells.** Single-arm cells (the default cell: one arm6 on a YRC1000) are started one by
@@ -32,10 +32,9 @@ wire carried them (float32) in pulses. Goal: 0 aborted, over every trajectory of
 
 Missed periods are the increase of ``Tick.missed`` over a window, all cells. They are reported
 against the machine's floor: this VM's timer delivery misses periods even for a bare C
-real-time thread (docs/realtime.md), so 0 in every window is not expected here. For the goal
-figure 7 had before (>= 2 four-group cells moving with 0 missed periods within 70 % of the
-CPU) the figure still reports the largest count whose every window had 0 missed periods and
-CPU within 70 % of the machine.
+real-time thread (docs/realtime.md), so 0 in every window is not expected here. The figure
+also reports the largest count whose every window had 0 missed periods and CPU within 70 % of
+the machine (docs/benchmarks.md, figure 7).
 """
 
 from __future__ import annotations
@@ -60,14 +59,15 @@ from motocell.testing.client import ex_messages, smooth_move
 from motocell.testing.running_cell import RunningCell, running_cell
 from motocell.tools.bench.clients import StateClientProcess, StreamClientProcess, stream_bound_s
 from motocell.tools.bench.measuring import (
+    PROCESS_KINDS,
     START_TIMEOUT_S,
-    CostSampler,
     LogTail,
     Observer,
-    ProcessCost,
+    Window,
     alarm_codes,
     bench_cell,
     cost_by_kind,
+    cost_window,
     figure_result,
     gc_paused,
     percentiles,
@@ -79,7 +79,6 @@ from motocell.tools.bench.measuring import (
 )
 
 FIGURE = 7
-KINDS = ("launcher+router", "controller", "executor", "broadcaster", "gateway", "interpolator")
 
 # -- idle cells --------------------------------------------------------------------------------
 IDLE_SHARE = 0.5
@@ -116,7 +115,6 @@ SETTLE_S = 1.0
 STILL_TIMEOUT_S = 20.0
 ARRIVE_S = 5.0
 """After the last point was taken: how long the robot may take to come to rest at it."""
-RECOVER_TIMEOUT_S = 30.0
 
 
 def share_limit(share: float, cpus: int) -> float:
@@ -140,24 +138,9 @@ def largest_within(cpu_by_count: Mapping[int, float], limit: float) -> int:
     return largest
 
 
-@dataclass(frozen=True)
-class Window:
-    """One measuring window over every running cell."""
-
-    rows: list[ProcessCost]
-    start_ns: int
-    end_ns: int
-
-    @property
-    def cpu(self) -> float:
-        return total("all", self.rows).cpu_percent
-
-
 def measure(cells: Sequence[RunningCell], seconds: float) -> Window:
-    sampler = CostSampler({p: k for c in cells for p, k in process_kinds(c).items()})
-    time.sleep(seconds)
-    rows = sampler.finish()
-    return Window(rows, sampler.start_ns, time.monotonic_ns())
+    """Every process of ``cells`` over the next ``seconds``."""
+    return cost_window({p: k for c in cells for p, k in process_kinds(c).items()}, seconds)
 
 
 @dataclass
@@ -368,7 +351,7 @@ class DemoCell:
 
     def _recover(self) -> None:
         """START_TRAJ_MODE until it succeeds (after an alarm), then from wherever it stands."""
-        self.streamer.recover(RECOVER_TIMEOUT_S)
+        self.streamer.recover()
         self.here = self._still()
 
     def stop(self) -> None:
@@ -482,7 +465,7 @@ def run(quick: bool) -> list[dict[str, Any]]:
 def _per_kind(tag: str, windows: Sequence[Window]) -> list[dict[str, Any]]:
     results = []
     kinds = [cost_by_kind(w.rows) for w in windows]
-    for kind in KINDS:
+    for kind in PROCESS_KINDS:
         values = [k[kind].cpu_percent for k in kinds if kind in k]
         if values:
             name = f"{tag}   {kind} x{kinds[0][kind].pid}, together"

@@ -16,8 +16,7 @@ every executed period moves every axis) from a motion client in its own process
 - paced 8 ms: 1000 points 8 ms apart (quick: 50), paced, with MotoROS's one pending point.
   Goals: 0 empty-queue periods and slot turnaround p99 <= 2 ms;
 - paced 4 ms with ``pending_points = 4`` (a cell of its own; motocell's deeper pending-point
-  FIFO, a cell-file setting). Goal: 0 empty-queue periods. Reported as not measured in a tree
-  whose cell files do not have the setting;
+  FIFO, a cell-file setting). Goal: 0 empty-queue periods;
 - paced 8 ms again with ``start_buffer_periods = 0`` (diagnostic, a cell of its own): MotoROS's
   exact start timing, without the default 3-period start buffer that gives a client without
   look-ahead its margin against late points (docs/behaviour.md, "Start buffer").
@@ -59,7 +58,6 @@ from motocell.tools.bench.measuring import (
     Extensions,
     Observer,
     bench_cell,
-    extensions_known,
     figure_result,
     gc_paused,
     percentiles,
@@ -258,9 +256,8 @@ def run(quick: bool) -> list[dict[str, Any]]:
     rows: Rows = {v.name: {} for v in VARIANTS}
     cells = list(dict.fromkeys(v.extensions for v in VARIANTS))
     for index, extensions in enumerate(cells):
-        if extensions_known(extensions):
-            variants = [v for v in VARIANTS if v.extensions == extensions]
-            _measure(index, extensions, variants, quick, rows)
+        variants = [v for v in VARIANTS if v.extensions == extensions]
+        _measure(index, extensions, variants, quick, rows)
     results = []
     for variant in VARIANTS:
         results += _variant_results(variant, rows[variant.name], quick)
@@ -271,12 +268,6 @@ def _variant_results(
     variant: Variant, r: dict[str, list[float]], quick: bool
 ) -> list[dict[str, Any]]:
     name = f"[{variant.name}] "
-    if not r:
-        return [
-            figure_result(
-                FIGURE, name + "not measured: this tree's cell files lack its settings", "", []
-            )
-        ]
     count = variant.points // QUICK_DIVISOR if quick else variant.points
     where = f"{count} points x 4 groups, {variant.spacing_s * 1000:g} ms apart"
     results = [

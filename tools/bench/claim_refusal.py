@@ -1,5 +1,5 @@
 """How long a second process of a running service's name takes to be refused, on an idle or
-a loaded machine (issue 24, item 3; the numbers are in docs/realtime.md)
+a loaded machine (the numbers are in docs/realtime.md)
 
     python -m motocell.tools.bench.claim_refusal [--hogs 8] [--trials 5]
 

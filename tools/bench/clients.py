@@ -14,9 +14,10 @@ import select
 import subprocess
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypeVar
 
 import msgspec
 import numpy as np
@@ -26,12 +27,17 @@ from motocell.shared.protocol.constants import Command, Result
 from motocell.shared.protocol.messages import Message
 from motocell.shared.protocol.replies import motion_ctrl
 from motocell.testing.running_cell import RunningCell
+from motocell.tools.bench.measuring import LogTail, refusal_text
 from motocell.tools.bench.stream_client import BUSY_RETRY_S, Requests, Stream
+
+T = TypeVar("T")
 
 START_TIMEOUT_S = 30.0
 JOB_TIMEOUT_S = 600.0
 """Beyond a job's own bound: a job that takes longer is a hang."""
 RECOVER_TIMEOUT_S = 30.0
+RETRIES = 2
+"""How often a run the cell refused is measured again (``measured_again``)."""
 
 
 def stream_bound_s(nominal_s: float) -> float:
@@ -306,3 +312,29 @@ class StreamClientProcess:
             self.child.close()
         else:
             self.child.kill()
+
+
+def measured_again(
+    streamer: StreamClientProcess,
+    measure: Callable[[], T],
+    log: LogTail,
+    refusals: list[tuple[int, str]] | None,
+    run: int,
+) -> T:
+    """``measure()``. A stream the cell refuses ends the figure, unless ``refusals`` is given:
+    the refusal is noted there (``run``, and why: the alarms ``log`` has since its last good
+    run), the cell recovered (START_TRAJ_MODE) and ``measure`` run again, at most RETRIES
+    times."""
+    attempt = 0
+    while True:
+        try:
+            measured = measure()
+        except StreamRefusedError as refused:
+            if refusals is None or attempt == RETRIES:
+                raise
+            attempt += 1
+            refusals.append((run, refusal_text(refused, log.lines("alarm"))))
+            streamer.recover()
+            continue
+        log.skip()  # a refusal's alarms: those logged since the last good run
+        return measured

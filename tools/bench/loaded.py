@@ -9,6 +9,7 @@ one window of the ``executor/tick`` stream; figures 3 and 6 read the same runs.
 from __future__ import annotations
 
 import contextlib
+import functools
 import itertools
 import time
 from collections.abc import Callable
@@ -23,7 +24,7 @@ from motocell.tools.bench.clients import (
     StateClientProcess,
     StreamClientProcess,
     StreamRecord,
-    StreamRefusedError,
+    measured_again,
 )
 from motocell.tools.bench.measuring import (
     EXECUTOR_MODES,
@@ -33,7 +34,6 @@ from motocell.tools.bench.measuring import (
     gc_paused,
     positions_of,
     ramps,
-    refusal_text,
     wait_moving,
     wake_ns,
     workdir,
@@ -51,8 +51,6 @@ SETTLE_S = 0.5
 """After the first move, until the ring is full and state flows."""
 RUN_OVERHEAD_S = 20.0
 """Per run besides its window: waiting for the robot to stop and start, settling, stopping."""
-RETRIES = 2
-"""Windows measured again after a refused stream, when the caller counts refusals (figure 11)."""
 
 
 @dataclass
@@ -120,7 +118,7 @@ def measure_loaded(
     before each (figure 11 starts or stops a neighbour cell there), ``extra_s`` is what it may
     take in all (the state clients' records are sized for it). A stream the cell refuses ends
     the figure, unless ``refusals`` is given: it is noted there (the run, why), the cell
-    recovered (START_TRAJ_MODE) and the window measured again, at most ``RETRIES`` times."""
+    recovered (START_TRAJ_MODE) and the window measured again, at most ``clients.RETRIES`` times."""
     with contextlib.ExitStack() as stack:
         directory = stack.enter_context(workdir())
         cell = stack.enter_context(bench_cell(directory, "bench34", state_period_ms=4.0))
@@ -141,17 +139,8 @@ def measure_loaded(
         for run in range(runs):
             if before_window is not None:
                 before_window(run)
-            for attempt in range(RETRIES + 1):
-                try:
-                    windows.append(_window(cell, observer, streamer, run, seconds))
-                except StreamRefusedError as refused:
-                    if refusals is None or attempt == RETRIES:
-                        raise
-                    refusals.append((run, refusal_text(refused, log.lines("alarm"))))
-                    streamer.recover()
-                    continue
-                log.skip()  # a refusal's alarms: those logged since the last good window
-                break
+            window = functools.partial(_window, cell, observer, streamer, run, seconds)
+            windows.append(measured_again(streamer, window, log, refusals, run))
         observer.wait_still()
         recorded = [client.stop() for client in clients]
         dropped = sum(int(data["dropped"]) for data in recorded)

@@ -1,5 +1,5 @@
 """Does a cell need a priority above ordinary processes to keep moving on a loaded machine?
-(issue 23; the decision and the measured runs are in docs/realtime.md)
+(the decision and the measured runs are in docs/realtime.md)
 
     python -m motocell.tools.bench.loaded_priority [--runs 3] [--trajectories 8] [--hogs N]
         [--hog-session same|own] [--variants today,nice,rr] [--out FILE]
@@ -15,7 +15,7 @@ CPUs), and streams ``--trajectories`` rest-to-rest moves back to back, every axi
 resent after 5 ms). The variants are run in turn within each repetition (A/B interleaved: the
 machine's other load changes slowly), the order rotating from one repetition to the next.
 
-A variant sets every thread of the processes it names (``KINDS``; Zenoh's threads included)
+A variant sets every thread of the processes it names (``Variant.kinds``; Zenoh's threads included)
 to one policy, and every other thread of the cell to ordinary scheduling, nice 0; the
 executor's clock (SCHED_FIFO 50) is never touched. ``shipped`` touches nothing: the cell runs
 with the priorities the services give themselves.
@@ -44,11 +44,11 @@ from pathlib import Path
 import numpy as np
 
 from motocell.shared.bus.schemas import ControllerStatus, Decoder
-from motocell.shared.protocol.constants import Command, Result
 from motocell.testing.client import ex_messages, smooth_move
 from motocell.testing.running_cell import RunningCell
 from motocell.tools.bench.clients import StateClientProcess, StreamClientProcess, stream_bound_s
 from motocell.tools.bench.measuring import (
+    PROCESS_KINDS,
     Observer,
     bench_cell,
     cpu_seconds,
@@ -81,18 +81,18 @@ INCMOVE_ERROR = 5012
 STALL_KINDS = frozenset({"controller", "interpolator", "gateway"})
 """The services the stall rules depend on: the controller's status, the increments, the
 gateway's view of both."""
-ALL_KINDS = STALL_KINDS | {"executor", "broadcaster", "launcher+router"}
+ALL_KINDS = frozenset(PROCESS_KINDS)
 
 
 @dataclass(frozen=True)
 class Variant:
     name: str
     policy: str
-    """``other`` (with ``value`` the nice value), ``rr`` or ``fifo`` (``value`` the priority),
-    ``none`` (touch nothing)."""
+    """``other`` (with ``value`` the nice value), ``rr`` (``value`` the priority), ``none``
+    (touch nothing)."""
     value: int = 0
     kinds: frozenset[str] = ALL_KINDS
-    """The processes (``harness.process_kinds``) set to it; the others get ordinary scheduling."""
+    """The processes (``measuring.process_kinds``) set to it; the others get ordinary scheduling."""
     python_only: bool = False
     """Only the threads Python runs (named ``python``), not Zenoh's (``rx-0``, ``tx-0``, ...)."""
 
@@ -102,11 +102,9 @@ VARIANTS = {
     for v in (
         Variant("today", "other", 0),
         Variant("nice", "other", -10),
-        Variant("nice-stall", "other", -10, STALL_KINDS),
         Variant("rr", "rr", 10),
         Variant("rr-stall", "rr", 10, STALL_KINDS),
         Variant("rr-python", "rr", 10, python_only=True),
-        Variant("fifo", "fifo", 10),
         Variant("shipped", "none"),
     )
 }
@@ -157,8 +155,7 @@ def set_thread(tid: int, policy: str, value: int) -> None:
             os.setpriority(os.PRIO_PROCESS, tid, value)
         else:
             os.setpriority(os.PRIO_PROCESS, tid, 0)
-            kind = os.SCHED_RR if policy == "rr" else os.SCHED_FIFO
-            os.sched_setscheduler(tid, kind, os.sched_param(value))
+            os.sched_setscheduler(tid, os.SCHED_RR, os.sched_param(value))
 
 
 def apply(variant: Variant, kinds: dict[int, str]) -> int:
@@ -302,18 +299,6 @@ def _targets(cell: RunningCell, observer: Observer) -> list[dict[int, tuple[floa
     return [away, home]
 
 
-def _recover(streamer: StreamClientProcess) -> None:
-    """START_TRAJ_MODE until it succeeds (it resets the stall alarm)."""
-    deadline = time.monotonic() + RECOVER_TIMEOUT_S
-    while True:
-        result, subcode = streamer.command(Command.START_TRAJ_MODE)
-        if result == Result.SUCCESS:
-            return
-        if time.monotonic() > deadline:
-            raise RuntimeError(f"START_TRAJ_MODE refused for {RECOVER_TIMEOUT_S:g} s: {subcode}")
-        time.sleep(0.5)
-
-
 def _rests_off(cell: RunningCell, observer: Observer, goal: dict[int, tuple[float, ...]]) -> float:
     """How far from ``goal`` the robot comes to rest. A still tick is not the end yet: the
     ring runs dry while a late client's last points are still on their way (the robot waits,
@@ -385,7 +370,7 @@ def measure(variant: Variant, repetition: int, trajectories: int, load: Load) ->
             apply(variant, kinds)  # threads started since (Zenoh's pool) inherit; in case
             done.append(_trajectory(cell, observer, streamer, targets[index % 2]))
             if done[-1].aborted:
-                _recover(streamer)
+                streamer.recover(RECOVER_TIMEOUT_S)
         elapsed = time.monotonic() - started
         hog_cpu = sum(cpu_seconds(pid) or 0.0 for pid in pids) - hog_before
         loadavg = os.getloadavg()[0]

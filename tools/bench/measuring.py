@@ -39,7 +39,7 @@ import numpy as np
 import zenoh
 
 from motocell.shared.bus.schemas import Decoder, ExecutorMetrics, State, Tick
-from motocell.shared.config import Cell, CellFile
+from motocell.shared.config import Cell
 from motocell.shared.motion.kinematics import AxisMap
 from motocell.shared.protocol.constants import Command
 from motocell.shared.protocol.replies import motion_ctrl
@@ -205,6 +205,17 @@ def rss_mib(pid: int) -> float | None:
     return None
 
 
+PROCESS_KINDS = (
+    "launcher+router",
+    "controller",
+    "executor",
+    "broadcaster",
+    "gateway",
+    "interpolator",
+)
+"""What ``process_kinds`` calls a cell's processes, in the order the figures report them."""
+
+
 def process_kinds(cell: RunningCell) -> dict[int, str]:
     """Every process of the cell: the launcher (which runs the router), and each service by
     its module (executor, gateway, interpolator, ...)."""
@@ -213,26 +224,6 @@ def process_kinds(cell: RunningCell) -> dict[int, str]:
         modules = [word for word in cmdline(pid) if word.startswith("motocell.services.")]
         kinds[pid] = modules[0].removeprefix("motocell.services.") if modules else "gone"
     return kinds
-
-
-class CpuSampler:
-    """CPU % (of one core) and RSS per process over a window."""
-
-    def __init__(self, pids: Mapping[int, str]) -> None:
-        self.pids = dict(pids)
-        self.start_wall = time.monotonic()
-        self.start = {pid: cpu_seconds(pid) for pid in self.pids}
-
-    def finish(self) -> list[tuple[str, int, float, float]]:
-        """(kind, pid, CPU %, RSS MiB) for every process still alive."""
-        elapsed = time.monotonic() - self.start_wall
-        rows = []
-        for pid, kind in self.pids.items():
-            before, after, rss = self.start[pid], cpu_seconds(pid), rss_mib(pid)
-            if before is None or after is None or rss is None or elapsed <= 0:
-                continue
-            rows.append((kind, pid, 100.0 * (after - before) / elapsed, rss))
-        return rows
 
 
 # -- cost: CPU time and wake-ups of every thread --------------------------------------------
@@ -360,6 +351,28 @@ class CostSampler:
         return rows
 
 
+@dataclass(frozen=True)
+class Window:
+    """One measuring window: the cost of every process measured (``cost_window``)."""
+
+    rows: list[ProcessCost]
+    start_ns: int
+    end_ns: int
+
+    @property
+    def cpu(self) -> float:
+        """% of one core, every process together."""
+        return total("all", self.rows).cpu_percent
+
+
+def cost_window(pids: Mapping[int, str], seconds: float) -> Window:
+    """What ``pids`` (pid: kind) cost over the next ``seconds``."""
+    sampler = CostSampler(pids)
+    time.sleep(seconds)
+    rows = sampler.finish()
+    return Window(rows, sampler.start_ns, time.monotonic_ns())
+
+
 def cost_by_kind(rows: Sequence[ProcessCost]) -> dict[str, ProcessCost]:
     """The processes of each kind added up (the interpolators of a cell, or every cell's
     executor), in the order the kinds first appear; ``pid`` is the number of processes."""
@@ -394,8 +407,7 @@ def write_cell_file(
     extensions: Extensions = (),
 ) -> Path:
     """``extensions``: motocell's opt-in cell-file settings (``pending_points``,
-    ``start_buffer_periods``), written only when a figure asks for them, so the file also loads
-    in a tree that does not know them (``extensions_known``)."""
+    ``start_buffer_periods``), written only when a figure asks for them."""
     lines = [
         f'name = "{name}"',
         'controller = "YRC1000"',
@@ -428,11 +440,6 @@ def wait_for_every_slot(cell: RunningCell, timeout: float = START_TIMEOUT_S) -> 
     finally:
         session.close()
     time.sleep(0.05)
-
-
-def extensions_known(extensions: Extensions) -> bool:
-    """This tree's cell files have every one of these settings."""
-    return all(key in CellFile.__struct_fields__ for key, _ in extensions)
 
 
 @contextmanager

@@ -1,10 +1,11 @@
 """What the measuring child processes (``bench.state_client``, ``bench.stream_client``) share.
 
 A measuring process must not pause while it measures: a full garbage collection of a heap of
-recorded frames stopped a state client's reader for 53-253 ms and showed up as feedback-age
-maxima of that size (issue 14). So each one records into numpy arrays preallocated for the whole
-run (``Columns``: no objects per sample, a fixed bound) and turns the collector off once set up
-(``freeze_gc``). Both are told to stop by a line on stdin (``StdinControl``), never by a thread.
+recorded frames stops a state client's reader long enough to show up as feedback-age maxima
+(docs/benchmarks.md, The benchmark must not be the slowest part). So each one records into
+numpy arrays preallocated for the whole run (``Columns``: no objects per sample, a fixed bound)
+and turns the collector off once set up (``freeze_gc``). Both are told to stop by a line on
+stdin (``StdinControl``), never by a thread.
 """
 
 from __future__ import annotations

@@ -27,8 +27,8 @@ the executor ran SCHED_FIFO (``ExecutorMetrics.realtime``) and the 1-minute load
 start and end, with a warning (also in the JSON) when either exceeds 0.7 x the CPUs, which makes
 that figure's numbers unreliable.
 
-The full suite takes a quarter of an hour or more (figures 1-9 alone took 15 minutes on an idle
-2-vCPU VM; figures 3 and 7: 3 x 60 s windows each), ``--quick`` a few minutes. Results:
+The full suite takes a quarter of an hour or more (figures 1-9 alone take about 15 minutes on an
+idle 2-vCPU VM; figures 3 and 7: 3 x 60 s windows each), ``--quick`` a few minutes. Results:
 ``<UTC timestamp>.json`` and ``latest.json`` in ``--out``, by default ``bench-results`` under the
 current directory (ignored by git in a checkout's root), so an installed motocell never writes
 into its own package.
@@ -62,49 +62,16 @@ from motocell.tools.bench import (
     bench_state,
     bench_streaming,
 )
-from motocell.tools.bench.measuring import (
-    EXECUTOR_MODES,
-    RESULTS_DIR,
-    compare,
-    goal_text,
-    machine_info,
-)
+from motocell.tools.bench.measuring import EXECUTOR_MODES, RESULTS_DIR, machine_info
 
 Results = list[dict[str, Any]]
 
 LOAD_SHARE = 0.7
-DECODE_GOAL = 200_000.0
-INTERPOLATION_GOAL = 1_000_000.0
-
-
-def _with_goal(
-    figure: int, results: Results, goal_for: Callable[[dict[str, Any]], float | None]
-) -> Results:
-    for result in results:
-        result["figure"] = figure
-        goal = goal_for(result)
-        if goal is not None:
-            result["goal"] = goal_text((">=", goal))
-            result["goal_rule"] = "median"
-            result["met"] = compare(result["median"], (">=", goal))
-    return results
-
-
-def codec(quick: bool) -> Results:
-    return _with_goal(
-        1,
-        bench_codec.run(quick),
-        lambda r: DECODE_GOAL if str(r["name"]).startswith("decode") else None,
-    )
-
-
-def interpolation(quick: bool) -> Results:
-    return _with_goal(2, bench_interpolation.run(quick), lambda r: INTERPOLATION_GOAL)
 
 
 FIGURES: dict[int, tuple[str, Callable[[bool], Results]]] = {
-    1: ("codec throughput", codec),
-    2: ("interpolation throughput", interpolation),
+    1: ("codec throughput", bench_codec.run),
+    2: ("interpolation throughput", bench_interpolation.run),
     3: ("executor lateness", bench_executor.run),
     4: ("round trips", bench_roundtrip.run),
     5: ("streaming point by point", bench_streaming.run),

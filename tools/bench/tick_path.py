@@ -1,7 +1,7 @@
 """The executor's CPU per tick while four groups move, in-process: figure 3's tick-path rows.
 
     python -m motocell.tools.bench.tick_path [ticks]
-    PYTHONPATH=<another tree> python bench/tick_path.py [ticks]   # the same loop on its code
+    PYTHONPATH=<another tree> python tools/bench/tick_path.py [ticks]   # the same loop on its code
 
 The real ``ExecutorCore`` of the benchmark's four groups (arm6, arm6, arm7, positioner2, their
 speed limits, ranges and servo models) and the real ``Outputs`` on a Zenoh session, with a
@@ -14,8 +14,8 @@ tight loop measures about a third of it (docs/realtime.md, "The tick's cost").
 
 What is timed is the thread's own CPU time (``CLOCK_THREAD_CPUTIME_ID``) around each tick's
 work, not the sleep; Zenoh's own threads (the transmit thread each put wakes) are not in it,
-figure 10 shows the whole process. The interface used is the one the executor has had since
-issue 23's first figures, so the second form runs the same loop on an older tree.
+figure 10 shows the whole process. The second form runs this loop on another tree's executor,
+which needs only the interface used here (``ExecutorCore``, ``Outputs``).
 """
 
 from __future__ import annotations

@@ -1,6 +1,7 @@
 """Claiming a service name on a real router: refused when held or when the router does not
 answer, one winner of a race, a holder that never gives way while it keeps its router, and one
-that was cut off giving way to the one that claimed the name meanwhile (issue 24, item 3)."""
+that was cut off giving way to the one that claimed the name meanwhile (docs/topology.md, One
+process per service name)."""
 
 from __future__ import annotations
 

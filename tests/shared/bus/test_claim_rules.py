@@ -1,5 +1,5 @@
 """The claim's rules without a bus (shared/bus/claim.py): what a bid and a fresh hold lose to,
-and when a holder gives way (issue 24, item 3)."""
+and when a holder gives way."""
 
 from __future__ import annotations
 

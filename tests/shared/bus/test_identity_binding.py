@@ -1,5 +1,5 @@
-"""A certificate proves the identity (issue 24, item 2): on a mutual-TLS bus a session is the
-gateway only with the gateway's password AND the gateway's certificate.
+"""A certificate proves the identity (docs/security.md, Identities): on a mutual-TLS bus a
+session is the gateway only with the gateway's password AND the gateway's certificate.
 
 A real secured router (TLS only, mutual TLS, passwords, the cell's access control) and a party
 acting as the controller: it publishes its status, answers its info query, holds its liveliness

@@ -1,4 +1,4 @@
-"""Figure 10's pure parts, and the harness's CPU and wake-ups from /proc."""
+"""Figure 10's pure parts, and the measuring module's CPU and wake-ups from /proc."""
 
 from __future__ import annotations
 
@@ -10,7 +10,6 @@ import pytest
 from motocell.tools.bench.bench_cost import (
     MOVING,
     Measured,
-    Window,
     deviation_percent,
     per_tick_results,
     rate_hz,
@@ -21,6 +20,7 @@ from motocell.tools.bench.measuring import (
     LogTail,
     ProcessCost,
     Usage,
+    Window,
     alarm_codes,
     cost_by_kind,
     parse_schedstat,

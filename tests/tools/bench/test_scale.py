@@ -16,7 +16,6 @@ from motocell.tools.bench.bench_scale import (
     Moving,
     MovingWindow,
     Trajectory,
-    Window,
     aborted_by_kind,
     aborted_text,
     alarms_by_code,
@@ -30,7 +29,7 @@ from motocell.tools.bench.bench_scale import (
     share_limit,
     target_pulses,
 )
-from motocell.tools.bench.measuring import ProcessCost, write_cell_file
+from motocell.tools.bench.measuring import ProcessCost, Window, write_cell_file
 
 
 def cost(kind: str, cpu: float) -> ProcessCost:
