@@ -10,9 +10,11 @@ fails, so later tests do not inherit it. Threads Python did not start (Zenoh's, 
 as "dummy" threads once they run a callback) are not the test's.
 
 Besides, a test outside the ``cell`` lane starts no process at all (``tests/lanes.py``), so
-``pytest -m "not cell"`` stays fast. A run starts by removing what earlier runs killed
-outright left outside their process (``tests/leftovers.py``), and gives every test a registry
-of running cells of its own instead of the user's.
+``pytest -m "not cell"`` stays fast; that lane fuzzes with the light Hypothesis profile, every
+other run with the deep one, and the lane run whole keeps to a CPU budget
+(``tests/budget.py``). A run starts by removing what earlier runs killed outright left outside
+their process (``tests/leftovers.py``), and gives every test a registry of running cells of its
+own instead of the user's.
 """
 
 from __future__ import annotations
@@ -27,14 +29,20 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
 
 from motocell.shared import registry
 from motocell.testing.processes import alive, children, descendants, wait_until
-from tests import lanes, leftovers
+from tests import budget, lanes, leftovers
 
 DEADLINE_S = 5.0
 _REGISTRY = pytest.StashKey[tuple[str, str | None]]()
 """This run's registry directory, and the value it replaced."""
+
+# No deadline per example in either: the machines the suite runs on are shared and loaded, and a
+# property holds or fails whatever an example's time (docs/conventions.md, "Lanes").
+settings.register_profile(lanes.FAST_FUZZING, max_examples=20, deadline=None)
+settings.register_profile(lanes.DEEP_FUZZING, max_examples=300, deadline=None)
 
 
 def _own_threads() -> set[threading.Thread]:
@@ -105,6 +113,12 @@ def no_leaks() -> Iterator[None]:
 
 def pytest_configure(config: pytest.Config) -> None:
     config.pluginmanager.register(lanes.SpawnGuard(), "spawn-guard")
+    config.pluginmanager.register(budget.CpuBudget(), "cpu-budget")
+    settings.load_profile(
+        lanes.hypothesis_profile(
+            config.option.markexpr, config.getoption("hypothesis_profile", None)
+        )
+    )
 
 
 def pytest_sessionstart(session: pytest.Session) -> None:

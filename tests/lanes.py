@@ -2,10 +2,17 @@
 
 ``pytest -m "not cell"`` is what a contributor runs on every save; it stays fast only while
 nothing in it starts a process (a Python interpreter alone takes 20-50 ms to start, a cell
-seconds). Python raises an audit event (PEP 578) for every way it starts a process, so an
-audit hook sees each one, also those that end before anyone could look in /proc. A test
-outside the ``cell`` lane that starts one fails in the phase (set-up, call, tear-down) that
-did it, naming what it started.
+seconds), it fuzzes lightly (``hypothesis_profile``) and it keeps to its CPU budget
+(``tests/budget.py``). Python raises an audit event (PEP 578) for every way it starts a
+process, so an audit hook sees each one, also those that end before anyone could look in
+/proc. A test outside the ``cell`` lane that starts one fails in the phase (set-up, call,
+tear-down) that did it, naming what it started.
+
+A Zenoh router opened in the test's own process is cheap, but some tests of one wait on it
+for tenths of a second to seconds, which no CPU budget sees: a session refused over TLS
+(Zenoh's failed handshake, then the probe that says why, up to ``refusal.PROBE_S``), a
+command's timeout, a client rejoining its router. Those are marked ``cell`` too, each with what
+it waits for.
 """
 
 from __future__ import annotations
@@ -19,12 +26,45 @@ import pytest
 
 LANE = "cell"
 """The marker of the slow lane (pyproject.toml declares it)."""
+FAST_LANE = f"not {LANE}"
+"""The mark expression that selects the fast lane."""
+FAST_FUZZING, DEEP_FUZZING = "fast", "deep"
+"""The Hypothesis profiles (tests/conftest.py registers them): a few examples per property in
+the fast lane, many in any other run."""
+NARROWING_OPTIONS = ("keyword", "deselect", "ignore", "ignore_glob", "lf", "stepwise")
+"""Options that run part of what the arguments select (-k, --deselect, --ignore,
+--ignore-glob, --lf, --sw)."""
 SPAWNS = frozenset(
     {"subprocess.Popen", "os.fork", "os.forkpty", "os.posix_spawn", "os.spawn", "os.system"}
 )
 """The audit events of the Python calls that start a process (``pty.spawn`` forks through
 ``os.forkpty``, ``multiprocessing``'s fork method through ``os.fork``). Its spawn and
 forkserver methods start theirs unaudited; nothing in motocell uses them."""
+
+
+def is_fast_lane(markexpr: str) -> bool:
+    """Whether ``-m markexpr`` selects the fast lane, however it is spaced."""
+    return " ".join(markexpr.split()) == FAST_LANE
+
+
+def hypothesis_profile(markexpr: str, chosen: str | None) -> str:
+    """The profile a run fuzzes with: the one chosen with ``--hypothesis-profile``, else
+    the light one in the fast lane and the deep one in any run that may include the cell lane
+    (the whole suite, as ``scripts/check`` and CI run it, or a file on its own)."""
+    if chosen:
+        return chosen
+    return FAST_FUZZING if is_fast_lane(markexpr) else DEEP_FUZZING
+
+
+def runs_the_whole_fast_lane(config: pytest.Config) -> bool:
+    """Whether this run is the fast lane, whole: ``-m "not cell"`` over the default paths,
+    narrowed by nothing else, running its tests (not only collecting them)."""
+    return (
+        is_fast_lane(config.option.markexpr)
+        and config.args_source is not pytest.Config.ArgsSource.ARGS
+        and not any(config.getoption(name, None) for name in NARROWING_OPTIONS)
+        and not config.option.collectonly
+    )
 
 
 class SpawnLog:

@@ -1,13 +1,23 @@
-"""The lane guard (``tests/lanes.py``): a test outside the ``cell`` lane that starts a process
-fails, naming it; a ``cell`` test may."""
+"""The lanes (``tests/lanes.py``): a test outside the ``cell`` lane that starts a process
+fails, naming it, a ``cell`` test may; ``-m "not cell"`` is the fast lane, which fuzzes with the
+light Hypothesis profile, any other run with the deep one."""
 
 from __future__ import annotations
 
 import textwrap
 
 import pytest
+from hypothesis import settings
 
-from tests.lanes import SpawnGuard, SpawnLog, describe
+from tests.lanes import (
+    DEEP_FUZZING,
+    FAST_FUZZING,
+    SpawnGuard,
+    SpawnLog,
+    describe,
+    hypothesis_profile,
+    is_fast_lane,
+)
 
 pytest_plugins = ["pytester"]
 
@@ -26,6 +36,31 @@ def test_an_event_without_a_command_is_named_alone() -> None:
     assert describe("os.spawn", (0, "/bin/sh", ("sh", "-c", "true"), {})) == (
         "os.spawn: sh -c true"
     )
+
+
+@pytest.mark.parametrize("markexpr", ["not cell", " not  cell "])
+def test_not_cell_however_spaced_is_the_fast_lane(markexpr: str) -> None:
+    assert is_fast_lane(markexpr)
+
+
+@pytest.mark.parametrize("markexpr", ["", "cell", "not cell and cell", "not cells"])
+def test_any_other_selection_is_not(markexpr: str) -> None:
+    assert not is_fast_lane(markexpr)
+
+
+def test_the_fast_lane_fuzzes_lightly_any_other_run_deeply_unless_told() -> None:
+    assert hypothesis_profile("not cell", None) == FAST_FUZZING
+    assert hypothesis_profile("", None) == DEEP_FUZZING
+    assert hypothesis_profile("cell", None) == DEEP_FUZZING
+    assert hypothesis_profile("not cell", DEEP_FUZZING) == DEEP_FUZZING
+    assert hypothesis_profile("", FAST_FUZZING) == FAST_FUZZING
+
+
+def test_this_run_fuzzes_with_the_profile_of_its_lane(request: pytest.FixtureRequest) -> None:
+    """tests/conftest.py loads it, as it registers both."""
+    config = request.config
+    chosen = hypothesis_profile(config.option.markexpr, config.getoption("hypothesis_profile"))
+    assert settings.default == settings.get_profile(chosen)
 
 
 INNER = """

@@ -53,9 +53,10 @@ RETRY_S = 0.1
 """Between two START_TRAJ_MODE attempts after a refusal."""
 DEADLINE_S = 60.0
 """A bound for a lost trajectory or a cell that never gets ready: a hang, not a speed."""
-STALL_S = 2.0
-"""Longer than a loaded host stalls a process (about 1 s: docs/liveness.md, section 2), shorter
-than the lease; a test whose process went longer without running skips (``stalling``)."""
+STALL_S = WITHIN_LEASE_S / 2
+"""Half the longest stall the cell must ride out (``WITHIN_LEASE_S``), the other half left to
+the machine's load: longer than a loaded host stalls a process (about 1 s: docs/liveness.md,
+section 2); a test whose process went longer without running skips (``stalling``)."""
 
 
 @contextmanager
@@ -186,7 +187,6 @@ def test_a_service_stalled_for_less_than_the_lease_is_not_declared_missing(
 ) -> None:
     """A stall is what a loaded host does to a process at worst: no CPU for a while. The
     broadcaster stops for STALL_S."""
-    assert STALL_S < WITHIN_LEASE_S, "the lease must outlast a loaded host's stalls"
     assert motion.command(Command.START_TRAJ_MODE).result == Result.SUCCESS
     watch = MissingWatch(bus, cell.keys)
     (broadcaster,) = cell.service_pids("broadcaster")

@@ -100,20 +100,23 @@ def test_streamed_trajectory_follows_the_cubic_and_ends_exactly(
         axis_map.ros_to_pulses(np.array(c.groups[0].positions[:6]))
         for c in state.cycles[samples_before:]
     ]
+    start_pulses, goal_pulses = axis_map.ros_to_pulses(np.array(start)), expected[-1]
     last_index = 0
-    moving_samples = 0
+    along_the_way = 0
     for sample in samples:
         distance = np.abs(expected - sample).max(axis=1)
         matches = np.flatnonzero(distance <= 1)
-        start_match = np.abs(axis_map.ros_to_pulses(np.array(start)) - sample).max() <= 1
+        start_match = np.abs(start_pulses - sample).max() <= 1
         assert matches.size or start_match, f"feedback {sample} is on no grid instant of the cubic"
         if matches.size:
             later = matches[matches >= last_index]
             assert later.size, "feedback went back along the trajectory"
             last_index = int(later[0])
-            moving_samples += 1
-    # Enough of the path to check, whatever the load: the state rate is benchmark figure 6.
-    assert moving_samples >= 20, "feedback along the way"
+        if not start_match and np.abs(goal_pulses - sample).max() > 1:
+            along_the_way += 1
+    # However few cycles a loaded host lets through (the rate is benchmark figure 6), the state
+    # port showed the arm between its start and its goal, so the checks above saw it move.
+    assert along_the_way, "no feedback between the start and the goal"
 
     reply = motion.command(Command.CHECK_QUEUE_CNT)
     assert (reply.result, reply.subcode) == (Result.SUCCESS, 0)

@@ -237,6 +237,7 @@ def executor(bus: Bus) -> Iterator[None]:
         session.close()
 
 
+@pytest.mark.cell  # ps waits METRICS_WAIT_S for metrics: tests/lanes.py
 def test_ps_finds_a_secured_cell_and_joins_it_as_the_observer(
     bus: Bus, executor: None, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -305,6 +305,7 @@ def test_an_identity_of_no_cell_gets_a_password_and_a_certificate_of_the_ca(
     assert not (directory / "cell1.observer.password").exists()  # no cell named: none added
 
 
+@pytest.mark.cell  # a refused TLS session waits: tests/lanes.py
 def test_a_host_added_makes_the_router_reachable_by_that_name(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -137,6 +137,7 @@ def test_an_unanswered_look_up_is_refused_not_read_as_no_claim(
         session.close()
 
 
+@pytest.mark.cell  # waits for Zenoh to rejoin the router: tests/lanes.py
 def test_a_holder_cut_off_gives_way_to_the_one_that_claimed_meanwhile(
     endpoint: str, relay: Relay, caplog: pytest.LogCaptureFixture
 ) -> None:

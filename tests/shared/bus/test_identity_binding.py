@@ -181,6 +181,7 @@ def test_a_password_and_a_certificate_of_two_identities_get_nothing(
         right.close()
 
 
+@pytest.mark.cell  # a refused TLS session waits (PROBE_S alone): tests/lanes.py
 @pytest.mark.parametrize("alone", ["certificate", "password"])
 def test_a_certificate_or_a_password_alone_is_refused(bus: Bus, alone: str) -> None:
     gateway = credentials(bus, Role.GATEWAY, Role.GATEWAY)

@@ -85,6 +85,7 @@ def test_the_right_credentials_join(site: Path) -> None:
         open_session("client", [endpoint], wait=False, credentials=observer(site)).close()
 
 
+@pytest.mark.cell  # a refused TLS session waits: tests/lanes.py
 def test_a_router_certificate_of_another_ca(site: Path, elsewhere: Path) -> None:
     endpoint = f"tls/127.0.0.1:{free_port()}"
     with router(site, endpoint):
@@ -94,6 +95,7 @@ def test_a_router_certificate_of_another_ca(site: Path, elsewhere: Path) -> None
         )
 
 
+@pytest.mark.cell  # a refused TLS session waits: tests/lanes.py
 def test_a_router_certificate_for_another_name(site: Path) -> None:
     port = free_port()
     with router(site, f"tls/127.0.0.1:{port}"):
@@ -102,6 +104,7 @@ def test_a_router_certificate_for_another_name(site: Path) -> None:
     assert "motocell credentials DIR --host localhost" in message
 
 
+@pytest.mark.cell  # a refused TLS session waits: tests/lanes.py
 def test_an_expired_router_certificate(site: Path) -> None:
     expire_in(site, "router.pem", -0.5)
     endpoint = f"tls/127.0.0.1:{free_port()}"
@@ -109,6 +112,7 @@ def test_an_expired_router_certificate(site: Path) -> None:
         assert "has expired: renew it" in refusal(endpoint, observer(site))
 
 
+@pytest.mark.cell  # a refused TLS session waits: tests/lanes.py
 def test_no_client_certificate(site: Path) -> None:
     endpoint = f"tls/127.0.0.1:{free_port()}"
     with router(site, endpoint):
@@ -118,6 +122,7 @@ def test_no_client_certificate(site: Path) -> None:
         )
 
 
+@pytest.mark.cell  # a refused TLS session waits: tests/lanes.py
 def test_a_client_certificate_of_another_ca(site: Path, elsewhere: Path) -> None:
     endpoint = f"tls/127.0.0.1:{free_port()}"
     theirs = observer(elsewhere)
@@ -126,6 +131,7 @@ def test_a_client_certificate_of_another_ca(site: Path, elsewhere: Path) -> None
         assert f"refused {CELL}.observer's certificate" in refusal(endpoint, mixed)
 
 
+@pytest.mark.cell  # a refused TLS session waits: tests/lanes.py
 def test_an_expired_client_certificate(site: Path) -> None:
     expire_in(site, f"{CELL}.observer.pem", -0.5)
     endpoint = f"tls/127.0.0.1:{free_port()}"
@@ -133,6 +139,7 @@ def test_an_expired_client_certificate(site: Path) -> None:
         assert "certificate: it has expired" in refusal(endpoint, observer(site))
 
 
+@pytest.mark.cell  # waits PROBE_S for an alert that never comes: tests/lanes.py
 def test_a_wrong_password_over_tls(site: Path) -> None:
     endpoint = f"tls/127.0.0.1:{free_port()}"
     with router(site, endpoint):
@@ -148,6 +155,7 @@ def test_a_wrong_password_over_tcp(tmp_path: Path) -> None:
         assert f"refused {CELL}.observer: wrong password" in refusal(endpoint, wrong)
 
 
+@pytest.mark.cell  # a refused TLS session waits: tests/lanes.py
 def test_tcp_to_a_tls_router(site: Path) -> None:
     port = free_port()
     with router(site, f"tls/127.0.0.1:{port}"):
@@ -155,6 +163,7 @@ def test_tcp_to_a_tls_router(site: Path) -> None:
     assert f"speaks TLS: connect to tls/127.0.0.1:{port}" in message
 
 
+@pytest.mark.cell  # waits PROBE_S for a handshake that never comes: tests/lanes.py
 def test_tls_to_a_tcp_router(tmp_path: Path, site: Path) -> None:
     """The probe alone: Zenoh itself gives up on that handshake only after 10 s."""
     passwords = credentials_directory(tmp_path / "c")

@@ -64,6 +64,7 @@ def test_services_meet_over_mutual_tls(tls_router: tuple[str, Path]) -> None:
             session.close()
 
 
+@pytest.mark.cell  # a refused TLS session waits: tests/lanes.py
 def test_a_client_without_a_certificate_is_refused(tls_router: tuple[str, Path]) -> None:
     endpoint, directory = tls_router
     credentials = load(directory, CELL, Identity(Role.OBSERVER))
@@ -74,6 +75,7 @@ def test_a_client_without_a_certificate_is_refused(tls_router: tuple[str, Path])
         open_session("client", [endpoint], wait=False, credentials=without_certificate)
 
 
+@pytest.mark.cell  # a refused TLS session waits: tests/lanes.py
 def test_plain_tcp_is_not_served(tls_router: tuple[str, Path]) -> None:
     endpoint, directory = tls_router
     plain = endpoint.replace("tls/", "tcp/")

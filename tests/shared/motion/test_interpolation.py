@@ -442,8 +442,6 @@ def cases(draw: st.DrawFn) -> Case:
 
 
 @settings(
-    max_examples=150,
-    deadline=None,
     derandomize=True,
     database=None,
     suppress_health_check=[HealthCheck.too_slow],

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 from motocell.shared.config import IdealServo, PositionLoop
@@ -125,7 +125,6 @@ def test_a_stop_comes_to_rest_from_behind_with_continuous_velocity() -> None:
     assert servos.feedback_pulses()[0][0] == command
 
 
-@settings(max_examples=60, deadline=None)
 @given(
     seed=st.integers(0, 2**32 - 1),
     gain=st.floats(1.0, 500.0),

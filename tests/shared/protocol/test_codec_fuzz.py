@@ -9,7 +9,7 @@ import itertools
 import struct
 
 import pytest
-from hypothesis import given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 from motocell.shared.protocol.codec import (
@@ -61,8 +61,6 @@ from motocell.shared.protocol.messages import (
     WriteMRegister,
     WriteMRegisterReply,
 )
-
-FUZZ = settings(max_examples=150, deadline=None)
 
 roles = st.sampled_from(list(Role))
 orders = st.sampled_from(list(ByteOrder))
@@ -122,7 +120,6 @@ def sent_messages(
     return direction, Message(msg_type, draw(i32), draw(i32), draw(BODIES[layout.body_type]))
 
 
-@FUZZ
 @given(sent_messages(), orders)
 def test_valid_messages_round_trip(
     sent: tuple[Direction, Message | UnknownMessage], order: ByteOrder
@@ -193,7 +190,6 @@ def run(codec: SimpleMessageCodec, chunks: list[bytes]) -> list[Event | PeerProt
     return out
 
 
-@FUZZ
 @given(st.binary(max_size=3000), roles, orders, st.lists(st.integers(0, 3000), max_size=20))
 def test_any_bytes_in_any_chunking(
     data: bytes, role: Role, order: ByteOrder, cuts: list[int]
@@ -202,7 +198,6 @@ def test_any_bytes_in_any_chunking(
         run(SimpleMessageCodec(role, order), chunks)
 
 
-@FUZZ
 @given(st.data(), roles, orders)
 def test_hostile_streams_in_any_chunking(data: st.DataObject, role: Role, order: ByteOrder) -> None:
     stream = data.draw(hostile_streams(order))
@@ -215,7 +210,6 @@ def test_hostile_streams_in_any_chunking(data: st.DataObject, role: Role, order:
         run(SimpleMessageCodec(role, order), chunks)
 
 
-@FUZZ
 @given(st.data(), orders)
 def test_valid_streams_decode_the_same_in_any_chunking(
     data: st.DataObject, order: ByteOrder
@@ -245,7 +239,6 @@ def joint_block(order: ByteOrder, group: int, valid: int, time: float) -> bytes:
     return struct.pack(order.struct_prefix + JOINT_BLOCK, group, valid, time, *[0.0] * 30)
 
 
-@FUZZ
 @given(
     group_counts,
     i32,
@@ -277,7 +270,6 @@ def test_2016_decodes_its_count_sequence_and_groups_or_is_3001(
     assert [(g.group_no, g.valid_fields) for g in decoded.groups] == [b[:2] for b in expected]
 
 
-@FUZZ
 @given(group_counts, st.lists(st.tuples(group_numbers, i32, f32), max_size=6), orders, roles)
 def test_2017_decodes_its_count_and_4_slots_whatever_they_say(
     count: int, slots: list[tuple[int, int, float]], order: ByteOrder, role: Role
@@ -298,7 +290,6 @@ def test_2017_decodes_its_count_and_4_slots_whatever_they_say(
     assert [(s.group_no, s.valid_fields) for s in decoded.groups] == [s[:2] for s in slots]
 
 
-@FUZZ
 @given(
     st.integers(-(2**40), 2**40),
     st.lists(
@@ -323,7 +314,6 @@ def test_2016_encodes_1_to_4_groups_of_int32_fields_or_refuses(
     assert decode_frames(encode(message, order, Role.CLIENT), Role.CONTROLLER, order) == [message]
 
 
-@FUZZ
 @given(st.integers(-(2**40), 2**40), st.lists(feedback, max_size=6), orders)
 def test_2017_encodes_up_to_4_slots_and_an_int32_count_or_refuses(
     count: int, slots: list[JointFeedback], order: ByteOrder

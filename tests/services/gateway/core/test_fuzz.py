@@ -21,7 +21,7 @@ import struct
 import threading
 from dataclasses import dataclass
 
-from hypothesis import given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 from motocell.services.gateway.core.motion import MotionHandler
@@ -43,8 +43,6 @@ from motocell.shared.protocol.messages import (
 )
 from motocell.shared.protocol.replies import ex_group, state_message, traj_point_ex
 from tests.services.gateway.core.fake_cell import FakeCell, exchange, gateway
-
-FUZZ = settings(max_examples=300, deadline=None)
 
 I32_MIN, I32_MAX = -(2**31), 2**31 - 1
 i32 = st.integers(I32_MIN, I32_MAX)
@@ -100,7 +98,6 @@ def listed_badly(body: JointTrajPtFullEx, groups: int) -> bool:
 # ------------------------------------------------------------------------------ 2016 bodies
 
 
-@FUZZ
 @given(motion_ports(), st.lists(ex_bodies, min_size=1, max_size=6))
 def test_every_2016_gets_one_reply_and_a_bad_group_is_never_taken(
     port: tuple[MotionHandler, FakeCell], bodies: list[JointTrajPtFullEx]
@@ -128,7 +125,6 @@ def test_every_2016_gets_one_reply_and_a_bad_group_is_never_taken(
             assert [group for group, _ in published] == [g.group_no for g in body.groups]
 
 
-@FUZZ
 @given(motion_ports(), sequences, group_numbers, fields, times)
 def test_every_14_gets_one_reply_for_its_group(
     port: tuple[MotionHandler, FakeCell], sequence: int, group: int, valid: int, time: float
@@ -232,7 +228,6 @@ def ex_frames(draw: st.DrawFn, order: ByteOrder) -> tuple[bytes, bool]:
     return frame(MsgType.MOTO_JOINT_TRAJ_PT_FULL_EX, body, order), readable
 
 
-@FUZZ
 @given(motion_ports(), st.sampled_from(list(ByteOrder)), st.data())
 def test_a_2016_count_that_does_not_fit_its_body_is_3001_and_the_port_goes_on(
     port: tuple[MotionHandler, FakeCell], order: ByteOrder, data: st.DataObject
@@ -249,7 +244,6 @@ def test_a_2016_count_that_does_not_fit_its_body_is_3001_and_the_port_goes_on(
         assert unreadable != readable
 
 
-@FUZZ
 @given(
     st.builds(JointFeedbackEx, group_counts, st.lists(feedback_slots, max_size=4).map(tuple)),
     st.sampled_from(list(ByteOrder)),
@@ -268,7 +262,6 @@ def test_a_client_sending_2017_is_closed_without_a_reply(
     assert cell.sent == []
 
 
-@FUZZ
 @given(
     st.binary(max_size=600).filter(lambda b: len(b) != 532),
     st.sampled_from(list(ByteOrder)),
