@@ -120,6 +120,7 @@ class ExecutorCore:
         self._status_heartbeat_ms = heartbeat_ms(motion_possible=True)
         self._last_notice_ns = 0
         self.rest = Resting()
+        """Whether the clock rests (``rest.resting``): the loop stops ticking while it does."""
         self._queue_cadence = QueueCadence(self.rings)
 
     # -- readiness ---------------------------------------------------------------------------

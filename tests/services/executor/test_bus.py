@@ -23,6 +23,8 @@ from tests.services.executor.fake_bus import WAIT_S
 
 KEY = "motocell/test/group/0/point"
 TOKEN = "@motocell/test/alive/controller/0"
+PROBE = "@motocell/test/alive/probe/0"
+TOKENS = "@motocell/test/alive/*/*"
 
 
 @pytest.fixture
@@ -142,7 +144,7 @@ def test_a_call_nobody_answers_is_none(sessions: tuple[zenoh.Session, zenoh.Sess
     assert ZenohBus(asker).call("motocell/test/broadcaster/cmd/positions", 0.2) is None
 
 
-def test_token_events_and_answers(sessions: tuple[zenoh.Session, zenoh.Session]) -> None:
+def test_token_answers(sessions: tuple[zenoh.Session, zenoh.Session]) -> None:
     watcher, service = sessions
     bus = ZenohBus(watcher)
     token = service.liveliness().declare_token(TOKEN)
@@ -150,7 +152,7 @@ def test_token_events_and_answers(sessions: tuple[zenoh.Session, zenoh.Session])
     def answered() -> bool:
         """A query's answers, once it has finished: the token, once its declaration has
         reached the router."""
-        answers = bus.ask_tokens("@motocell/test/alive/*/*", 8, QUERY_TIMEOUT_S)
+        answers = bus.ask_tokens(TOKENS, 8, QUERY_TIMEOUT_S)
         found: list[str] = []
 
         def finished() -> bool:
@@ -162,20 +164,32 @@ def test_token_events_and_answers(sessions: tuple[zenoh.Session, zenoh.Session])
         return found == [TOKEN]
 
     wait_until(answered, 2 * WAIT_S, "the token in an answer")
-    events = bus.token_events("@motocell/test/alive/*/*", 8)
     token.undeclare()
+
+
+def test_token_events(sessions: tuple[zenoh.Session, zenoh.Session]) -> None:
+    watcher, service = sessions
+    bus = ZenohBus(watcher)
+    events = bus.token_events(TOKENS, 64)
     seen: list[tuple[str, bool]] = []
 
-    def deleted() -> bool:
+    def heard(expected: tuple[str, bool]) -> bool:
         while (event := events.try_recv()) is not None:
             seen.append((str(event.key_expr), bus.declared(event)))
-        return bool(seen)
+        return expected in seen
 
-    arrives(deleted, "the DELETE")
-    assert seen == [(TOKEN, False)]
-    again = service.liveliness().declare_token(TOKEN)
-    arrives(lambda: (event := events.try_recv()) is not None and bus.declared(event), "the PUT")
-    again.undeclare()
+    def subscribed() -> bool:
+        """A probe's token, declared and undeclared until its events come: the subscription
+        has reached the router."""
+        service.liveliness().declare_token(PROBE).undeclare()
+        return heard((PROBE, False))
+
+    arrives(subscribed, "the subscription at the router")
+    token = service.liveliness().declare_token(TOKEN)
+    arrives(lambda: heard((TOKEN, True)), "the PUT")
+    token.undeclare()
+    arrives(lambda: heard((TOKEN, False)), "the DELETE")
+    assert [entry for entry in seen if entry[0] == TOKEN] == [(TOKEN, True), (TOKEN, False)]
 
 
 class Looks:
