@@ -1,6 +1,6 @@
 """Real-time scheduling: the executor's clock (SCHED_FIFO, where it may run), every other thread
 of a cell's processes (SCHED_RR below the clock), and the one command that allows both. The
-executor applies the clock's (``services/executor/clock.py``), every service and the launcher's
+executor applies the clock's (``services/executor/loop.py``), every service and the launcher's
 router their own (``enter_service_priority``); the launcher, ``motocell ps`` and ``motocell
 watch`` show the command when they run without (docs/realtime.md).
 """

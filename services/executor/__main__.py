@@ -1,36 +1,17 @@
-"""The executor: the controller's interpolation clock (``clock``), deciding with ``core``,
-reading ``inputs`` and publishing ``outputs``; this module wires them."""
+"""The executor: the controller's interpolation clock (``loop``), deciding with ``core``, reading
+``inputs`` and publishing ``outputs`` over the bus (``bus``); this module wires them."""
 
 from __future__ import annotations
 
 import time
 from collections.abc import Sequence
 
-from motocell.services.executor.clock import Clock
-from motocell.services.executor.core import ExecutorCore, pulse_ranges, starting_pulses
+from motocell.services.executor.bus import ZenohBus
+from motocell.services.executor.core.start import core_for_cell
 from motocell.services.executor.inputs import Inputs
+from motocell.services.executor.loop import Clock
 from motocell.services.executor.outputs import Outputs
-from motocell.shared.bus.session import call
-from motocell.shared.motion.kinematics import AxisMap
-from motocell.shared.motion.servo import Servos
-from motocell.shared.service import ServiceContext, argument_parser, running_service
-
-
-def build_core(ctx: ServiceContext) -> ExecutorCore:
-    """The core, starting where the broadcaster last saw the robot (an executor restart) or
-    where the cell file puts it."""
-    cell = ctx.cell
-    remembered = call(ctx.session, ctx.keys.broadcaster_cmd("positions"), timeout=1.0)
-    start = starting_pulses(cell, remembered)
-    return ExecutorCore(
-        start,
-        first_epoch=time.time_ns() // 1000,
-        max_increments=[AxisMap(group).max_increments(cell.period_s) for group in cell.groups],
-        ranges=pulse_ranges(cell),
-        period_ns=cell.period_ns,
-        servos=Servos([group.servo for group in cell.groups], cell.period_s, start),
-        max_lateness_periods=cell.max_lateness_periods,
-    )
+from motocell.shared.service import argument_parser, running_service
 
 
 def main(argv: Sequence[str] | None = None) -> None:
@@ -39,12 +20,16 @@ def main(argv: Sequence[str] | None = None) -> None:
     )
     with running_service("executor", "0", args) as ctx:
         groups = len(ctx.cell.groups)
-        inputs = Inputs(ctx.session, ctx.keys, groups, ctx.stop)
-        outputs = Outputs(ctx.session, ctx.keys, groups)
+        bus = ZenohBus(ctx.session)
+        inputs = Inputs(bus, ctx.keys, groups, ctx.stop)
+        outputs = Outputs(bus, ctx.keys, groups)
         inputs.start()
         ctx.alive.announce()
         try:
-            Clock(build_core(ctx), inputs, outputs, ctx.stop).run()
+            core = core_for_cell(
+                ctx.cell, inputs.remembered_positions(), first_epoch=time.time_ns() // 1000
+            )
+            Clock(core, inputs, outputs, ctx.stop).run()
         finally:
             ctx.stop.set()  # on an error too: it ends the waker
             inputs.close()

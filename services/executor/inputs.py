@@ -1,4 +1,4 @@
-"""What reaches the executor, as its clock thread reads it.
+"""What reaches the executor, as its clock thread reads it: ``InputPort`` over the ``Bus``.
 
 While the clock runs, the thread drains everything at the start of each tick: increment
 batches, points and the controller token's events wait in Zenoh's own channels, so no Python
@@ -15,6 +15,8 @@ STOP_MOTION's query. They arrive in callbacks that only append to a queue and, w
 rests, ring the point channel's doorbell (an empty sample that never leaves this session). The
 status callback is tiny and runs ten times a second at most while anything moves. A ``Waker``
 rings the same doorbell at the deadline the resting clock sets, and at stop.
+
+Once, at start, before the core exists: where the robot was (``remembered_positions``).
 """
 
 from __future__ import annotations
@@ -25,12 +27,19 @@ from collections import deque
 from collections.abc import Iterator
 
 import msgspec
-import zenoh
 
+from motocell.services.executor.bus import Bus, Query, Sample
 from motocell.services.executor.controller_token import ControllerToken
-from motocell.shared.bus.channels import Doorbell, StopSignal, Waker
+from motocell.shared.bus.channels import StopSignal, Waker
 from motocell.shared.bus.keys import CellKeys
-from motocell.shared.bus.schemas import ControllerStatus, Decoder, IncrementBatch, Point
+from motocell.shared.bus.liveness import QUERY_TIMEOUT_S
+from motocell.shared.bus.schemas import (
+    CommandReply,
+    ControllerStatus,
+    Decoder,
+    IncrementBatch,
+    Point,
+)
 
 log = logging.getLogger("executor")
 
@@ -50,31 +59,24 @@ def _group_of(key: object) -> int:
 
 
 class Inputs:
-    def __init__(self, session: zenoh.Session, keys: CellKeys, groups: int, stop: StopSignal):
-        self._points = session.declare_subscriber(
-            keys.group_point_all, zenoh.handlers.FifoChannel(CHANNEL_DEPTH)
-        )
+    def __init__(self, bus: Bus, keys: CellKeys, groups: int, stop: StopSignal) -> None:
+        self._bus = bus
+        self._keys = keys
+        self._points = bus.channel(keys.group_point_all, CHANNEL_DEPTH)
         self._batches = [
-            session.declare_subscriber(
-                keys.group_increments(g), zenoh.handlers.FifoChannel(CHANNEL_DEPTH)
-            )
-            for g in range(groups)
+            bus.channel(keys.group_increments(g), CHANNEL_DEPTH) for g in range(groups)
         ]
         self._statuses: deque[tuple[int, ControllerStatus]] = deque(maxlen=CHANNEL_DEPTH)
-        self._stops: deque[zenoh.Query] = deque(maxlen=CHANNEL_DEPTH)
-        self._status_sub = session.declare_subscriber(
-            keys.controller_status, zenoh.handlers.Callback(self._on_status, indirect=False)
-        )
-        self._stop_queries = session.declare_queryable(
-            keys.executor_cmd("stop"), zenoh.handlers.Callback(self._on_stop, indirect=False)
-        )
-        self.controller = ControllerToken(session, keys.alive("controller", "0"))
-        self._doorbell = Doorbell(session, keys.group_point(0))
+        self._stops: deque[Query] = deque(maxlen=CHANNEL_DEPTH)
+        self._status_sub = bus.subscribe(keys.controller_status, self._on_status)
+        self._stop_queries = bus.queryable(keys.executor_cmd("stop"), self._on_stop)
+        self.controller = ControllerToken(bus, keys.alive("controller", "0"))
+        self._doorbell = bus.doorbell(keys.group_point(0))
         self._waker = Waker(self._doorbell.ring, stop, "executor-waker")
         self._resting = False
         self.executor_ready = False
         """What the clock thread last made of readiness; a status saying otherwise wakes it."""
-        self._woken_by: zenoh.Sample | None = None
+        self._woken_by: Sample | None = None
 
     def start(self) -> None:
         self._waker.start()
@@ -84,7 +86,13 @@ class Inputs:
         self._waker.close()
         self._doorbell.close()
 
-    def _on_status(self, sample: zenoh.Sample) -> None:
+    def remembered_positions(self) -> CommandReply | None:
+        """The broadcaster's answer to ``positions``: the commanded pulses of the newest tick
+        it had, which a restarted executor resumes from (``core.start.starting_pulses``). None
+        when nobody answered."""
+        return self._bus.call(self._keys.broadcaster_cmd("positions"), QUERY_TIMEOUT_S)
+
+    def _on_status(self, sample: Sample) -> None:
         try:
             status = _status.decode(sample.payload.to_bytes())
         except msgspec.DecodeError:
@@ -94,7 +102,7 @@ class Inputs:
         if self._resting and status.motion_ready != self.executor_ready:
             self._doorbell.ring()
 
-    def _on_stop(self, query: zenoh.Query) -> None:
+    def _on_stop(self, query: Query) -> None:
         self._stops.append(query)
         if self._resting:
             self._doorbell.ring()
@@ -140,6 +148,6 @@ class Inputs:
             except msgspec.DecodeError:
                 yield None
 
-    def stop_queries(self) -> Iterator[zenoh.Query]:
+    def stop_queries(self) -> Iterator[Query]:
         while self._stops:
             yield self._stops.popleft()

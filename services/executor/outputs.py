@@ -1,28 +1,26 @@
-"""What the executor publishes: each tick, the queue states, its notices to the controller, its
-metrics (only while someone subscribes), and its answers to STOP_MOTION."""
+"""What the executor publishes, its ``OutputPort`` over the ``Bus``: each tick, the queue states,
+its notices to the controller, its metrics (only while someone subscribes), and its answers to
+STOP_MOTION."""
 
 from __future__ import annotations
 
 from collections.abc import Iterable
 
-import zenoh
-
+from motocell.services.executor.bus import Bus, Query
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import CommandReply, ExecutorMetrics, QueueState, Tick, encode
-from motocell.shared.bus.session import answer, observed, publisher
 from motocell.shared.protocol.constants import Result
 
 
 class Outputs:
-    def __init__(self, session: zenoh.Session, keys: CellKeys, groups: int) -> None:
-        self._tick = publisher(session, keys.executor_tick, realtime=True, latest=True)
+    def __init__(self, bus: Bus, keys: CellKeys, groups: int) -> None:
+        self._tick = bus.publisher(keys.executor_tick, realtime=True, latest=True)
         self._queues = [
-            publisher(session, keys.group_queue(g), realtime=True, latest=True)
-            for g in range(groups)
+            bus.publisher(keys.group_queue(g), realtime=True, latest=True) for g in range(groups)
         ]
         # Every notice matters (a stall, a broken increment path): it blocks rather than drops.
-        self._notices = publisher(session, keys.controller_cmd("incmove_error"), realtime=True)
-        self._metrics = publisher(session, keys.metrics("executor"), latest=True)
+        self._notices = bus.publisher(keys.controller_cmd("incmove_error"), realtime=True)
+        self._metrics = bus.publisher(keys.metrics("executor"), latest=True)
 
     def tick(self, tick: Tick) -> None:
         self._tick.put(encode(tick))
@@ -37,13 +35,13 @@ class Outputs:
 
     def metrics_wanted(self) -> bool:
         """Whether anyone subscribes to the metrics: nothing is summarised for nobody."""
-        return observed(self._metrics)
+        return self._metrics.observed()
 
     def metrics(self, metrics: ExecutorMetrics) -> None:
         self._metrics.put(encode(metrics))
 
     @staticmethod
-    def stopped(queries: Iterable[zenoh.Query]) -> None:
+    def stopped(queries: Iterable[Query]) -> None:
         """STOP_MOTION done: the rings were cleared before the next tick."""
         for query in queries:
-            answer(query, CommandReply(Result.SUCCESS))
+            query.answer(CommandReply(Result.SUCCESS))

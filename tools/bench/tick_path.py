@@ -14,8 +14,9 @@ tight loop measures about a third of it (docs/realtime.md, "The tick's cost").
 
 What is timed is the thread's own CPU time (``CLOCK_THREAD_CPUTIME_ID``) around each tick's
 work, not the sleep; Zenoh's own threads (the transmit thread each put wakes) are not in it,
-figure 10 shows the whole process. The second form runs this loop on another tree's executor,
-which needs only the interface used here (``ExecutorCore``, ``Outputs``).
+figure 10 shows the whole process. The second form runs this loop on another tree whose
+executor has the same interface (``core.start.core_for_cell``, ``outputs.Outputs`` over a
+``bus.ZenohBus``).
 """
 
 from __future__ import annotations
@@ -29,14 +30,15 @@ from pathlib import Path
 import numpy as np
 import zenoh
 
-from motocell.services.executor.core import ExecutorCore, pulse_ranges, starting_pulses
+from motocell.services.executor.bus import ZenohBus
+from motocell.services.executor.core.executor import ExecutorCore
+from motocell.services.executor.core.start import core_for_cell
 from motocell.services.executor.outputs import Outputs
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import Decoder, IncrementBatch, encode
 from motocell.shared.bus.session import bus_config
 from motocell.shared.config import Cell, load_cell
 from motocell.shared.motion.kinematics import AxisMap
-from motocell.shared.motion.servo import Servos
 from motocell.shared.ports import free_port
 from motocell.shared.protocol.constants import MAX_AXES
 from motocell.testing.statuses import ready_status
@@ -57,19 +59,6 @@ def four_groups(directory: Path) -> Cell:
     path = directory / "tick.toml"
     path.write_text("\n".join(lines))
     return load_cell(path)
-
-
-def build_core(cell: Cell) -> ExecutorCore:
-    start = starting_pulses(cell, None)
-    return ExecutorCore(
-        start,
-        1,
-        max_increments=[AxisMap(g).max_increments(cell.period_s) for g in cell.groups],
-        ranges=pulse_ranges(cell),
-        period_ns=cell.period_ns,
-        servos=Servos([g.servo for g in cell.groups], cell.period_s, start),
-        max_lateness_periods=cell.max_lateness_periods,
-    )
 
 
 class Feed:
@@ -109,7 +98,7 @@ def tick_path_us(ticks: int) -> np.ndarray:
     subscribing = zenoh.open(bus_config("peer", connect=[endpoint]))
     try:
         heard = subscribing.declare_subscriber("motocell/**", lambda _sample: None)
-        outputs = Outputs(publishing, CellKeys("tick"), len(cell.groups))
+        outputs = Outputs(ZenohBus(publishing), CellKeys("tick"), len(cell.groups))
         taken = measure_ticks(cell, outputs, ticks)
         heard.undeclare()
     finally:
@@ -120,7 +109,7 @@ def tick_path_us(ticks: int) -> np.ndarray:
 
 def measure_ticks(cell: Cell, outputs: Outputs, ticks: int) -> np.ndarray:
     """Nanoseconds of this thread's CPU time per tick."""
-    core = build_core(cell)
+    core = core_for_cell(cell, None, first_epoch=1)
     feed = Feed(core, cell)
     decoder = Decoder(IncrementBatch)
     status = ready_status(tools=[0] * len(cell.groups))

@@ -1,55 +1,95 @@
-"""The executor follows the controller's token from its clock thread, over a real router: present
-if it was there before, gone on its DELETE, present again when a new controller declares it."""
+"""``ControllerToken`` on a scripted bus: present from its token's declaration or a query's
+answer, gone only on its DELETE, and asked again while absent as ``Asking`` says (times in the
+clock's nanoseconds, ``Asking``'s seconds)."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from motocell.services.executor.controller_token import ControllerToken
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.liveness import ASK_AGAIN_S, QUERY_TIMEOUT_S
+from tests.services.executor.fake_bus import FakeBus
 
-import pytest
-
-from motocell.services.executor.controller_token import ASK_EVERY_NS, ControllerToken
-from motocell.shared.bus.session import open_session
-from motocell.shared.ports import free_port
-from motocell.testing.processes import wait_until
-
-TOKEN = "@motocell/c/alive/controller/0"
-
-
-@pytest.fixture
-def router() -> Iterator[str]:
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    session = open_session("router", listen=[endpoint], wait=False)
-    yield endpoint
-    session.close()
+KEY = CellKeys("cell1").alive("controller", "0")
+NS = 1_000_000_000
+T0 = 50 * NS
+ASK_AGAIN_NS = round(ASK_AGAIN_S * NS)
+QUERY_TIMEOUT_NS = round(QUERY_TIMEOUT_S * NS)
 
 
-class Clock:
-    """The executor's looks at the token, each at a time that steps past the re-ask period, so
-    every look while the controller is absent asks again."""
-
-    def __init__(self, watch: ControllerToken) -> None:
-        self.watch = watch
-        self.now_ns = 0
-
-    def present(self) -> bool:
-        self.now_ns += ASK_EVERY_NS
-        return self.watch.present(self.now_ns)
+def watching() -> tuple[FakeBus, ControllerToken]:
+    bus = FakeBus()
+    return bus, ControllerToken(bus, KEY)
 
 
-def test_the_controller_token_over_a_router(router: str) -> None:
-    executor = open_session("client", [router], wait=False)
-    first = open_session("client", [router], wait=False)
-    second = open_session("client", [router], wait=False)
-    try:
-        tokens = [first.liveliness().declare_token(TOKEN)]  # a token lives while referenced
-        clock = Clock(ControllerToken(executor, TOKEN))
-        wait_until(clock.present, 5.0, "the token declared before")
+def test_the_first_look_asks_for_a_token_declared_before() -> None:
+    bus, token = watching()
+    assert bus.token_queries == []
+    assert not token.present(T0)
+    [query] = bus.token_queries
+    assert (query.key, query.timeout) == (KEY, QUERY_TIMEOUT_S)
+    query.reply(KEY)
+    assert token.present(T0 + 1)
 
-        first.close()
-        wait_until(lambda: not clock.present(), 5.0, "the DELETE of a closed session")
 
-        tokens.append(second.liveliness().declare_token(TOKEN))
-        wait_until(clock.present, 5.0, "a new controller's token")
-    finally:
-        for session in (second, first, executor):
-            session.close()
+def test_events_decide_from_then_on() -> None:
+    bus, token = watching()
+    token.present(T0)
+    bus.token(KEY, declared=True)
+    assert token.present(T0 + 1)
+    bus.token(KEY, declared=False)
+    assert not token.present(T0 + 2)
+    bus.token(KEY, declared=True)
+    assert token.present(T0 + 3)
+
+
+def test_an_answer_older_than_a_delete_proves_nothing() -> None:
+    """The query was asked before the DELETE arrived: its answer may predate it."""
+    bus, token = watching()
+    token.present(T0)
+    [query] = bus.token_queries
+    bus.token(KEY, declared=True)
+    bus.token(KEY, declared=False)
+    query.reply(KEY)
+    assert not token.present(T0 + 1)
+
+
+def test_an_unanswered_query_removes_nothing() -> None:
+    bus, token = watching()
+    token.present(T0)
+    bus.token(KEY, declared=True)
+    bus.token_queries[0].finish()
+    assert token.present(T0 + 1)
+
+
+def test_while_absent_it_asks_again_after_each_finished_query() -> None:
+    bus, token = watching()
+    token.present(T0)
+    bus.token_queries[0].finish()
+    finished = T0 + 10
+    token.present(finished)
+    token.present(finished + ASK_AGAIN_NS - 1)
+    assert len(bus.token_queries) == 1
+    token.present(finished + ASK_AGAIN_NS)
+    assert len(bus.token_queries) == 2
+
+
+def test_a_query_that_never_finishes_is_asked_again_after_its_timeout() -> None:
+    bus, token = watching()
+    token.present(T0)
+    token.present(T0 + QUERY_TIMEOUT_NS + ASK_AGAIN_NS - 1)
+    assert len(bus.token_queries) == 1
+    token.present(T0 + QUERY_TIMEOUT_NS + ASK_AGAIN_NS)
+    assert len(bus.token_queries) == 2
+
+
+def test_nothing_is_asked_while_the_controller_is_present() -> None:
+    bus, token = watching()
+    token.present(T0)
+    bus.token(KEY, declared=True)
+    bus.token_queries[0].finish()
+    for second in range(1, 10):
+        assert token.present(T0 + second * NS)
+    assert len(bus.token_queries) == 1
+    bus.token(KEY, declared=False)
+    assert not token.present(T0 + 10 * NS)
+    assert len(bus.token_queries) == 2, "gone again: asked, the last question long past"

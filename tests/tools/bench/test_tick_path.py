@@ -4,9 +4,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from motocell.services.executor.core.start import core_for_cell
 from motocell.shared.bus.schemas import Decoder, IncrementBatch
 from motocell.shared.motion.kinematics import AxisMap
-from motocell.tools.bench.tick_path import BATCH, Feed, build_core, four_groups, tick_path_us
+from motocell.tools.bench.tick_path import BATCH, Feed, four_groups, tick_path_us
 
 
 def test_every_tick_is_timed_and_the_groups_move_without_a_refusal() -> None:
@@ -19,7 +20,7 @@ def test_the_feed_numbers_batches_as_an_interpolator_anew_after_a_cleared_ring(
     tmp_path: Path,
 ) -> None:
     cell = four_groups(tmp_path)
-    core = build_core(cell)
+    core = core_for_cell(cell, None, first_epoch=1)
     feed = Feed(core, cell)
     decoder = Decoder(IncrementBatch)
     first = decoder.decode(feed.batch(0, 3))

@@ -12,14 +12,14 @@ from collections.abc import Sequence
 import numpy as np
 import pytest
 
-from motocell.services.executor.core import ExecutorCore
-from motocell.services.executor.rings import BatchOutcome
+from motocell.services.executor.core.executor import ExecutorCore
+from motocell.services.executor.core.rings import BatchOutcome
 from motocell.services.interpolator.core.feeder import MAX_BATCH, Feeder
 from motocell.shared.bus.schemas import ControllerStatus, IncrementBatch, Point, QueueState, Slot
 from motocell.shared.config import Group, load_cell, parse_cell
 from motocell.shared.motion.kinematics import IntArray
 from motocell.testing.statuses import ready_status
-from tests.services.executor.test_core import set_ready
+from tests.services.executor.core.test_executor import set_ready
 
 PERIOD = 4_000_000
 ARM6: Group = load_cell().groups[0]

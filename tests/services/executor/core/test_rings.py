@@ -6,9 +6,9 @@ from __future__ import annotations
 import msgspec
 import pytest
 
-from motocell.services.executor.rings import RING_CAPACITY, BatchOutcome, GroupRing
+from motocell.services.executor.core.rings import RING_CAPACITY, BatchOutcome, GroupRing
 from motocell.shared.bus.schemas import IncrementBatch
-from tests.services.executor.test_core import batch, unit
+from tests.services.executor.core.test_executor import batch, unit
 
 
 def offer(ring: GroupRing, b: IncrementBatch) -> BatchOutcome:

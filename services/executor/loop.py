@@ -1,9 +1,10 @@
 """The executor's clock thread: ticks on absolute CLOCK_MONOTONIC deadlines while anything may
-move, rests while nothing can. It reads the inputs, hands them to ``core.ExecutorCore``, which
-decides, and publishes what the core says; it decides nothing itself but when to sleep.
+move, rests while the core says nothing can. It drains the inputs (``bus.InputPort``), hands
+them to ``core.executor.ExecutorCore``, which decides, and publishes what the core says
+(``bus.OutputPort``); it decides nothing itself but when to sleep.
 
-SCHED_FIFO where permitted: on a 2-core machine ordinary scheduling misses 4 ms deadlines even
-idle, FIFO missed none in measurements (docs/realtime.md).
+SCHED_FIFO where permitted: ordinary scheduling misses 4 ms deadlines (measured:
+docs/realtime.md, "Why SCHED_FIFO").
 """
 
 from __future__ import annotations
@@ -12,10 +13,11 @@ import logging
 import os
 import sys
 import time
+from collections.abc import Callable
 
-from motocell.services.executor.core import ExecutorCore, next_on_grid
-from motocell.services.executor.inputs import Inputs
-from motocell.services.executor.outputs import Outputs
+from motocell.services.executor.bus import InputPort, OutputPort
+from motocell.services.executor.core.executor import ExecutorCore
+from motocell.services.executor.core.resting import next_on_grid
 from motocell.shared.bus.channels import StopSignal
 from motocell.shared.bus.liveness import AT_REST_HEARTBEAT_S
 from motocell.shared.bus.schemas import ExecutorMetrics
@@ -59,8 +61,21 @@ def enter_realtime() -> bool:
 
 
 class Clock:
+    """The clock thread's loop: ticks and rests as the core says, draining ``inputs`` before
+    each tick and publishing to ``outputs`` after. The clock (``monotonic_ns``, ``sleep``) and
+    the scheduling it asks for (``enter_realtime``) are parameters, so a test runs the loop on a
+    clock of its own."""
+
     def __init__(
-        self, core: ExecutorCore, inputs: Inputs, outputs: Outputs, stop: StopSignal
+        self,
+        core: ExecutorCore,
+        inputs: InputPort,
+        outputs: OutputPort,
+        stop: StopSignal,
+        *,
+        monotonic_ns: Callable[[], int] = time.monotonic_ns,
+        sleep: Callable[[float], None] = time.sleep,
+        enter_realtime: Callable[[], bool] = enter_realtime,
     ) -> None:
         self.core = core
         self.inputs = inputs
@@ -73,19 +88,23 @@ class Clock:
         self._next_metrics_ns = 0
         self._last_deadline = 0
         self._next_rest_tick_ns = 0
+        self._monotonic_ns = monotonic_ns
+        self._sleep = sleep
+        self._enter_realtime = enter_realtime
 
     def run(self) -> None:
-        self.realtime = enter_realtime()
+        self.realtime = self._enter_realtime()
         self._warm_up()
         period = self.period_ns
-        origin = deadline = time.monotonic_ns() + period
+        rest = self.core.rest
+        origin = deadline = self._monotonic_ns() + period
         last = deadline - period
         while not self.stop.is_set():
-            if self.core.resting:
+            if rest.resting:
                 self._rest()
-                if self.core.resting or self.stop.is_set():
+                if rest.resting or self.stop.is_set():
                     continue
-                deadline = next_on_grid(origin, period, time.monotonic_ns())
+                deadline = next_on_grid(origin, period, self._monotonic_ns())
             now = self._sleep_until(deadline)
             lateness = now - deadline
             if lateness >= period:
@@ -104,18 +123,17 @@ class Clock:
         )
 
     def _warm_up(self) -> None:
-        """numpy's percentile and msgspec's encoders set themselves up on first use, which cost
-        a 4 ms late tick when it happened in the loop."""
+        """numpy's percentile and msgspec set themselves up on first use, long enough to make a
+        tick late: here, before the first deadline."""
         self.lateness.add(0.0)
         self.lateness.summary()
         self.lateness.clear()
 
-    @staticmethod
-    def _sleep_until(deadline: int) -> int:
-        now = time.monotonic_ns()
+    def _sleep_until(self, deadline: int) -> int:
+        now = self._monotonic_ns()
         if deadline > now:
-            time.sleep((deadline - now) / 1e9)
-            now = time.monotonic_ns()
+            self._sleep((deadline - now) / 1e9)
+            now = self._monotonic_ns()
         return now
 
     def _drain(self, now: int) -> None:
@@ -156,7 +174,7 @@ class Clock:
         core = self.core
         wake_ns = min(core.rest_deadline(), self._next_metrics_ns, self._next_rest_tick_ns)
         self.inputs.rest(wake_ns / 1e9)
-        now = time.monotonic_ns()
+        now = self._monotonic_ns()
         self._drain(now)
         core.notice_if_due(now)
         self.outputs.notices(core.take_notices())

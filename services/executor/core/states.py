@@ -31,7 +31,10 @@ class Readiness(Enum):
     """Until a status shows the stall's alarm: the controller had the notice."""
 
 
-class Event(Enum):
+class ReadinessEvent(Enum):
+    """What the readiness machine hears: from the controller's statuses, its liveliness token,
+    and the clock's stall checks."""
+
     READY_STATUS = "a motion-ready status"
     NOT_READY_STATUS = "a not-ready status"
     ALARM_STATUS = "a status showing the stall's alarm (never motion-ready)"
@@ -53,47 +56,44 @@ _CLEAR = frozenset({Action.CLEAR_RINGS})
 _NOTICE = frozenset({Action.NOTICE})
 _STOP = frozenset({Action.CLEAR_RINGS, Action.NOTICE})
 
-A, W, R, S = Readiness.ABSENT, Readiness.WAITING, Readiness.READY, Readiness.STALLED
-E = Event
-
-TRANSITIONS: dict[tuple[Readiness, Event], Row] = {
+TRANSITIONS: dict[tuple[Readiness, ReadinessEvent], Row] = {
     # A status without its controller's token may be the last of a dead controller.
-    (A, E.READY_STATUS): (A, _NOTHING),
-    (A, E.NOT_READY_STATUS): (A, _NOTHING),
-    (A, E.ALARM_STATUS): (A, _NOTHING),
-    (A, E.CONTROLLER_GONE): (A, _NOTHING),
+    (Readiness.ABSENT, ReadinessEvent.READY_STATUS): (Readiness.ABSENT, _NOTHING),
+    (Readiness.ABSENT, ReadinessEvent.NOT_READY_STATUS): (Readiness.ABSENT, _NOTHING),
+    (Readiness.ABSENT, ReadinessEvent.ALARM_STATUS): (Readiness.ABSENT, _NOTHING),
+    (Readiness.ABSENT, ReadinessEvent.CONTROLLER_GONE): (Readiness.ABSENT, _NOTHING),
     # Back (or first seen): its next status decides.
-    (A, E.CONTROLLER_BACK): (W, _NOTHING),
+    (Readiness.ABSENT, ReadinessEvent.CONTROLLER_BACK): (Readiness.WAITING, _NOTHING),
     # Nothing is queued while not ready: a late tick stops nothing.
-    (A, E.STALL): (A, _NOTHING),
-    (A, E.NOTICE_DUE): (A, _NOTHING),
-    (W, E.READY_STATUS): (R, _NOTHING),
-    (W, E.NOT_READY_STATUS): (W, _NOTHING),
-    (W, E.ALARM_STATUS): (W, _NOTHING),
-    (W, E.CONTROLLER_GONE): (A, _NOTHING),
-    (W, E.CONTROLLER_BACK): (W, _NOTHING),
-    (W, E.STALL): (W, _NOTHING),
-    (W, E.NOTICE_DUE): (W, _NOTHING),
-    (R, E.READY_STATUS): (R, _NOTHING),
+    (Readiness.ABSENT, ReadinessEvent.STALL): (Readiness.ABSENT, _NOTHING),
+    (Readiness.ABSENT, ReadinessEvent.NOTICE_DUE): (Readiness.ABSENT, _NOTHING),
+    (Readiness.WAITING, ReadinessEvent.READY_STATUS): (Readiness.READY, _NOTHING),
+    (Readiness.WAITING, ReadinessEvent.NOT_READY_STATUS): (Readiness.WAITING, _NOTHING),
+    (Readiness.WAITING, ReadinessEvent.ALARM_STATUS): (Readiness.WAITING, _NOTHING),
+    (Readiness.WAITING, ReadinessEvent.CONTROLLER_GONE): (Readiness.ABSENT, _NOTHING),
+    (Readiness.WAITING, ReadinessEvent.CONTROLLER_BACK): (Readiness.WAITING, _NOTHING),
+    (Readiness.WAITING, ReadinessEvent.STALL): (Readiness.WAITING, _NOTHING),
+    (Readiness.WAITING, ReadinessEvent.NOTICE_DUE): (Readiness.WAITING, _NOTHING),
+    (Readiness.READY, ReadinessEvent.READY_STATUS): (Readiness.READY, _NOTHING),
     # Motion-ready dropped (motoros1 §3.3: the queue is cleared).
-    (R, E.NOT_READY_STATUS): (W, _CLEAR),
-    (R, E.ALARM_STATUS): (W, _CLEAR),
-    (R, E.CONTROLLER_GONE): (A, _CLEAR),
-    (R, E.CONTROLLER_BACK): (R, _NOTHING),
-    (R, E.STALL): (S, _STOP),
-    (R, E.NOTICE_DUE): (R, _NOTHING),
+    (Readiness.READY, ReadinessEvent.NOT_READY_STATUS): (Readiness.WAITING, _CLEAR),
+    (Readiness.READY, ReadinessEvent.ALARM_STATUS): (Readiness.WAITING, _CLEAR),
+    (Readiness.READY, ReadinessEvent.CONTROLLER_GONE): (Readiness.ABSENT, _CLEAR),
+    (Readiness.READY, ReadinessEvent.CONTROLLER_BACK): (Readiness.READY, _NOTHING),
+    (Readiness.READY, ReadinessEvent.STALL): (Readiness.STALLED, _STOP),
+    (Readiness.READY, ReadinessEvent.NOTICE_DUE): (Readiness.READY, _NOTHING),
     # Sent before the controller had the notice: old news, and the notice may have been lost.
-    (S, E.READY_STATUS): (S, _NOTICE),
+    (Readiness.STALLED, ReadinessEvent.READY_STATUS): (Readiness.STALLED, _NOTICE),
     # Not ready for another reason: the notice may not have reached the controller yet.
-    (S, E.NOT_READY_STATUS): (S, _NOTHING),
+    (Readiness.STALLED, ReadinessEvent.NOT_READY_STATUS): (Readiness.STALLED, _NOTHING),
     # The alarm's status: the controller knows; START_TRAJ_MODE makes it ready again.
-    (S, E.ALARM_STATUS): (W, _NOTHING),
+    (Readiness.STALLED, ReadinessEvent.ALARM_STATUS): (Readiness.WAITING, _NOTHING),
     # The stall holds whatever the token does (a router stall deletes tokens too): only the
     # controller's alarm ends it.
-    (S, E.CONTROLLER_GONE): (S, _NOTHING),
-    (S, E.CONTROLLER_BACK): (S, _NOTHING),
-    (S, E.STALL): (S, _NOTHING),
-    (S, E.NOTICE_DUE): (S, _NOTICE),
+    (Readiness.STALLED, ReadinessEvent.CONTROLLER_GONE): (Readiness.STALLED, _NOTHING),
+    (Readiness.STALLED, ReadinessEvent.CONTROLLER_BACK): (Readiness.STALLED, _NOTHING),
+    (Readiness.STALLED, ReadinessEvent.STALL): (Readiness.STALLED, _NOTHING),
+    (Readiness.STALLED, ReadinessEvent.NOTICE_DUE): (Readiness.STALLED, _NOTICE),
 }
 
 
@@ -103,7 +103,7 @@ class ReadinessMachine:
     def __init__(self) -> None:
         self.state = Readiness.ABSENT
 
-    def on(self, event: Event) -> frozenset[Action]:
+    def on(self, event: ReadinessEvent) -> frozenset[Action]:
         """Take ``event``; the actions its row asks for."""
         self.state, actions = TRANSITIONS[(self.state, event)]
         return actions

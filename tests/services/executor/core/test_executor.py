@@ -11,30 +11,26 @@ from collections.abc import Sequence
 import msgspec
 import pytest
 
-from motocell.services.executor.core import (
+from motocell.services.executor.core.executor import (
     BARRIER_TIMEOUT_TICKS,
     NOTICE_EVERY_NS,
-    REST_AFTER_NS,
     STALL_ALARM,
     ExecutorCore,
-    next_on_grid,
-    pulse_ranges,
     stalled,
-    starting_pulses,
 )
-from motocell.services.executor.readiness import Readiness
-from motocell.services.executor.rings import RING_CAPACITY, BatchOutcome
+from motocell.services.executor.core.resting import REST_AFTER_NS
+from motocell.services.executor.core.rings import RING_CAPACITY, BatchOutcome
+from motocell.services.executor.core.states import Readiness
 from motocell.shared.bus.liveness import AT_REST_HEARTBEAT_S, HEARTBEAT_S, SILENT_HEARTBEATS
 from motocell.shared.bus.schemas import (
     Alarm,
-    CommandReply,
     ControllerStatus,
     GroupTick,
     IncrementBatch,
     Point,
     QueueState,
 )
-from motocell.shared.config import PositionLoop, parse_cell
+from motocell.shared.config import PositionLoop
 from motocell.shared.motion.servo import Servos
 from motocell.shared.protocol.constants import Result
 from motocell.testing.statuses import ready_status
@@ -430,24 +426,6 @@ def test_an_axis_outside_a_narrowed_range_may_move_back_towards_it() -> None:
     assert core.step() == [0]
 
 
-def test_pulse_ranges_follow_the_cell_in_motoman_order() -> None:
-    cell = parse_cell(
-        {
-            "groups": [
-                {"name": "R1", "model": "arm7", "joint_limits": [[-1.0, 1.0]] * 6 + [[-0.5, 0.25]]},
-                {"name": "B1", "model": "track1"},
-            ]
-        }
-    )
-    (lower, upper), (track_lower, track_upper) = pulse_ranges(cell)
-    # ROS T (the 7th) is Motoman T (the 6th); ROS E (the 3rd) is Motoman E (the 7th).
-    assert upper[:7] == [65536, 65536, 65536, 36408, 36408, 6144, 65536]
-    assert lower[5] == -12288
-    assert lower[7] == upper[7] == 0
-    assert (track_lower[0], track_upper[0]) == (-3_000_000, 3_000_000)
-    assert track_lower[1:] == track_upper[1:] == [0] * 7
-
-
 def test_a_synchronized_start_that_waits_too_long_is_reported() -> None:
     core = ready_core()
     start = msgspec.structs.replace(
@@ -549,42 +527,6 @@ def test_tick_report() -> None:
     assert tick.motion_ready is True
     assert tick.groups[0].increment[0] == 7
     assert tick.groups[0].command_pulses[0] == START[0][0] + 7
-
-
-# -- where the robot starts ---------------------------------------------------------------
-
-CELL = parse_cell(
-    {
-        "groups": [
-            {"name": "R1", "model": "arm6", "initial_position": [1.0, 0, 0, 0, 0, -1.0]},
-            {"name": "R2", "model": "positioner2", "initial_position": [0.5, 0]},
-        ]
-    }
-)
-
-
-def test_a_restarted_executor_resumes_where_the_controller_remembers() -> None:
-    remembered = CommandReply(Result.SUCCESS, pulses=START)
-    assert starting_pulses(CELL, remembered) == START
-
-
-@pytest.mark.parametrize(
-    "remembered",
-    [
-        None,
-        CommandReply(Result.FAILURE, pulses=START),
-        CommandReply(Result.SUCCESS, pulses=START[:1]),
-        CommandReply(Result.SUCCESS),
-    ],
-)
-def test_without_a_usable_memory_the_cell_files_initial_positions_are_used(
-    remembered: CommandReply | None,
-) -> None:
-    # arm6: 58670 pulses/rad on S, 21990 on T; positioner2: 40000 pulses/rad.
-    assert starting_pulses(CELL, remembered) == [
-        [58670, 0, 0, 0, 0, -21990, 0, 0],
-        [20000, 0, 0, 0, 0, 0, 0, 0],
-    ]
 
 
 # --- stalls -------------------------------------------------------------------------------
@@ -699,9 +641,9 @@ def run_quiet(core: ExecutorCore, start_ns: int, duration_ns: int) -> int:
 def test_the_clock_rests_after_a_quiet_second() -> None:
     core = ready_core()
     run_quiet(core, 0, REST_AFTER_NS)
-    assert not core.resting
+    assert not core.rest.resting
     core.on_tick(REST_AFTER_NS + 2 * PERIOD_NS, 0)
-    assert core.resting
+    assert core.rest.resting
     tick = core.tick_report(0, 0, 0)
     assert tick.resting
     assert {state.heartbeat_ms for _, state in core.queue_updates(REST_AFTER_NS)} == {
@@ -715,17 +657,17 @@ def test_the_clock_runs_while_anything_is_queued_owed_or_settling() -> None:
     core.accept(0, batch(FIRST_EPOCH, 0, [unit(500)] * 3))
     promise(core, 7)  # a point whose increments have not come yet
     now = run_quiet(core, 0, 2 * REST_AFTER_NS)
-    assert not core.resting
+    assert not core.rest.resting
     core.accept(0, through(FIRST_EPOCH, 3, [unit(500)], done=7))
     now = run_quiet(core, now, PERIOD_NS)
     assert not core.servos.at_rest
     while not core.quiet():  # the feedback settles well after the last increment
         now = run_quiet(core, now, PERIOD_NS)
-        assert not core.resting
+        assert not core.rest.resting
     now = run_quiet(core, now, REST_AFTER_NS - PERIOD_NS)
-    assert not core.resting
+    assert not core.rest.resting
     run_quiet(core, now, PERIOD_NS)
-    assert core.resting
+    assert core.rest.resting
 
 
 def settling_servos() -> Servos:
@@ -735,13 +677,13 @@ def settling_servos() -> Servos:
 def test_a_point_or_a_batch_wakes_a_resting_clock() -> None:
     core = ready_core()
     now = run_quiet(core, 0, REST_AFTER_NS + PERIOD_NS)
-    assert core.resting
+    assert core.rest.resting
     core.on_point(0, Point(1, 0, 0.0, [], [], epoch=FIRST_EPOCH))
-    assert not core.resting
+    assert not core.rest.resting
     run_quiet(core, now, REST_AFTER_NS + 2 * PERIOD_NS)
-    assert core.resting
+    assert core.rest.resting
     core.accept(0, batch(FIRST_EPOCH, 0, [unit(1)]))
-    assert not core.resting
+    assert not core.rest.resting
 
 
 def test_a_clock_woken_from_rest_keeps_the_short_heartbeat_it_announces() -> None:
@@ -768,21 +710,13 @@ def test_a_resting_clock_wakes_to_tell_an_unconfirmed_stall_again() -> None:
     told_at = [26 * PERIOD_NS]
     now = told_at[0]
     core.take_notices()
-    while not core.resting:  # no status comes: the controller never confirms
+    while not core.rest.resting:  # no status comes: the controller never confirms
         now += PERIOD_NS
         core.on_tick(now, 0)
         told_at += [now] * len(core.take_notices())
     assert told_at == [26 * PERIOD_NS, 26 * PERIOD_NS + NOTICE_EVERY_NS]
     core.queue_updates(now)
     assert core.rest_deadline() == told_at[-1] + NOTICE_EVERY_NS
-
-
-@pytest.mark.parametrize(
-    ("now", "expected"),
-    [(0, 100), (100, 100), (101, 104), (103, 104), (104, 104), (105, 108), (50, 100)],
-)
-def test_a_rested_clock_resumes_on_its_grid(now: int, expected: int) -> None:
-    assert next_on_grid(100, 4, now) == expected
 
 
 # -- starved rings: increments that stop coming mid-trajectory ------------------------------

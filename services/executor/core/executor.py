@@ -1,5 +1,6 @@
-"""The executor's decisions as a function of (state, input): readiness, the rings, one tick, when
-the clock may rest. No clock, no I/O: every time is passed in (CLOCK_MONOTONIC nanoseconds).
+"""The executor's decisions as a function of (state, input): readiness, the rings, one tick, what
+is refused. No clock, no I/O: every time is passed in (CLOCK_MONOTONIC nanoseconds). When a
+queue state goes out is ``queue_cadence``'s, when the clock rests ``resting``'s.
 
 What it tells the controller (the IncMove error, a stall, a range limit) waits in ``notices``
 until the caller sends it.
@@ -9,10 +10,15 @@ from __future__ import annotations
 
 import logging
 
-import numpy as np
-
-from motocell.services.executor.readiness import Action, Event, Readiness, ReadinessMachine
-from motocell.services.executor.rings import RING_CAPACITY, ZERO, BatchOutcome, GroupRing
+from motocell.services.executor.core.queue_cadence import QueueCadence
+from motocell.services.executor.core.resting import Resting
+from motocell.services.executor.core.rings import RING_CAPACITY, ZERO, BatchOutcome, GroupRing
+from motocell.services.executor.core.states import (
+    Action,
+    Readiness,
+    ReadinessEvent,
+    ReadinessMachine,
+)
 from motocell.shared.bus.liveness import SILENT_HEARTBEATS, heartbeat_ms, silence_bound_s
 from motocell.shared.bus.schemas import (
     CommandReply,
@@ -23,8 +29,7 @@ from motocell.shared.bus.schemas import (
     QueueState,
     Tick,
 )
-from motocell.shared.config import DEFAULT_MAX_LATENESS_PERIODS, Cell, IdealServo
-from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.config import DEFAULT_MAX_LATENESS_PERIODS, IdealServo
 from motocell.shared.motion.servo import Servos
 from motocell.shared.protocol.constants import Result
 
@@ -50,19 +55,6 @@ partner's increments are not coming: the increment path is broken."""
 NOTICE_EVERY_NS = 1_000_000_000
 """How often an unconfirmed stall is told again."""
 
-DRAINING_EVERY_TICKS = 10
-"""While a ring only drains (its depth and the command change, nothing else), its queue state
-goes out every this many ticks (40 ms at 4 ms) instead of every tick: its readers act on room
-for a batch of entries (the interpolator, which fills the ring in batches of up to 50) or
-count entries a fifth of a second deep (the gateway), and a few entries' staleness only errs
-towards waiting; epochs, arrivals, readiness and a ring that ran dry still go out at once.
-Every 10 rather than 5 ticks: a moving interpolator wakes about a third less (figure 10's
-moving case: the four 4.2 -> 3.2 % of a core), figures 4 and 5 no worse (docs/realtime.md)."""
-
-REST_AFTER_NS = 1_000_000_000
-"""How long the clock keeps ticking with nothing to do before it rests: a client between two
-points of one trajectory (motoman_driver streams several a second) keeps it running."""
-
 
 def stalled(lateness_ns: int, period_ns: int, max_lateness_periods: int) -> bool:
     """Whether a tick this late is a stall: its increments, and all queued behind them, would
@@ -77,48 +69,6 @@ def _too_fast(row: tuple[int, ...], most: list[int]) -> bool:
         if increment > limit or -increment > limit:
             return True
     return False
-
-
-def next_on_grid(origin_ns: int, period_ns: int, now_ns: int) -> int:
-    """The first deadline at or after ``now_ns`` on the clock's grid (``origin_ns`` plus whole
-    periods): a clock that rested resumes in the phase it had, so the first increment of a
-    trajectory lands on the tick boundary it would have had if the clock had never stopped."""
-    periods = max(0, -(-(now_ns - origin_ns) // period_ns))
-    return origin_ns + periods * period_ns
-
-
-def pulse_ranges(cell: Cell) -> list[tuple[list[int], list[int]]]:
-    """Each group's motion range as (lower, upper) pulses in Motoman order (unused axes 0),
-    converted as positions are, so a point exactly at a limit lands exactly on it."""
-    ranges = []
-    for group in cell.groups:
-        axis_map = AxisMap(group)
-        lower, upper = np.array(group.joint_limits, dtype=np.float64).T
-        ranges.append(
-            (
-                axis_map.pad_moto(axis_map.ros_to_pulses(lower)),
-                axis_map.pad_moto(axis_map.ros_to_pulses(upper)),
-            )
-        )
-    return ranges
-
-
-def starting_pulses(cell: Cell, remembered: CommandReply | None) -> list[list[int]]:
-    """Where the robot is: across an executor restart, the commanded pulses of the newest tick
-    the broadcaster had (``remembered``, its reply to ``positions``); without them, the cell
-    file's initial positions."""
-    if (
-        remembered is not None
-        and remembered.result == Result.SUCCESS
-        and len(remembered.pulses) == len(cell.groups)
-    ):
-        log.info("resuming from the last commanded position")
-        return remembered.pulses
-    pulses = []
-    for group in cell.groups:
-        axis_map = AxisMap(group)
-        pulses.append(axis_map.pad_moto(axis_map.ros_to_pulses(np.array(group.initial_position))))
-    return pulses
 
 
 class ExecutorCore:
@@ -143,7 +93,7 @@ class ExecutorCore:
         """The commanded pulses, one row per group, Motoman order (``MAX_AXES`` each). Plain
         ints, as everything the tick computes per axis: numpy's call overhead on rows of 8
         costs more than the arithmetic (docs/realtime.md, "The tick's cost"). A row is replaced,
-        never changed in place, so ``queue_updates`` may keep it to compare with."""
+        never changed in place, so ``QueueCadence`` may keep it to compare with."""
         self.servos = servos or Servos([IdealServo()] * len(command_pulses), 1.0, command_pulses)
         self.servo_powered = True
         """The controller's last status had the servo on (and not in eco mode); assumed until
@@ -169,13 +119,9 @@ class ExecutorCore:
         self._last_status_ns: int | None = None
         self._status_heartbeat_ms = heartbeat_ms(motion_possible=True)
         self._last_notice_ns = 0
-        self.resting = False
-        """The clock stopped: nothing queued, owed or settling for ``REST_AFTER_NS``."""
-        self._quiet_since_ns: int | None = None
-        self._published_queues: list[tuple[object, ...] | None] = [None] * len(command_pulses)
-        self._published_at = [0] * len(command_pulses)
-        """The tick each group's queue state last went out."""
-        self._next_queue_heartbeat_ns = 0
+        self.rest = Resting()
+        """Whether the clock rests (``rest.resting``): the loop stops ticking while it does."""
+        self._queue_cadence = QueueCadence(self.rings)
 
     # -- readiness ---------------------------------------------------------------------------
 
@@ -189,18 +135,20 @@ class ExecutorCore:
         self._status_heartbeat_ms = status.heartbeat_ms
         self.servo_powered = status.servo_on and not status.eco
         if any(alarm.code == STALL_ALARM for alarm in status.alarms):
-            event = Event.ALARM_STATUS
+            event = ReadinessEvent.ALARM_STATUS
         elif status.motion_ready:
-            event = Event.READY_STATUS
+            event = ReadinessEvent.READY_STATUS
         else:
-            event = Event.NOT_READY_STATUS
+            event = ReadinessEvent.NOT_READY_STATUS
         self._take(event, received_ns, "stall not yet confirmed by the controller")
 
     def on_controller(self, present: bool, now_ns: int) -> None:
         """Whether the controller's liveliness token is present."""
-        self._take(Event.CONTROLLER_BACK if present else Event.CONTROLLER_GONE, now_ns)
+        self._take(
+            ReadinessEvent.CONTROLLER_BACK if present else ReadinessEvent.CONTROLLER_GONE, now_ns
+        )
 
-    def _take(self, event: Event, now_ns: int, reason: str = "") -> None:
+    def _take(self, event: ReadinessEvent, now_ns: int, reason: str = "") -> None:
         before = self.readiness.state
         actions = self.readiness.on(event)
         if Action.CLEAR_RINGS in actions:
@@ -285,9 +233,9 @@ class ExecutorCore:
         self.tick += periods
         late = stalled(lateness_ns, self.period_ns, self.max_lateness_periods)
         if late:
-            self._take(Event.STALL, now_ns, f"tick {lateness_ns / 1e6:.1f} ms late")
+            self._take(ReadinessEvent.STALL, now_ns, f"tick {lateness_ns / 1e6:.1f} ms late")
         elif self.controller_silent(now_ns):
-            self._take(Event.STALL, now_ns, "no controller status heard")
+            self._take(ReadinessEvent.STALL, now_ns, "no controller status heard")
         self.notice_if_due(now_ns)
         for group in self.step():
             if group in self.beyond_range:
@@ -296,13 +244,16 @@ class ExecutorCore:
                 self._increment_path_broken(group, "increments stopped mid-trajectory")
             else:
                 self._increment_path_broken(group, "refused by the motion system")
-        self._note_quiet(now_ns)
+        if self.rest.after_tick(self.quiet(), now_ns):
+            self._queue_cadence.restart_heartbeat()  # tell the long heartbeat at once
         return late
 
     def notice_if_due(self, now_ns: int) -> None:
         """Tell an unconfirmed stall again once a second."""
         if self.readiness.stalled and now_ns - self._last_notice_ns >= NOTICE_EVERY_NS:
-            self._take(Event.NOTICE_DUE, now_ns, "stall not yet confirmed by the controller")
+            self._take(
+                ReadinessEvent.NOTICE_DUE, now_ns, "stall not yet confirmed by the controller"
+            )
 
     def step(self) -> list[int]:
         """One interpolation period: at most one (merged) increment per group, all applied
@@ -412,9 +363,8 @@ class ExecutorCore:
     def _run_clock(self) -> None:
         """Motion is asked for: a resting clock runs again, and its queue states announce the
         short heartbeat from the next one on, which must then come that soon."""
-        if self.resting:
-            self.resting = False
-            self._next_queue_heartbeat_ns = 0
+        if self.rest.wake():
+            self._queue_cadence.restart_heartbeat()
 
     def quiet(self) -> bool:
         """Nothing for the clock to do: every ring empty and owed nothing, no synchronized
@@ -425,29 +375,20 @@ class ExecutorCore:
             and self.servos.at_rest
         )
 
-    def _note_quiet(self, now_ns: int) -> None:
-        if not self.quiet():
-            self._quiet_since_ns = None
-        elif self._quiet_since_ns is None:
-            self._quiet_since_ns = now_ns
-        elif now_ns - self._quiet_since_ns >= REST_AFTER_NS:
-            self.resting = True
-            self._quiet_since_ns = None
-            self._next_queue_heartbeat_ns = 0  # tell the new heartbeat at once
-
     def rest_deadline(self) -> int:
         """When a resting clock must wake even if nothing arrives: the queue heartbeat, or the
         next notice of an unconfirmed stall."""
+        heartbeat_ns = self._queue_cadence.next_heartbeat_ns
         if self.readiness.stalled:
-            return min(self._next_queue_heartbeat_ns, self._last_notice_ns + NOTICE_EVERY_NS)
-        return self._next_queue_heartbeat_ns
+            return min(heartbeat_ns, self._last_notice_ns + NOTICE_EVERY_NS)
+        return heartbeat_ns
 
     # -- reports -----------------------------------------------------------------------------
 
     def queue_heartbeat_ms(self) -> int:
         """Short while the clock runs; long while it rests, when the queues cannot change
         without a point or a status waking it first."""
-        return heartbeat_ms(motion_possible=not self.resting)
+        return heartbeat_ms(motion_possible=not self.rest.resting)
 
     def queue_state(self, group: int) -> QueueState:
         ring = self.rings[group]
@@ -463,40 +404,15 @@ class ExecutorCore:
         )
 
     def queue_updates(self, now_ns: int, force: bool = False) -> list[tuple[int, QueueState]]:
-        """The queue states to publish now: each that changed (a draining ring every
-        ``DRAINING_EVERY_TICKS``), and all of them at the heartbeat or when ``force``d, so idle
-        interpolators and gateways need not wake 250 times a second."""
-        heartbeat = force or now_ns >= self._next_queue_heartbeat_ns
-        if heartbeat:
-            self._next_queue_heartbeat_ns = now_ns + self.queue_heartbeat_ms() * 1_000_000
-        ready, heartbeat_ms = self.ready, self.queue_heartbeat_ms()
+        """The queue states to publish now (``QueueCadence``): each that changed, and all of
+        them at the heartbeat or when ``force``d, so idle interpolators and gateways need not
+        wake 250 times a second."""
         updates = []
-        for group, ring in enumerate(self.rings):
-            # What a queue state says, compared before one is built (most ticks build none).
-            content = (
-                ring.epoch,
-                ring.received,
-                len(ring.entries),
-                self.command[group],
-                ready,
-                heartbeat_ms,
-            )
-            if heartbeat or self._queue_due(group, content):
-                self._published_queues[group] = content
-                self._published_at[group] = self.tick
-                updates.append((group, self.queue_state(group)))
+        for group in self._queue_cadence.due(
+            now_ns, self.tick, self.command, self.ready, self.queue_heartbeat_ms(), force=force
+        ):
+            updates.append((group, self.queue_state(group)))
         return updates
-
-    def _queue_due(self, group: int, content: tuple[object, ...]) -> bool:
-        last = self._published_queues[group]
-        if last is None:
-            return True
-        if content == last:
-            return False
-        draining = (
-            content[:2] == last[:2] and content[4:] == last[4:] and content[2] != 0  # depth
-        )
-        return not draining or self.tick - self._published_at[group] >= DRAINING_EVERY_TICKS
 
     def group_ticks(self) -> list[GroupTick]:
         feedback = self.servos.feedback_pulses()
@@ -522,5 +438,5 @@ class ExecutorCore:
             missed=missed,
             motion_ready=self.ready,
             groups=self.group_ticks(),
-            resting=self.resting,
+            resting=self.rest.resting,
         )

@@ -3,10 +3,10 @@ to rest through the servo, and servo off freezes it with the command set to it."
 
 from __future__ import annotations
 
-from motocell.services.executor.core import ExecutorCore
+from motocell.services.executor.core.executor import ExecutorCore
 from motocell.shared.config import PositionLoop
 from motocell.shared.motion.servo import Servos
-from tests.services.executor.test_core import FIRST_EPOCH, batch, set_ready, status, unit
+from tests.services.executor.core.test_executor import FIRST_EPOCH, batch, set_ready, status, unit
 
 PERIOD_S = 0.004
 START = [[0] * 8]
