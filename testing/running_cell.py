@@ -368,7 +368,7 @@ def moving(cell: RunningCell, seconds: float) -> Iterator[None]:
             smooth_move(away, start, duration=seconds / 2, points=11),
         ]
         streamer = threading.Thread(
-            target=lambda: [stream(motion, leg) for leg in legs], name="testkit-mover"
+            target=lambda: [stream(motion, leg) for leg in legs], name="cell-mover"
         )
         streamer.start()
         try:

@@ -438,7 +438,7 @@ def test_a_synchronized_start_that_waits_too_long_is_reported() -> None:
     assert core.step() == [0]
 
 
-# -- readiness (every transition: tests/services/executor/test_readiness.py) ---------------
+# -- readiness (every transition: tests/services/executor/core/test_states.py) ---------------
 
 
 def test_ready_needs_a_ready_status_from_a_live_controller() -> None:
