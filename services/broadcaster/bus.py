@@ -17,9 +17,16 @@ from typing import Protocol
 
 import zenoh
 
+from motocell.shared.bus.adapters import (
+    Declared,
+    Latest,
+    Publication,
+    ZenohLatest,
+    ZenohPublication,
+)
 from motocell.shared.bus.channels import Doorbell
 from motocell.shared.bus.schemas import CommandReply, Tick
-from motocell.shared.bus.session import Liveness, answer, observed, publisher
+from motocell.shared.bus.session import Liveness, answer, publisher
 
 # -- what the loop needs ---------------------------------------------------------------------
 
@@ -49,16 +56,6 @@ class StateReports(Protocol):
         ...
 
 
-class Publication(Protocol):
-    def put(self, payload: bytes) -> None: ...
-
-    def observed(self) -> bool:
-        """Whether any subscriber on the bus matches it now (Zenoh's matching status)."""
-        ...
-
-    def undeclare(self) -> None: ...
-
-
 # -- what the bus shells need of a session ---------------------------------------------------
 
 
@@ -82,17 +79,6 @@ class Channel(Protocol):
     def close(self) -> None: ...
 
 
-class Latest(Protocol):
-    """A subscription that keeps only the newest sample until it is read (a Zenoh
-    ``RingChannel(1)``): no Python runs on the bus's threads for it."""
-
-    def take(self) -> bytes | None:
-        """The newest payload since the last read, None if none came; never blocks."""
-        ...
-
-    def undeclare(self) -> None: ...
-
-
 class Tokens(Protocol):
     """The liveliness tokens present under a key (``shared.bus.session.Liveness``)."""
 
@@ -103,10 +89,6 @@ class Tokens(Protocol):
     def present(self) -> frozenset[str]: ...
 
     def close(self) -> None: ...
-
-
-class Declared(Protocol):
-    def undeclare(self) -> None: ...
 
 
 class Bus(Protocol):
@@ -152,32 +134,6 @@ class _ZenohChannel:
         self._subscriber.undeclare()
 
 
-class _ZenohLatest:
-    def __init__(self, session: zenoh.Session, key: str) -> None:
-        self._subscriber = session.declare_subscriber(key, zenoh.handlers.RingChannel(1))
-
-    def take(self) -> bytes | None:
-        sample = self._subscriber.try_recv()
-        return None if sample is None else sample.payload.to_bytes()
-
-    def undeclare(self) -> None:
-        self._subscriber.undeclare()
-
-
-class _ZenohPublication:
-    def __init__(self, publisher: zenoh.Publisher) -> None:
-        self._publisher = publisher
-
-    def put(self, payload: bytes) -> None:
-        self._publisher.put(payload)
-
-    def observed(self) -> bool:
-        return observed(self._publisher)
-
-    def undeclare(self) -> None:
-        self._publisher.undeclare()
-
-
 class ZenohBus:
     """``Bus`` over a Zenoh session."""
 
@@ -188,10 +144,10 @@ class ZenohBus:
         return _ZenohChannel(self._session, key, size)
 
     def latest(self, key: str) -> Latest:
-        return _ZenohLatest(self._session, key)
+        return ZenohLatest(self._session, key)
 
     def publisher(self, key: str, *, realtime: bool = False, latest: bool = False) -> Publication:
-        return _ZenohPublication(publisher(self._session, key, realtime=realtime, latest=latest))
+        return ZenohPublication(publisher(self._session, key, realtime=realtime, latest=latest))
 
     def tokens(self, key: str) -> Tokens:
         return Liveness(self._session, key)

@@ -23,10 +23,11 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Protocol
 
-from motocell.services.broadcaster.bus import Publication, StateReports, TickFeed
+from motocell.services.broadcaster.bus import StateReports, TickFeed
 from motocell.services.broadcaster.core.backlog import Cycle
 from motocell.services.broadcaster.core.broadcaster import Broadcaster
 from motocell.services.broadcaster.core.frames import state_frames
+from motocell.shared.bus.adapters import Publication
 from motocell.shared.bus.channels import StopSignal
 from motocell.shared.bus.schemas import State, encode
 from motocell.shared.protocol.codec import ByteOrder

@@ -19,6 +19,7 @@ from typing import Protocol
 
 import zenoh
 
+from motocell.shared.bus.adapters import Declared, Publication, ZenohPublication
 from motocell.shared.bus.channels import Doorbell as ZenohDoorbell
 from motocell.shared.bus.schemas import (
     CommandReply,
@@ -29,7 +30,7 @@ from motocell.shared.bus.schemas import (
     QueueState,
     Tick,
 )
-from motocell.shared.bus.session import answer, call, observed, publisher
+from motocell.shared.bus.session import answer, call, publisher
 
 # -- what the loop needs ---------------------------------------------------------------------
 
@@ -158,14 +159,6 @@ class TokenAnswers(Protocol):
         ...
 
 
-class Publication(Protocol):
-    def put(self, payload: bytes) -> None: ...
-
-    def observed(self) -> bool:
-        """Whether any subscriber on the bus matches it now."""
-        ...
-
-
 class Doorbell(Protocol):
     """Wakes the reader blocked in ``Channel.recv`` on its key, in this session only
     (``shared.bus.channels.Doorbell``)."""
@@ -173,12 +166,6 @@ class Doorbell(Protocol):
     def ring(self) -> None: ...
 
     def close(self) -> None: ...
-
-
-class Declared(Protocol):
-    """A subscription or queryable: it lives while referenced."""
-
-    def undeclare(self) -> None: ...
 
 
 class Bus(Protocol):
@@ -231,17 +218,6 @@ class _ZenohQuery:
         answer(self._query, reply)
 
 
-class _ZenohPublication:
-    put: Callable[[bytes], None]
-
-    def __init__(self, publisher: zenoh.Publisher) -> None:
-        self._publisher = publisher
-        self.put = publisher.put  # Zenoh's own call: no frame of ours per sample
-
-    def observed(self) -> bool:
-        return observed(self._publisher)
-
-
 class _ZenohTokenAnswers:
     def __init__(self, answers: zenoh.handlers.Handler[zenoh.Reply]) -> None:
         self._answers = answers
@@ -281,7 +257,7 @@ class ZenohBus:
         )
 
     def publisher(self, key: str, *, realtime: bool = False, latest: bool = False) -> Publication:
-        return _ZenohPublication(publisher(self._session, key, realtime=realtime, latest=latest))
+        return ZenohPublication(publisher(self._session, key, realtime=realtime, latest=latest))
 
     def doorbell(self, key: str) -> Doorbell:
         return ZenohDoorbell(self._session, key)

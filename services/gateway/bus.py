@@ -15,32 +15,14 @@ from typing import Protocol
 
 import zenoh
 
-from motocell.shared.bus.session import ENCODING, Liveness, observed, publisher
-
-
-class Latest(Protocol):
-    """A subscription that keeps only the newest sample until it is read (a Zenoh
-    ``RingChannel(1)``): no Python runs on the bus's threads for it."""
-
-    def take(self) -> bytes | None:
-        """The newest payload since the last read, None if none came; never blocks."""
-        ...
-
-    def undeclare(self) -> None: ...
+from motocell.shared.bus.adapters import Latest, Publication, ZenohLatest, ZenohPublication
+from motocell.shared.bus.session import ENCODING, Liveness, publisher
 
 
 class Subscription(Protocol):
     def undeclare(self) -> None:
         """Returns once none of its callbacks runs any more: never call it holding a lock that
         a callback takes."""
-        ...
-
-
-class Publication(Protocol):
-    def put(self, payload: bytes) -> None: ...
-
-    def observed(self) -> bool:
-        """Whether any subscriber on the bus matches it now."""
         ...
 
 
@@ -84,29 +66,6 @@ class Bus(Protocol):
         ...
 
 
-class _RingLatest:
-    def __init__(self, subscriber: zenoh.Subscriber[zenoh.handlers.Handler[zenoh.Sample]]) -> None:
-        self._subscriber = subscriber
-
-    def take(self) -> bytes | None:
-        sample = self._subscriber.try_recv()
-        return None if sample is None else sample.payload.to_bytes()
-
-    def undeclare(self) -> None:
-        self._subscriber.undeclare()
-
-
-class _Publication:
-    def __init__(self, publisher: zenoh.Publisher) -> None:
-        self._publisher = publisher
-
-    def put(self, payload: bytes) -> None:
-        self._publisher.put(payload)
-
-    def observed(self) -> bool:
-        return observed(self._publisher)
-
-
 class ZenohBus:
     """``Bus`` over a Zenoh session."""
 
@@ -114,7 +73,7 @@ class ZenohBus:
         self._session = session
 
     def latest(self, key: str) -> Latest:
-        return _RingLatest(self._session.declare_subscriber(key, zenoh.handlers.RingChannel(1)))
+        return ZenohLatest(self._session, key)
 
     def subscribe(self, key: str, on_payload: Callable[[bytes], None]) -> Subscription:
         def on_sample(sample: zenoh.Sample) -> None:
@@ -123,7 +82,7 @@ class ZenohBus:
         return self._session.declare_subscriber(key, on_sample)
 
     def publisher(self, key: str, *, realtime: bool = False, latest: bool = False) -> Publication:
-        return _Publication(publisher(self._session, key, realtime=realtime, latest=latest))
+        return ZenohPublication(publisher(self._session, key, realtime=realtime, latest=latest))
 
     def query(
         self,

@@ -13,9 +13,10 @@ from typing import Protocol
 
 import zenoh
 
+from motocell.shared.bus.adapters import Declared, Publication, ZenohPublication
 from motocell.shared.bus.channels import Channel as ZenohChannel
 from motocell.shared.bus.channels import Doorbell as ZenohDoorbell
-from motocell.shared.bus.session import ENCODING, observed, publisher
+from motocell.shared.bus.session import ENCODING, publisher
 
 
 class Channel(Protocol):
@@ -39,18 +40,6 @@ class Doorbell(Protocol):
         ...
 
     def close(self) -> None: ...
-
-
-class Publication(Protocol):
-    def put(self, payload: bytes) -> None: ...
-
-    def observed(self) -> bool:
-        """Whether any subscriber on the bus matches it now."""
-        ...
-
-
-class Declared(Protocol):
-    def undeclare(self) -> None: ...
 
 
 class Bus(Protocol):
@@ -88,17 +77,6 @@ class _Channel:
         self._subscriber.undeclare()
 
 
-class _Publication:
-    def __init__(self, publisher: zenoh.Publisher) -> None:
-        self._publisher = publisher
-
-    def put(self, payload: bytes) -> None:
-        self._publisher.put(payload)
-
-    def observed(self) -> bool:
-        return observed(self._publisher)
-
-
 class ZenohBus:
     """``Bus`` over a Zenoh session."""
 
@@ -115,7 +93,7 @@ class ZenohBus:
         return ZenohDoorbell(self._session, key)
 
     def publisher(self, key: str, *, realtime: bool = False, latest: bool = False) -> Publication:
-        return _Publication(publisher(self._session, key, realtime=realtime, latest=latest))
+        return ZenohPublication(publisher(self._session, key, realtime=realtime, latest=latest))
 
     def answer(self, key: str, payload: Callable[[], bytes]) -> Declared:
         def on_query(query: zenoh.Query) -> None:

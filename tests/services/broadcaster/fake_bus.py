@@ -10,6 +10,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from motocell.shared.bus.schemas import CommandReply, Tick
+from tests.services.fake_publication import FakePublication
 
 WAIT_S = 5.0
 """Deadline for what another thread is expected to do soon (generous for a loaded host)."""
@@ -62,26 +63,6 @@ class FakeLatest:
     def take(self) -> bytes | None:
         payload, self._payload = self._payload, None
         return payload
-
-    def undeclare(self) -> None:
-        self.undeclared = True
-
-
-class FakePublication:
-    def __init__(self, key: str, realtime: bool, latest: bool) -> None:
-        self.key = key
-        self.realtime = realtime
-        self.latest = latest
-        self.payloads: list[bytes] = []
-        self.subscribed = False
-        """What ``observed`` says: whether a subscriber on the bus matches."""
-        self.undeclared = False
-
-    def put(self, payload: bytes) -> None:
-        self.payloads.append(payload)
-
-    def observed(self) -> bool:
-        return self.subscribed
 
     def undeclare(self) -> None:
         self.undeclared = True

@@ -17,8 +17,9 @@ from motocell.shared.protocol.codec import NEED_DATA, ByteOrder, Role, SimpleMes
 from motocell.shared.protocol.constants import MsgType
 from motocell.shared.protocol.messages import JointFeedback, Message
 from motocell.shared.service import StopFlag
-from tests.services.broadcaster.fake_bus import FakePublication, RecordedReports, ScriptedTicks
+from tests.services.broadcaster.fake_bus import RecordedReports, ScriptedTicks
 from tests.services.broadcaster.scripted import MS, FakeController, cell, group_tick, tick
+from tests.services.fake_publication import FakePublication
 
 PULSES_PER_RADIAN = 58670
 STATE_PERIOD_S = 0.004

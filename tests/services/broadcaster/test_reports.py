@@ -9,7 +9,8 @@ import pytest
 from motocell.services.broadcaster.reports import REFRESH_S, StatePortReports
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import BroadcasterMetrics, CommandRequest, Decoder
-from tests.services.broadcaster.fake_bus import FakeBus, FakePublication
+from tests.services.broadcaster.fake_bus import FakeBus
+from tests.services.fake_publication import FakePublication
 
 KEYS = CellKeys("c1")
 

@@ -16,6 +16,7 @@ from enum import Enum
 
 from motocell.services.executor.bus import Query, TokenEvent
 from motocell.shared.bus.schemas import CommandReply
+from tests.services.fake_publication import FakePublication
 
 WAIT_S = 5.0
 """Deadline for what another thread is expected to do soon (generous for a loaded host)."""
@@ -111,22 +112,6 @@ class FakeQuery:
 
     def answer(self, reply: CommandReply) -> None:
         self.replies.append(reply)
-
-
-@dataclass
-class FakePublication:
-    key: str
-    realtime: bool
-    latest: bool
-    payloads: list[bytes] = field(default_factory=list)
-    subscribed: bool = False
-    """What ``observed`` says: whether a subscriber on the bus matches."""
-
-    def put(self, payload: bytes) -> None:
-        self.payloads.append(payload)
-
-    def observed(self) -> bool:
-        return self.subscribed
 
 
 class FakeDoorbell:

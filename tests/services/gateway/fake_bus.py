@@ -10,6 +10,8 @@ import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from tests.services.fake_publication import FakePublication
+
 WAIT_S = 5.0
 """Deadline for what another thread is expected to do soon (generous for a loaded host)."""
 
@@ -43,20 +45,6 @@ class FakeSubscription:
     def undeclare(self) -> None:
         self._bus.io(f"undeclare {self.key}")
         self.undeclared = True
-
-
-class FakePublication:
-    def __init__(self, key: str) -> None:
-        self.key = key
-        self.payloads: list[bytes] = []
-        self.subscribed = False
-        """What ``observed`` says: whether a subscriber on the bus matches."""
-
-    def put(self, payload: bytes) -> None:
-        self.payloads.append(payload)
-
-    def observed(self) -> bool:
-        return self.subscribed
 
 
 @dataclass

@@ -11,7 +11,8 @@ from motocell.services.gateway.reporter import NOT_SERVED, Reporter
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import CommandRequest, Decoder, GatewayMetrics
 from motocell.shared.protocol.constants import MsgType
-from tests.services.gateway.fake_bus import FakeBus, FakePublication
+from tests.services.fake_publication import FakePublication
+from tests.services.gateway.fake_bus import FakeBus
 
 KEYS = CellKeys("cell1")
 

@@ -10,6 +10,8 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from tests.services.fake_publication import FakePublication
+
 WAIT_S = 5.0
 """Deadline for what another thread is expected to do soon (generous for a loaded host)."""
 
@@ -57,22 +59,6 @@ class FakeDoorbell:
 
     def close(self) -> None:
         self.closed = True
-
-
-class FakePublication:
-    def __init__(self, key: str, realtime: bool, latest: bool) -> None:
-        self.key = key
-        self.realtime = realtime
-        self.latest = latest
-        self.payloads: list[bytes] = []
-        self.subscribed = False
-        """What ``observed`` says: whether a subscriber on the bus matches."""
-
-    def put(self, payload: bytes) -> None:
-        self.payloads.append(payload)
-
-    def observed(self) -> bool:
-        return self.subscribed
 
 
 class FakeAnswer:

@@ -72,11 +72,13 @@ def test_a_doorbell_wakes_its_own_session_only(
 ) -> None:
     other, own = sessions
     bus = ZenohBus(own)
-    channel = bus.fifo(KEY, 8)
     elsewhere = ZenohBus(other).fifo(KEY, 8)
-    doorbell = bus.doorbell(KEY)
     publisher = bus.publisher(KEY)
+    # Before the own session subscribes, which would match at once: only the other one's
+    # subscription, once it has reached this session, makes the publication observed.
     wait_until(publisher.observed, WAIT_S, "the other session's subscriber matched")
+    channel = bus.fifo(KEY, 8)
+    doorbell = bus.doorbell(KEY)
     doorbell.ring()
     assert channel.recv() == b""
     publisher.put(b"\x91\x03")  # after the doorbell, from the same session

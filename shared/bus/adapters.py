@@ -1,0 +1,65 @@
+"""The byte-level pieces of a Zenoh session that every service's bus adapter hands its shells:
+a publication, the newest sample of a key, a declaration to undo. The Protocols are what the
+shells (and the fake buses of their unit tests) see; the Zenoh classes are the thin
+implementations. Payloads are bytes both ways, so a shell decodes what it gets and a test can
+feed it garbage."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Protocol
+
+import zenoh
+
+from motocell.shared.bus.session import observed
+
+
+class Publication(Protocol):
+    def put(self, payload: bytes) -> None: ...
+
+    def observed(self) -> bool:
+        """Whether any subscriber on the bus matches it now."""
+        ...
+
+    def undeclare(self) -> None: ...
+
+
+class Latest(Protocol):
+    """A subscription that keeps only the newest sample until it is read (a Zenoh
+    ``RingChannel(1)``): no Python runs on the bus's threads for it."""
+
+    def take(self) -> bytes | None:
+        """The newest payload since the last read, None if none came; never blocks."""
+        ...
+
+    def undeclare(self) -> None: ...
+
+
+class Declared(Protocol):
+    def undeclare(self) -> None: ...
+
+
+class ZenohPublication:
+    put: Callable[[bytes], None]
+
+    def __init__(self, publisher: zenoh.Publisher) -> None:
+        self._publisher = publisher
+        self.put = publisher.put  # Zenoh's own call: no frame of ours per sample
+
+    def observed(self) -> bool:
+        return observed(self._publisher)
+
+    def undeclare(self) -> None:
+        self._publisher.undeclare()
+
+
+class ZenohLatest:
+    def __init__(self, session: zenoh.Session, key: str) -> None:
+        self._subscriber = session.declare_subscriber(key, zenoh.handlers.RingChannel(1))
+
+    def take(self) -> bytes | None:
+        sample = self._subscriber.try_recv()
+        return None if sample is None else sample.payload.to_bytes()
+
+    def undeclare(self) -> None:
+        self._subscriber.undeclare()
