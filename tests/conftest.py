@@ -35,6 +35,9 @@ from motocell.shared import registry
 from motocell.testing.processes import alive, children, descendants, wait_until
 from tests import budget, lanes, leftovers
 
+pytest_plugins = ["tests.routers"]
+"""The loopback router and its client sessions, for every test of a bus adapter."""
+
 DEADLINE_S = 5.0
 _REGISTRY = pytest.StashKey[tuple[str, str | None]]()
 """This run's registry directory, and the value it replaced."""

@@ -5,18 +5,15 @@ gone on its DELETE, present again when a new controller declares it."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 
-import pytest
 import zenoh
 
 from motocell.services.executor.bus import Query, Sample, ZenohBus
 from motocell.services.executor.controller_token import ControllerToken
 from motocell.shared.bus.liveness import ASK_AGAIN_S, QUERY_TIMEOUT_S
-from motocell.shared.bus.router import router_settings, zenoh_config
 from motocell.shared.bus.schemas import CommandReply
 from motocell.shared.bus.session import call, open_session
-from motocell.shared.ports import free_port
 from motocell.shared.protocol.constants import Result
 from motocell.testing.processes import wait_until
 from tests.services.executor.fake_bus import WAIT_S
@@ -25,24 +22,6 @@ KEY = "motocell/test/group/0/point"
 TOKEN = "@motocell/test/alive/controller/0"
 PROBE = "@motocell/test/alive/probe/0"
 TOKENS = "@motocell/test/alive/*/*"
-
-
-@pytest.fixture
-def router() -> Iterator[str]:
-    """A router on a free loopback port; its endpoint."""
-    listen = f"tcp/127.0.0.1:{free_port()}"
-    router = zenoh.open(zenoh_config(router_settings([listen])))
-    yield listen
-    router.close()
-
-
-@pytest.fixture
-def sessions(router: str) -> Iterator[tuple[zenoh.Session, zenoh.Session]]:
-    """Two client sessions of the router."""
-    opened = [open_session("client", [router], wait=False) for _ in range(2)]
-    yield opened[0], opened[1]
-    for session in opened:
-        session.close()
 
 
 def arrives(condition: Callable[[], bool], what: str) -> None:
@@ -205,10 +184,10 @@ class Looks:
         return self.watch.present(self.now_ns)
 
 
-def test_the_controller_token_over_a_router(router: str) -> None:
-    executor = open_session("client", [router], wait=False)
-    first = open_session("client", [router], wait=False)
-    second = open_session("client", [router], wait=False)
+def test_the_controller_token_over_a_router(endpoint: str) -> None:
+    executor = open_session("client", [endpoint], wait=False)
+    first = open_session("client", [endpoint], wait=False)
+    second = open_session("client", [endpoint], wait=False)
     try:
         tokens = [first.liveliness().declare_token(TOKEN)]  # a token lives while referenced
         looks = Looks(ControllerToken(ZenohBus(executor), TOKEN))

@@ -4,31 +4,15 @@ router on loopback: it must behave as the scripted bus of the other tests does."
 from __future__ import annotations
 
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 
-import pytest
 import zenoh
 
 from motocell.services.gateway.bus import ZenohBus
-from motocell.shared.bus.router import router_settings, zenoh_config
-from motocell.shared.bus.session import open_session
-from motocell.shared.ports import free_port
 from motocell.testing.processes import wait_until
 from tests.services.gateway.fake_bus import WAIT_S
 
 KEY = "motocell/test/group/0/slot"
-
-
-@pytest.fixture
-def sessions() -> Iterator[tuple[zenoh.Session, zenoh.Session]]:
-    """Two client sessions of one router on a free loopback port."""
-    listen = f"tcp/127.0.0.1:{free_port()}"
-    router = zenoh.open(zenoh_config(router_settings([listen])))
-    opened = [open_session("client", [listen], wait=False) for _ in range(2)]
-    yield opened[0], opened[1]
-    for session in opened:
-        session.close()
-    router.close()
 
 
 def arrives(condition: Callable[[], bool], what: str) -> None:

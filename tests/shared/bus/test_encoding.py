@@ -18,8 +18,8 @@ def test_the_encoding_is_msgpack() -> None:
     assert str(ENCODING) == "application/msgpack"
 
 
-def test_a_publication_carries_the_encoding(bus: tuple[zenoh.Session, zenoh.Session]) -> None:
-    sender, receiver = bus
+def test_a_publication_carries_the_encoding(sessions: tuple[zenoh.Session, zenoh.Session]) -> None:
+    sender, receiver = sessions
     received: queue.Queue[zenoh.Sample] = queue.Queue()
     subscriber = receiver.declare_subscriber(KEY, received.put)
     slot_publisher = publisher(sender, KEY)
@@ -38,9 +38,9 @@ def test_a_publication_carries_the_encoding(bus: tuple[zenoh.Session, zenoh.Sess
 
 
 def test_a_query_and_its_reply_carry_the_encoding(
-    bus: tuple[zenoh.Session, zenoh.Session],
+    sessions: tuple[zenoh.Session, zenoh.Session],
 ) -> None:
-    asker, server = bus
+    asker, server = sessions
     asked: list[zenoh.Encoding | None] = []
 
     def serve(query: zenoh.Query) -> None:

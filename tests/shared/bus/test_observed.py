@@ -11,9 +11,9 @@ KEY = "motocell/c1/state"
 
 
 def test_a_publisher_is_observed_while_a_subscriber_matches(
-    bus: tuple[zenoh.Session, zenoh.Session],
+    sessions: tuple[zenoh.Session, zenoh.Session],
 ) -> None:
-    sender, receiver = bus
+    sender, receiver = sessions
     state_publisher = publisher(sender, KEY)
     try:
         assert not observed(state_publisher)

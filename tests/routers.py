@@ -1,4 +1,5 @@
-"""A real Zenoh router on a free loopback port, and client sessions of it."""
+"""Fixtures for tests of the bus adapters: a real Zenoh router on a free loopback port, and
+client sessions of it, in the test's own process (no process started)."""
 
 from __future__ import annotations
 
@@ -22,9 +23,9 @@ def endpoint() -> Iterator[str]:
 
 
 @pytest.fixture
-def bus(endpoint: str) -> Iterator[tuple[zenoh.Session, zenoh.Session]]:
-    """Two client sessions of one router: a sender and a receiver."""
-    sessions = [open_session("client", [endpoint], wait=False) for _ in range(2)]
-    yield sessions[0], sessions[1]
-    for session in sessions:
+def sessions(endpoint: str) -> Iterator[tuple[zenoh.Session, zenoh.Session]]:
+    """Two client sessions of the router."""
+    opened = [open_session("client", [endpoint], wait=False) for _ in range(2)]
+    yield opened[0], opened[1]
+    for session in opened:
         session.close()
