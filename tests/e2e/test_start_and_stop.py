@@ -17,7 +17,7 @@ import socket
 import subprocess
 import sys
 import uuid
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -39,6 +39,8 @@ DEADLINE_S = 60.0
 """A deadline for a hang, not a performance bound: a start takes a second or two."""
 HOST = "127.0.0.1"
 CELL = load_cell(None).name
+PICKS = 20
+"""How often a test chooses its ports again when another program takes one first."""
 
 
 def marked(mark: str) -> set[int]:
@@ -134,11 +136,27 @@ def up_options() -> list[str]:
 
 
 def holding(port: int) -> socket.socket:
-    """A socket that listens on ``port``, as another program's would."""
+    """A socket that listens on ``port``, as another program's would; closed again when the
+    port is taken already."""
     taken = socket.socket()
-    taken.bind((HOST, port))
-    taken.listen()
+    try:
+        taken.bind((HOST, port))
+        taken.listen()
+    except OSError:
+        taken.close()
+        raise
     return taken
+
+
+def options_holding(pick: Callable[[list[str]], int]) -> tuple[list[str], socket.socket]:
+    """Free ports for a cell (``up_options``) and a socket holding the one ``pick`` names. A
+    port found free can be taken by another program before this test binds it: then the
+    ports are chosen again."""
+    for _ in range(PICKS):
+        options = up_options()
+        with contextlib.suppress(OSError):
+            return options, holding(pick(options))
+    raise RuntimeError(f"no free ports to hold in {PICKS} picks")
 
 
 def clean(output: str) -> bool:
@@ -181,9 +199,9 @@ def test_a_normal_start_and_stop_says_ready_once_and_warns_of_nothing(tmp_path: 
 
 @pytest.mark.parametrize("offset", [0, 1, 2])
 def test_a_taken_tcp_port_is_one_line_and_status_2(tmp_path: Path, offset: int) -> None:
-    options = up_options()
+    options, held = options_holding(lambda options: int(options[1]) + offset)
     port = int(options[1]) + offset
-    with holding(port):
+    with held:
         status, output = run_to_the_end(tmp_path, "up", *options)
     assert status == EXIT_CONFIG, output
     assert output.splitlines() == [output.strip()], output
@@ -238,9 +256,8 @@ def test_an_open_bus_says_so_in_one_warning(tmp_path: Path) -> None:
 
 
 def test_a_taken_zenoh_listen_port_is_one_line_and_status_2(tmp_path: Path) -> None:
-    options = up_options()
-    zenoh_port = int(options[3].rsplit(":", 1)[1])
-    with holding(zenoh_port):
+    options, held = options_holding(lambda options: int(options[3].rsplit(":", 1)[1]))
+    with held:
         status, output = run_to_the_end(tmp_path, "up", *options)
     assert status == EXIT_CONFIG, output
     assert output.splitlines() == [output.strip()], output
