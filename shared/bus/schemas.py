@@ -7,10 +7,12 @@ lists are ROS order, one entry per axis of the group.
 
 from __future__ import annotations
 
-import logging
 from typing import Generic, TypeVar
 
 import msgspec
+
+from motocell.shared.bus import ignored as ignored_samples
+from motocell.shared.bus.ignored import IgnoredSamples
 
 
 class Alarm(msgspec.Struct, array_like=True, frozen=True):
@@ -330,6 +332,9 @@ T = TypeVar("T")
 
 _encoder = msgspec.msgpack.Encoder()
 
+UNDECODABLE = "undecodable sample"
+"""What ``decoded_payload`` notes a payload that does not decode as."""
+
 
 def encode(payload: msgspec.Struct) -> bytes:
     return _encoder.encode(payload)
@@ -345,16 +350,19 @@ class Decoder(Generic[T]):
         return self._decoder.decode(data)
 
 
-log = logging.getLogger("bus")
-
-
-def decoded_payload(payload: bytes | None, decoder: Decoder[T], key: str) -> T | None:
+def decoded_payload(
+    payload: bytes | None, decoder: Decoder[T], key: str, ignored: IgnoredSamples | None = None
+) -> T | None:
     """``payload`` decoded; None for no payload, an empty one (a doorbell), or one that does not
-    decode, which is logged: a peer's bad sample must not stop the thread reading it."""
+    decode, which is noted in ``ignored`` (this process's tally unless said): a peer's bad
+    sample must not stop the thread reading it, nor a flood of them flood the log."""
     if not payload:
         return None
     try:
         return decoder.decode(payload)
     except msgspec.DecodeError:
-        log.warning("undecodable sample on %s ignored", key)
+        if ignored is None:
+            ignored_samples.note(key, UNDECODABLE)
+        else:
+            ignored.note(key, UNDECODABLE)
         return None
