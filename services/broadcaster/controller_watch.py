@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 from motocell.services.broadcaster.bus import Bus
+from motocell.shared.bus.ignored import decoded_payload
 from motocell.shared.bus.keys import CellKeys
-from motocell.shared.bus.schemas import ControllerStatus, Decoder, decoded_payload
+from motocell.shared.bus.schemas import ControllerStatus, Decoder
 
 _status_decoder = Decoder(ControllerStatus)
 

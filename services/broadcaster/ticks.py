@@ -19,8 +19,9 @@ import time
 
 from motocell.services.broadcaster.bus import Bus
 from motocell.shared.bus.channels import StopSignal, Waker
+from motocell.shared.bus.ignored import decoded_payload
 from motocell.shared.bus.keys import CellKeys
-from motocell.shared.bus.schemas import Decoder, Tick, decoded_payload
+from motocell.shared.bus.schemas import Decoder, Tick
 
 CHANNEL_SIZE = 8
 """Ticks kept while the main thread is busy; only the newest is used, older ones and

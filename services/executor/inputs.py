@@ -31,6 +31,7 @@ from motocell.services.executor.bus import Bus, Query, Sample
 from motocell.services.executor.controller_token import ControllerToken
 from motocell.shared.bus import ignored
 from motocell.shared.bus.channels import StopSignal, Waker
+from motocell.shared.bus.ignored import decoded_payload
 from motocell.shared.bus.keys import CellKeys, group_of
 from motocell.shared.bus.liveness import QUERY_TIMEOUT_S
 from motocell.shared.bus.schemas import (
@@ -39,7 +40,6 @@ from motocell.shared.bus.schemas import (
     Decoder,
     IncrementBatch,
     Point,
-    decoded_payload,
 )
 
 CHANNEL_DEPTH = 10_000

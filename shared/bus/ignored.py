@@ -18,9 +18,19 @@ import logging
 import threading
 import time
 from collections.abc import Callable
+from typing import TypeVar
+
+import msgspec
+
+from motocell.shared.bus.schemas import Decoder
 
 INTERVAL_S = 10.0
 """At most one line per this many seconds, whatever arrives."""
+
+UNDECODABLE = "undecodable sample"
+"""What ``decoded_payload`` notes a payload that does not decode as."""
+
+T = TypeVar("T")
 
 log = logging.getLogger("bus")
 
@@ -72,6 +82,21 @@ class IgnoredSamples:
 
 IGNORED = IgnoredSamples()
 """This process's tally."""
+
+
+def decoded_payload(
+    payload: bytes | None, decoder: Decoder[T], key: str, ignored: IgnoredSamples | None = None
+) -> T | None:
+    """``payload`` decoded; None for no payload, an empty one (a doorbell), or one that does not
+    decode, which is noted in ``ignored`` (this process's tally unless said): a peer's bad
+    sample must not stop the thread reading it, nor a flood of them flood the log."""
+    if not payload:
+        return None
+    try:
+        return decoder.decode(payload)
+    except msgspec.DecodeError:
+        (IGNORED if ignored is None else ignored).note(key, UNDECODABLE)
+        return None
 
 
 def note(key: str, what: str) -> None:
