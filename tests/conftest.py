@@ -32,6 +32,7 @@ import pytest
 from hypothesis import settings
 
 from motocell.shared import registry
+from motocell.shared.bus import ignored
 from motocell.testing.processes import alive, children, descendants, wait_until
 from tests import budget, lanes, leftovers
 
@@ -112,6 +113,13 @@ def no_leaks_per_module() -> Iterator[None]:
 @pytest.fixture(autouse=True)
 def no_leaks() -> Iterator[None]:
     yield from _check("the test")
+
+
+@pytest.fixture(autouse=True)
+def fresh_ignored_samples(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Each test its own tally of ignored samples: what an earlier test ignored must not
+    keep this one's first ignored sample out of the log."""
+    monkeypatch.setattr(ignored, "IGNORED", ignored.IgnoredSamples())
 
 
 def pytest_configure(config: pytest.Config) -> None:

@@ -2,15 +2,10 @@
 
 from __future__ import annotations
 
-import logging
-
-import msgspec
-
 from motocell.services.broadcaster.bus import Bus
+from motocell.shared.bus.ignored import decoded_payload
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import ControllerStatus, Decoder
-
-log = logging.getLogger("broadcaster")
 
 _status_decoder = Decoder(ControllerStatus)
 
@@ -25,16 +20,14 @@ class ControllerWatch:
         self._token = keys.alive("controller", "0")
         self._tokens = bus.tokens(self._token)
         self._tokens.ask()
+        self._status_key = keys.controller_status
         self._statuses = bus.latest(keys.controller_status)
 
     def status(self) -> ControllerStatus | None:
         """The newest status that decoded; a bad one is logged and the one before kept."""
-        payload = self._statuses.take()
-        if payload:
-            try:
-                self._status = _status_decoder.decode(payload)
-            except msgspec.DecodeError:
-                log.warning("undecodable controller status ignored")
+        newer = decoded_payload(self._statuses.take(), _status_decoder, self._status_key)
+        if newer is not None:
+            self._status = newer
         return self._status
 
     def alive(self) -> bool:

@@ -12,20 +12,16 @@ the state port's acceptor has a new client (``ring``).
 from __future__ import annotations
 
 import contextlib
-import logging
 import math
 import os
 import select
 import time
 
-import msgspec
-
 from motocell.services.broadcaster.bus import Bus
 from motocell.shared.bus.channels import StopSignal, Waker
+from motocell.shared.bus.ignored import decoded_payload
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import Decoder, Tick
-
-log = logging.getLogger("broadcaster")
 
 CHANNEL_SIZE = 8
 """Ticks kept while the main thread is busy; only the newest is used, older ones and
@@ -38,6 +34,7 @@ class TickSource:
     """A ``bus.TickFeed`` over a ``Bus``, with the ``Waker`` thread that ends its waits."""
 
     def __init__(self, bus: Bus, keys: CellKeys, stop: StopSignal) -> None:
+        self._key = keys.executor_tick
         self._channel = bus.channel(keys.executor_tick, CHANNEL_SIZE)
         self._waker = Waker(self._channel.ring, stop, "tick-waker")
         self._stop = stop
@@ -73,13 +70,7 @@ class TickSource:
             if payload:  # empty: the doorbell
                 newest = payload
             payload = self._channel.try_recv()
-        if newest is None:
-            return None
-        try:
-            return _tick_decoder.decode(newest)
-        except msgspec.DecodeError as exc:
-            log.warning("undecodable tick dropped: %s", exc)
-            return None
+        return decoded_payload(newest, _tick_decoder, self._key)
 
     def ring(self) -> None:
         """Wake ``next`` now, whichever way it waits (from another thread)."""

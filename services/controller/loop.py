@@ -29,6 +29,7 @@ from motocell.services.controller.inbox import (
     TokensAnswered,
     TokensChanged,
 )
+from motocell.shared.bus import ignored
 from motocell.shared.service import StopFlag
 
 
@@ -112,6 +113,7 @@ class ControllerLoop:
             case IncMoveError(notice):
                 dispatcher.incmove_error(notice)
             case BadPayload(source, reason, reply_to):
+                ignored.note(f"controller/{source}", f"bad payload ({reason})")
                 dispatcher.bad_payload(source, reply_to, reason)
             case TokensChanged():
                 dispatcher.services_present(self.bus.tokens_present())

@@ -21,7 +21,6 @@ Once, at start, before the core exists: where the robot was (``remembered_positi
 
 from __future__ import annotations
 
-import logging
 import time
 from collections import deque
 from collections.abc import Iterator
@@ -30,8 +29,10 @@ import msgspec
 
 from motocell.services.executor.bus import Bus, Query, Sample
 from motocell.services.executor.controller_token import ControllerToken
+from motocell.shared.bus import ignored
 from motocell.shared.bus.channels import StopSignal, Waker
-from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.ignored import decoded_payload
+from motocell.shared.bus.keys import CellKeys, group_of
 from motocell.shared.bus.liveness import QUERY_TIMEOUT_S
 from motocell.shared.bus.schemas import (
     CommandReply,
@@ -40,8 +41,6 @@ from motocell.shared.bus.schemas import (
     IncrementBatch,
     Point,
 )
-
-log = logging.getLogger("executor")
 
 CHANNEL_DEPTH = 10_000
 """Zenoh-side queue per key, and the bound of the callbacks' queues. A full channel would stall
@@ -53,15 +52,15 @@ _batch = Decoder(IncrementBatch)
 _point = Decoder(Point)
 
 
-def _group_of(key: object) -> int:
-    """``motocell/<cell>/group/<g>/...`` -> g."""
-    return int(str(key).split("/")[3])
+NO_GROUP = "point for no group of this cell"
+"""What a point on ``group/*/point`` whose group chunk is no group of the cell is noted as."""
 
 
 class Inputs:
     def __init__(self, bus: Bus, keys: CellKeys, groups: int, stop: StopSignal) -> None:
         self._bus = bus
         self._keys = keys
+        self._groups = groups
         self._points = bus.channel(keys.group_point_all, CHANNEL_DEPTH)
         self._batches = [
             bus.channel(keys.group_increments(g), CHANNEL_DEPTH) for g in range(groups)
@@ -93,10 +92,8 @@ class Inputs:
         return self._bus.call(self._keys.broadcaster_cmd("positions"), QUERY_TIMEOUT_S)
 
     def _on_status(self, sample: Sample) -> None:
-        try:
-            status = _status.decode(sample.payload.to_bytes())
-        except msgspec.DecodeError:
-            log.warning("undecodable controller status ignored")
+        status = decoded_payload(sample.payload.to_bytes(), _status, self._keys.controller_status)
+        if status is None:
             return
         self._statuses.append((time.monotonic_ns(), status))
         if self._resting and status.motion_ready != self.executor_ready:
@@ -126,17 +123,20 @@ class Inputs:
 
     def points(self) -> Iterator[tuple[int, Point]]:
         """The points the gateway published since the last call, with their group. One that
-        does not decode is not owed either: the interpolator cannot decode it."""
+        does not decode, or is on a key of no group of this cell (``group/*/point``,
+        ``group/7/point`` in a cell of two), is not owed either: no interpolator takes it."""
         sample, self._woken_by = self._woken_by, None
         if sample is None:
             sample = self._points.try_recv()
         while sample is not None:
-            payload = sample.payload.to_bytes()
-            if payload:  # empty: the doorbell
-                try:
-                    yield _group_of(sample.key_expr), _point.decode(payload)
-                except msgspec.DecodeError:
-                    log.warning("undecodable point ignored on %s", sample.key_expr)
+            key = str(sample.key_expr)
+            point = decoded_payload(sample.payload.to_bytes(), _point, key)
+            if point is not None:  # None too for the doorbell (empty)
+                group = group_of(key, self._groups)
+                if group is None:
+                    ignored.note(key, NO_GROUP)
+                else:
+                    yield group, point
             sample = self._points.try_recv()
 
     def batches(self, group: int) -> Iterator[IncrementBatch | None]:

@@ -40,6 +40,7 @@ from motocell.services.gateway.core.cell_state import (
     CellState,
     queue_stream,
 )
+from motocell.shared.bus.ignored import decoded_payload
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.liveness import QUERY_TIMEOUT_S, Asking
 from motocell.shared.bus.schemas import (
@@ -50,7 +51,6 @@ from motocell.shared.bus.schemas import (
     Point,
     QueueState,
     Slot,
-    decoded_payload,
     encode,
 )
 from motocell.shared.config import Cell

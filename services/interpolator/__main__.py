@@ -40,7 +40,7 @@ def main(argv: Sequence[str] | None = None) -> None:
             start_buffer_periods=cell.start_buffer_periods,
         )
         reports = Reports(bus, ctx.keys, group, feeder)
-        inputs = Inputs(bus, ctx.keys, group, ctx.stop)
+        inputs = Inputs(bus, ctx.keys, group, cell.groups[group].axes, ctx.stop)
         loop = FeederLoop(feeder, inputs, reports, cell.points_outstanding)
         inputs.start()
         ctx.alive.announce()

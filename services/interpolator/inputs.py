@@ -21,14 +21,16 @@ from __future__ import annotations
 from collections.abc import Iterator
 
 from motocell.services.interpolator.bus import Bus
+from motocell.shared.bus import ignored
 from motocell.shared.bus.channels import StopSignal, Waker
+from motocell.shared.bus.ignored import decoded_payload
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import (
     ControllerStatus,
     Decoder,
     Point,
     QueueState,
-    decoded_payload,
+    point_fits,
 )
 
 POINT_CHANNEL_SIZE = 1024
@@ -36,13 +38,17 @@ POINT_CHANNEL_SIZE = 1024
 have outstanding (``Cell.points_outstanding``), so Zenoh never blocks on it: the bound that
 counts is ``queue_point``'s."""
 
+MISFIT = "point of the wrong shape"
+"""What a point that decodes but no gateway would send is noted as."""
+
 _point_decoder = Decoder(Point)
 _queue_decoder = Decoder(QueueState)
 _status_decoder = Decoder(ControllerStatus)
 
 
 class Inputs:
-    def __init__(self, bus: Bus, keys: CellKeys, group: int, stop: StopSignal) -> None:
+    def __init__(self, bus: Bus, keys: CellKeys, group: int, axes: int, stop: StopSignal) -> None:
+        self._axes = axes
         self._point_key = keys.group_point(group)
         self._queue_key = keys.group_queue(group)
         self._status_key = keys.controller_status
@@ -96,12 +102,15 @@ class Inputs:
         return decoded_payload(woken_by, _queue_decoder, self._queue_key)
 
     def points(self) -> Iterator[Point]:
-        """The points that arrived, in order; doorbells (empty samples) are skipped."""
+        """The points that arrived, in order; doorbells (empty samples) are skipped, and points
+        no gateway sends (``point_fits``) ignored."""
         payload, self._woken_by = self._woken_by, None
         if payload is None:
             payload = self._points.try_recv()
         while payload is not None:
             point = decoded_payload(payload, _point_decoder, self._point_key)
-            if point is not None:
+            if point is not None and not point_fits(point, self._axes):
+                ignored.note(self._point_key, MISFIT)
+            elif point is not None:
                 yield point
             payload = self._points.try_recv()

@@ -93,16 +93,22 @@ def cell_identities(groups: int) -> list[Identity]:
     return [*services, Identity(Role.OPERATOR), Identity(Role.OBSERVER)]
 
 
-def own_keys(route: Route, cell: str, identity: Identity, sending: bool) -> list[str]:
-    """The concrete key expression(s) of ``route`` that ``identity`` acts on.
+def own_keys(route: Route, cell: str, identity: Identity, sending: bool, groups: int) -> list[str]:
+    """The concrete key expression(s) of ``route`` that ``identity`` acts on, in a cell of
+    ``groups`` groups.
 
-    A group's keys belong to that group's interpolator; a service's token and info queryable
-    are its own. Everyone else acts on the route's whole wildcard.
+    A group's keys belong to that group's interpolator; anyone else sends on each group's key
+    one by one (``group/0/point`` .. ``group/<groups-1>/point``), never on ``group/*/point``:
+    the router itself refuses a put, query or token whose key has a ``*`` where a group goes,
+    so no subscriber ever reads a group out of one. A service's token and info queryable are
+    its own. Everyone else acts on the route's whole wildcard.
     """
     root = ALIVE_ROOT if route.op is Op.TOKEN else ROOT
     levels = route.suffix.split("/")
     if levels[0] == "group" and identity.role is Role.INTERPOLATOR:
         levels[1] = identity.instance
+    elif levels[0] == "group" and sending:
+        return [f"{root}/{cell}/group/{group}/{'/'.join(levels[2:])}" for group in range(groups)]
     declares_itself = (route.op is Op.TOKEN and sending) or (route.op is Op.QUERY and not sending)
     if levels[0] in ("alive", "claim", "service") and declares_itself:
         # A service declares its own liveliness token, name claim and info queryable only.
@@ -110,20 +116,20 @@ def own_keys(route: Route, cell: str, identity: Identity, sending: bool) -> list
     return [f"{root}/{cell}/{'/'.join(levels)}"]
 
 
-def _rules_for(cell: str, identity: Identity) -> Iterator[Rule]:
+def _rules_for(cell: str, identity: Identity, groups: int) -> Iterator[Rule]:
     for route in ROUTES:
         if identity.role in route.senders:
             for flow, messages in SENDING[route.op]:
-                for key in own_keys(route, cell, identity, sending=True):
+                for key in own_keys(route, cell, identity, sending=True, groups=groups):
                     yield flow, messages, key
         if identity.role in route.receivers:
-            yield from _receiving(route, cell, identity)
+            yield from _receiving(route, cell, identity, groups)
     yield from _whole_cell(cell, identity)
     for root in (ROOT, ALIVE_ROOT):
         yield EGRESS, DECLARATIONS, f"{root}/{cell}/**"
 
 
-def _receiving(route: Route, cell: str, identity: Identity) -> Iterator[Rule]:
+def _receiving(route: Route, cell: str, identity: Identity, groups: int) -> Iterator[Rule]:
     """A receiver declares (and replies) on its own keys, but a query reaches it on the key
     the querier asked: a wildcard query (``service/*/*``) must be let out to every server."""
     wildcard = f"{ALIVE_ROOT if route.op is Op.TOKEN else ROOT}/{cell}/{route.suffix}"
@@ -131,7 +137,7 @@ def _receiving(route: Route, cell: str, identity: Identity) -> Iterator[Rule]:
         if route.op is Op.QUERY and flow == EGRESS:
             yield flow, messages, wildcard
         else:
-            for key in own_keys(route, cell, identity, sending=False):
+            for key in own_keys(route, cell, identity, sending=False, groups=groups):
                 yield flow, messages, key
 
 
@@ -159,16 +165,20 @@ class Party:
 
 
 def cell_parties(cell: str, identities: Iterable[Identity]) -> list[Party]:
-    """``identities`` of ``cell``, each allowed what its role's routes list."""
+    """``identities`` of ``cell``, each allowed what its role's routes list. The cell's groups
+    are those of its interpolators (``cell_identities``)."""
+    identities = list(identities)
+    groups = sum(identity.role is Role.INTERPOLATOR for identity in identities)
     return [
-        Party(identity.username(cell), tuple(_rules_for(cell, identity))) for identity in identities
+        Party(identity.username(cell), tuple(_rules_for(cell, identity, groups)))
+        for identity in identities
     ]
 
 
 def site_observer(name: str) -> Party:
     """An observer of every cell the router carries (``ps``, ``watch``, ``record``): what a
     cell's observer may, with any cell's name. It acts on nothing."""
-    return Party(name, tuple(_rules_for(ANY_CELL, Identity(Role.OBSERVER))))
+    return Party(name, tuple(_rules_for(ANY_CELL, Identity(Role.OBSERVER), groups=0)))
 
 
 def router_links(name: str, router_certificate: str) -> list[Party]:

@@ -19,7 +19,8 @@ from typing import Protocol, TypeVar
 
 import zenoh
 
-from motocell.shared.bus.schemas import Decoder, decoded_payload
+from motocell.shared.bus.ignored import decoded_payload
+from motocell.shared.bus.schemas import Decoder
 
 T = TypeVar("T")
 

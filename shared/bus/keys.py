@@ -69,3 +69,20 @@ def service_of_alive(key: str) -> str:
     """``@motocell/<cell>/alive/<service>/<instance>`` -> ``<service>/<instance>``."""
     parts = key.split("/")
     return "/".join(parts[3:5])
+
+
+def group_of(key: object, groups: int) -> int | None:
+    """``motocell/<cell>/group/<g>/...`` -> g, when g is one of the cell's ``groups`` written
+    as ``group_point`` and its kin write it; None for anything else: a ``*`` chunk, a sign,
+    a leading zero, a group the cell does not have, a key that is no group's. Anyone allowed
+    to write a group's key may send any of these; none may be taken for a group."""
+    parts = str(key).split("/")
+    if len(parts) < 5 or parts[2] != "group":
+        return None
+    chunk = parts[3]
+    if not (chunk.isascii() and chunk.isdigit()) or (len(chunk) > 1 and chunk[0] == "0"):
+        return None
+    if len(chunk) > len(str(groups)):  # bounds int()'s work on a chunk of a million digits
+        return None
+    group = int(chunk)
+    return group if group < groups else None

@@ -7,7 +7,7 @@ lists are ROS order, one entry per axis of the group.
 
 from __future__ import annotations
 
-import logging
+import math
 from typing import Generic, TypeVar
 
 import msgspec
@@ -69,6 +69,18 @@ class Point(msgspec.Struct, array_like=True, frozen=True):
     """The executor ring epoch the gateway checked the point against. The interpolator does
     not take the point before it has seen that epoch itself, so a point can never be built
     on a ring that is about to be (or has just been) replaced."""
+
+
+def point_fits(point: Point, axes: int) -> bool:
+    """Whether ``point`` is one a gateway could have sent to a group of ``axes`` axes: a finite
+    time not before 0, and ``axes`` finite positions and velocities. Anyone who may write a
+    point may send any other; the interpolator must not build a trajectory of one."""
+    return (
+        math.isfinite(point.time)
+        and point.time >= 0
+        and len(point.positions) == len(point.velocities) == axes
+        and all(math.isfinite(value) for value in (*point.positions, *point.velocities))
+    )
 
 
 class Slot(msgspec.Struct, array_like=True, frozen=True):
@@ -343,18 +355,3 @@ class Decoder(Generic[T]):
 
     def decode(self, data: bytes | bytearray | memoryview) -> T:
         return self._decoder.decode(data)
-
-
-log = logging.getLogger("bus")
-
-
-def decoded_payload(payload: bytes | None, decoder: Decoder[T], key: str) -> T | None:
-    """``payload`` decoded; None for no payload, an empty one (a doorbell), or one that does not
-    decode, which is logged: a peer's bad sample must not stop the thread reading it."""
-    if not payload:
-        return None
-    try:
-        return decoder.decode(payload)
-    except msgspec.DecodeError:
-        log.warning("undecodable sample on %s ignored", key)
-        return None

@@ -167,10 +167,10 @@ class Dispatcher(Generic[ReplyHandle]):
             self.model.set_incmove_error()
 
     def bad_payload(self, source: str, reply_to: ReplyHandle | None, reason: str) -> None:
-        """A payload that does not decode gets INVALID (queries) or is only logged (notices);
-        it never stops the controller or changes its state. ``source``: the key it came on,
-        after ``controller/``."""
-        log.warning("%s: bad payload ignored: %s", source, reason)
+        """A payload that does not decode gets INVALID (queries) or nothing (notices); it never
+        stops the controller or changes its state. ``source``: the key it came on, after
+        ``controller/``. The loop has noted it with the process's ignored samples, which
+        logs it without letting a flood of them flood the log."""
         if reply_to is not None:
             self.reply(reply_to, CommandReply(Result.INVALID, InvalidSubcode.DATA, detail=reason))
 

@@ -13,6 +13,7 @@ import pytest
 
 from motocell.services.executor.controller_token import CHANNEL_DEPTH as TOKEN_DEPTH
 from motocell.services.executor.inputs import CHANNEL_DEPTH, Inputs
+from motocell.shared.bus import ignored
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.liveness import QUERY_TIMEOUT_S
 from motocell.shared.bus.schemas import CommandReply, IncrementBatch, Point, encode
@@ -105,7 +106,23 @@ def test_a_point_that_does_not_decode_is_left_out_and_logged(
     harness.point(0)
     with caplog.at_level(logging.WARNING):
         assert [group for group, _ in harness.inputs.points()] == [0]
-    assert "undecodable point" in caplog.text
+    assert f"undecodable sample on {KEYS.group_point(1)} ignored" in caplog.text
+
+
+@pytest.mark.parametrize("group", ["*", "2", "-1", "01", "1 ", "\u0661", "99999999999999999999"])
+def test_a_point_for_no_group_of_the_cell_is_left_out_counted_and_logged_once(
+    harness: Harness, group: str, caplog: pytest.LogCaptureFixture
+) -> None:
+    key = f"{KEYS.prefix}/group/{group}/point"
+    for _ in range(100):
+        harness.bus.publish(key, encode(Point(1, 1, 0.1, [], [], epoch=7)))
+    harness.point(0)
+    with caplog.at_level(logging.WARNING):
+        assert [group for group, _ in harness.inputs.points()] == [0]
+    assert [record.getMessage() for record in caplog.records] == [
+        f"point for no group of this cell on {key} ignored"
+    ]
+    assert ignored.IGNORED.total == 100
 
 
 def test_a_doorbell_is_no_point(harness: Harness) -> None:
@@ -139,7 +156,7 @@ def test_a_status_that_does_not_decode_is_ignored(
     with caplog.at_level(logging.WARNING):
         harness.bus.publish(KEYS.controller_status, GARBAGE)
     assert list(harness.inputs.statuses()) == []
-    assert "undecodable controller status" in caplog.text
+    assert f"undecodable sample on {KEYS.controller_status} ignored" in caplog.text
 
 
 def test_stop_motion_queries_are_kept_in_order(harness: Harness) -> None:

@@ -11,8 +11,9 @@ from collections.abc import Iterator
 import pytest
 
 from motocell.services.interpolator.inputs import Inputs
+from motocell.shared.bus import ignored
 from motocell.shared.bus.keys import CellKeys
-from motocell.shared.bus.schemas import encode
+from motocell.shared.bus.schemas import Point, encode
 from motocell.shared.service import StopFlag
 from motocell.testing.statuses import ready_status
 from tests.services.interpolator.core.test_feeder import point, state
@@ -21,6 +22,7 @@ from tests.services.interpolator.fake_bus import WAIT_S, FakeBus
 KEYS = CellKeys("cell1")
 GROUP = 1
 POINT_KEY = KEYS.group_point(GROUP)
+AXES = 6
 QUEUE_KEY = KEYS.group_queue(GROUP)
 
 
@@ -33,7 +35,7 @@ class Running:
     def __init__(self) -> None:
         self.bus = FakeBus()
         self.stop = StopFlag()
-        self.inputs = Inputs(self.bus, KEYS, GROUP, self.stop)
+        self.inputs = Inputs(self.bus, KEYS, GROUP, AXES, self.stop)
         self.inputs.start()
 
 
@@ -142,3 +144,23 @@ def test_close_undeclares_every_channel_and_closes_the_doorbells() -> None:
     )
     assert all(channel.undeclared for channel in channels)
     assert all(bell.closed for bell in r.bus.doorbells.values())
+
+
+@pytest.mark.parametrize(
+    "misfit",
+    [
+        point(2, 1, float("nan")),
+        point(2, 1, -1.0),
+        point(2, 1, 0.1, [0.0] * 3, [0.0] * 3),
+        point(2, 1, 0.1, [0.0] * 6, [0.0] * 5),
+        point(2, 1, 0.1, [float("inf")] + [0.0] * 5),
+        point(2, 1, 0.1, velocities=[float("nan")] * 6),
+    ],
+)
+def test_a_point_no_gateway_sends_is_ignored_and_counted(running: Running, misfit: Point) -> None:
+    bus, inputs = running.bus, running.inputs
+    bus.publish(POINT_KEY, encode(misfit))
+    bus.publish(POINT_KEY, encode(point(3, 1, 0.2)))
+    inputs.wait(for_ring=False, deadline=later())
+    assert [p.point_id for p in inputs.points()] == [3]
+    assert ignored.IGNORED.total == 1

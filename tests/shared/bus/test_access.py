@@ -213,3 +213,49 @@ def test_an_observer_subscribes_to_the_whole_cell_and_asks_every_service(
     finally:
         for session in (gateway, observer):
             session.close()
+
+
+def test_a_sender_on_every_group_sends_on_each_groups_key_and_never_on_a_wildcard() -> None:
+    for role, message, suffix in (
+        (Role.GATEWAY, "put", "point"),
+        (Role.GATEWAY, "query", "slot"),
+        (Role.EXECUTOR, "put", "queue"),
+    ):
+        keys = allowed(CONFIG, Identity(role), "ingress", message)
+        groups = {key for key in keys if key.startswith("motocell/c1/group/")}
+        assert groups == {f"motocell/c1/group/{g}/{suffix}" for g in range(2)}, role
+
+
+def test_a_wildcard_in_a_group_chunk_is_refused_by_the_router(router: tuple[str, Path]) -> None:
+    """The router of a one-group cell: a put on ``group/*/point`` or ``group/1/point`` from
+    the gateway's identity never reaches a subscriber of every group's points, while one on
+    ``group/0/point`` sent after them does."""
+    executor = client(router, Role.EXECUTOR)
+    gateway = client(router, Role.GATEWAY)
+    received: list[str] = []
+    lock = threading.Lock()
+
+    def keep(sample: zenoh.Sample) -> None:
+        with lock:
+            received.append(str(sample.key_expr))
+
+    def arrived() -> bool:
+        gateway.put("motocell/c1/group/0/point", b"p")
+        with lock:
+            return "motocell/c1/group/0/point" in received
+
+    try:
+        subscriber = executor.declare_subscriber("motocell/c1/group/*/point", keep)
+        wait_until(arrived, 5.0, "the gateway's point on group 0")
+        with lock:
+            received.clear()
+        for key in ("motocell/c1/group/*/point", "motocell/c1/group/1/point"):
+            gateway.put(key, b"forged")
+        # The same session's puts arrive in order: the forged ones, had they passed, first.
+        wait_until(arrived, 5.0, "a point on group 0 after the refused ones")
+        with lock:
+            assert set(received) == {"motocell/c1/group/0/point"}
+        subscriber.undeclare()
+    finally:
+        for session in (executor, gateway):
+            session.close()

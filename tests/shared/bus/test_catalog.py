@@ -6,7 +6,7 @@ import pytest
 
 from motocell.shared.bus import catalog
 from motocell.shared.bus.catalog import Op, Role
-from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.keys import CellKeys, group_of
 from motocell.shared.bus.schemas import Point, encode
 
 KEYS = CellKeys("cell1")
@@ -76,3 +76,27 @@ def test_every_put_route_has_a_decoder_and_queries_have_replies() -> None:
 def test_decode_uses_the_routes_payload() -> None:
     point = Point(7, 1, 0.5, [0.1] * 6, [0.0] * 6)
     assert catalog.decode(KEYS.group_point(1), encode(point)) == point
+
+
+@pytest.mark.parametrize(
+    ("key", "group"),
+    [
+        ("motocell/c1/group/0/point", 0),
+        ("motocell/c1/group/1/increments", 1),
+        ("motocell/c1/group/*/point", None),
+        ("motocell/c1/group/2/point", None),
+        ("motocell/c1/group/99999999999999999999/point", None),
+        ("motocell/c1/group/01/point", None),
+        ("motocell/c1/group/-1/point", None),
+        ("motocell/c1/group/+1/point", None),
+        ("motocell/c1/group/ 1/point", None),
+        ("motocell/c1/group/\u0661/point", None),  # an Arabic-Indic one: int() takes it
+        ("motocell/c1/group/$*/point", None),
+        ("motocell/c1/group//point", None),
+        ("motocell/c1/group/1", None),
+        ("motocell/c1/executor/tick", None),
+        ("motocell", None),
+    ],
+)
+def test_a_group_is_read_from_a_key_only_when_the_cell_has_it(key: str, group: int | None) -> None:
+    assert group_of(key, 2) == group

@@ -7,7 +7,8 @@ import logging
 
 import pytest
 
-from motocell.shared.bus.schemas import Decoder, Slot, decoded_payload, encode
+from motocell.shared.bus.ignored import decoded_payload
+from motocell.shared.bus.schemas import Decoder, Slot, encode
 
 KEY = "motocell/c1/group/0/slot"
 SLOTS = Decoder(Slot)

@@ -459,7 +459,7 @@ def test_a_bad_query_payload_is_answered_invalid() -> None:
     assert reply.detail == "truncated"
 
 
-def test_a_bad_notice_is_only_logged() -> None:
+def test_a_bad_notice_gets_no_reply() -> None:
     d = dispatcher()
     d.bad_payload("connections", None, "truncated")
     assert replies(d) == {}
