@@ -1,13 +1,13 @@
 """The lifeline: a cell that stops when the process that started it ends, however it ends.
 
-A harness (``motocell.testing``) starts ``motocell up`` with ``--lifeline FD``: the read end of
-a pipe whose write end only the harness holds. The kernel closes that write end when the
-harness's process ends, by a return, SIGTERM, SIGKILL or the OOM killer alike, and the
-launcher's read then returns end of file: it stops the cell as on SIGTERM, and removes the
-directories the harness named with ``--lifeline-scratch`` (the cell's registry, credentials and
-cell file), which nobody else is left to remove. A signal to the dead parent (PR_SET_PDEATHSIG)
-would do neither reliably: it fires when the thread that started the child ends, and a test
-may start a cell from a thread of its own.
+A harness (``motocell.testing``) starts ``motocell up`` (or ``motocell router``) with
+``--lifeline FD``: the read end of a pipe whose write end only the harness holds. The kernel
+closes that write end when the harness's process ends, by a return, SIGTERM, SIGKILL or the OOM
+killer alike, and the launcher's read then returns end of file: it stops the cell as on SIGTERM,
+and removes the directories the harness named with ``--lifeline-scratch`` (the cell's registry,
+credentials and cell file), which nobody else is left to remove. PR_SET_PDEATHSIG would not do:
+it signals when the thread that started the child ends, not its process, and a test may start
+a cell from a thread of its own.
 
 The read end is watched by a thread of its own, blocked in ``read`` (no wake-ups at rest), so the
 lifeline holds in every phase of the launcher, waiting for a router to come included.
@@ -15,6 +15,7 @@ lifeline holds in every phase of the launcher, waiting for a router to come incl
 
 from __future__ import annotations
 
+import argparse
 import logging
 import os
 import shutil
@@ -37,11 +38,10 @@ class LifelineError(Exception):
 
 
 def lifeline_argument(text: str) -> int:
-    """``--lifeline FD``: a descriptor number (argparse's type)."""
-    number = int(text)
-    if number < 0:
-        raise ValueError(text)
-    return number
+    """argparse's type for ``--lifeline FD``: a descriptor number."""
+    if not text.isdecimal():
+        raise argparse.ArgumentTypeError(f"{text!r} is not a descriptor number")
+    return int(text)
 
 
 def check_lifeline(fd: int | None, scratch: Sequence[str]) -> None:

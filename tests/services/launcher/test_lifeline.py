@@ -100,3 +100,14 @@ def test_motocell_up_refuses_a_descriptor_it_does_not_hold_in_one_line(
         f"motocell up: --lifeline {read}: this process has no descriptor {read} (start it "
         "with the read end of a pipe as that descriptor)\n"
     )
+
+
+def test_a_descriptor_is_a_number(capsys: pytest.CaptureFixture[str]) -> None:
+    parser = argparse.ArgumentParser(prog="motocell up")
+    add_arguments(parser)
+    with pytest.raises(SystemExit) as exited:
+        parser.parse_args(["--lifeline", "-1"])
+    assert exited.value.code == EXIT_CONFIG
+    assert capsys.readouterr().err.splitlines()[-1] == (
+        "motocell up: error: argument --lifeline: '-1' is not a descriptor number"
+    )
