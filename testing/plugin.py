@@ -1,6 +1,8 @@
 """The pytest plugin pip installs with motocell (the ``pytest11`` entry point): fixtures that
 start cells (``motocell.testing``) and stop them, every process reaped, when their scope ends,
-also on a failure or Ctrl-C (pytest tears fixtures down on KeyboardInterrupt).
+also on a failure or Ctrl-C (pytest tears fixtures down on KeyboardInterrupt). A run killed
+outright (SIGKILL, SIGTERM) tears nothing down: its cells stop by themselves, each launcher
+seeing its lifeline to this process end (``running_cell.start_cell``).
 
 pytest loads it in every run wherever motocell is installed: ``motocell.testing`` loads the
 harness (Zenoh, numpy) only when a fixture first asks for a cell.

@@ -26,7 +26,7 @@ from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Generic, TypeVar
+from typing import IO, Generic, TypeVar
 
 import zenoh
 
@@ -78,6 +78,9 @@ class RunningCell:
     """Where its launcher registers it (``shared.registry``): a directory of its own, so its
     name never clashes with a cell running elsewhere on this machine."""
     expected_children: int
+    lifeline: int | None = None
+    """The write end of the launcher's lifeline (``--lifeline``), held by this process alone:
+    when it closes, because ``stop`` closed it or because this process died, the cell stops."""
     joined_router: bool = False
     """It joined a router started elsewhere, instead of running its own."""
     joined_credentials: Path | None = None
@@ -156,6 +159,9 @@ class RunningCell:
             self.process.kill()
             problems.append(f"the launcher did not stop within {STOP_TIMEOUT_S} s of SIGTERM")
         self.process.wait()
+        if self.lifeline is not None:
+            os.close(self.lifeline)
+            self.lifeline = None
         try:
             wait_until(self._services_gone, EXIT_TIMEOUT_S, "every service process to exit")
         except TimeoutError:
@@ -180,11 +186,21 @@ def start_cell(
     skip: Sequence[str] = (),
     log: Path | None = None,
     log_level: str = LOG_LEVEL,
+    scratch: Sequence[Path] = (),
 ) -> RunningCell:
     """Spawn the launcher on free ports and return at once. It runs its own router, or joins
     ``router`` (secured: with ``credentials``); ``skip``ped services are the caller's to run.
     ``log``: the launcher's and its services' output goes there (appended) instead of this
-    process's."""
+    process's. ``scratch``: directories the caller made for this cell alone, which the
+    launcher removes if this process dies with the cell running.
+
+    The cell dies with this process, however it ends (SIGKILL, the OOM killer included): the
+    launcher holds the read end of a pipe whose write end only this process holds
+    (``RunningCell.lifeline``), stops the cell when it reads end of file, and removes the
+    cell's run directory and ``scratch``. It runs in a process group of its own, so that a
+    signal to this process's group (a terminal's Ctrl-C, a CI job cancelled) reaches this
+    process, whose tear-down stops the cell in order, and not the launcher in the middle of
+    a test."""
     cell_file = None if config is None else str(config)
     cell = load_cell(cell_file)
     port_base = free_port_block(3, HOST)
@@ -197,22 +213,55 @@ def start_cell(
         command += ["--credentials", str(credentials)]
     if cell_file is not None:
         command += ["--config", cell_file]
-    # Named after this process: if it dies without stopping the cell, the next test run can
-    # tell the directory is left over (the test suite's tests/leftovers.py).
+    # Named after this process: should the launcher too be killed outright, the next test run
+    # can tell the directory is left over (the test suite's tests/leftovers.py).
     runtime_dir = Path(tempfile.mkdtemp(prefix=f"motocell-cell-{os.getpid()}-"))
+    for directory in (runtime_dir, *scratch):
+        command += ["--lifeline-scratch", str(directory)]
     env = {**os.environ, "MOTOCELL_LOG": log_level, RUNTIME_DIR_ENV: str(runtime_dir)}
     spawned_ns = time.monotonic_ns()
-    if log is None:
-        process = subprocess.Popen(command, env=env)
-    else:
-        with log.open("ab") as out:
-            process = subprocess.Popen(command, env=env, stdout=out, stderr=subprocess.STDOUT)
+    try:
+        if log is None:
+            process, lifeline = spawn_with_lifeline(command, env)
+        else:
+            with log.open("ab") as out:
+                process, lifeline = spawn_with_lifeline(command, env, out)
+    except BaseException:
+        shutil.rmtree(runtime_dir, ignore_errors=True)
+        raise
     expected = len(REQUIRED_SERVICES) + len(cell.groups) - len(skip)
     return RunningCell(
         *(cell, cell_file, HOST, port_base, endpoint, process, spawned_ns, runtime_dir, expected),
+        lifeline=lifeline,
         joined_router=router is not None,
         joined_credentials=credentials,
     )
+
+
+def spawn_with_lifeline(
+    command: list[str], env: dict[str, str], out: IO[bytes] | None = None
+) -> tuple[subprocess.Popen[bytes], int]:
+    """Start ``command`` (``motocell up`` or ``motocell router``) with ``--lifeline``, in a
+    process group of its own, its output to ``out`` (None: this process's); the process and
+    the write end of its lifeline, which only this process holds: closed, the process stops."""
+    # Neither end is inherited by a process started later (os.pipe's are not inheritable), so
+    # no other child of this process keeps the lifeline open.
+    lifeline_read, lifeline = os.pipe()
+    try:
+        process = subprocess.Popen(
+            [*command, "--lifeline", str(lifeline_read)],
+            env=env,
+            stdout=out,
+            stderr=None if out is None else subprocess.STDOUT,
+            pass_fds=(lifeline_read,),
+            process_group=0,
+        )
+    except BaseException:
+        os.close(lifeline)
+        raise
+    finally:
+        os.close(lifeline_read)
+    return process, lifeline
 
 
 def _port_outside(base: int, count: int) -> int:
@@ -234,6 +283,7 @@ def running_cell(
     log_level: str = LOG_LEVEL,
     timeout: float = START_TIMEOUT_S,
     attempts: int = 1,
+    scratch: Sequence[Path] = (),
 ) -> Iterator[RunningCell]:
     """A started cell (see ``start_cell``), whole unless services are skipped; stopped on exit,
     also on errors and Ctrl-C. A start that fails is tried ``attempts`` times in all, each on
@@ -241,7 +291,13 @@ def running_cell(
     attempt = 1
     while True:
         running = start_cell(
-            config, router=router, credentials=credentials, skip=skip, log=log, log_level=log_level
+            config,
+            router=router,
+            credentials=credentials,
+            skip=skip,
+            log=log,
+            log_level=log_level,
+            scratch=scratch,
         )
         try:
             running.wait_started(timeout)
@@ -295,10 +351,11 @@ def _log_tail(path: Path, lines: int = 20) -> str:
 @contextmanager
 def zenoh_router(listen: str = "", config_file: Path | None = None) -> Iterator[str]:
     """A Zenoh router in a process of its own: open on ``listen``, or as ``config_file``
-    says (as ``zenohd -c``); stopped on exit."""
+    says (as ``zenohd -c``); stopped on exit, and with this process, however it ends (its
+    lifeline, as ``start_cell``'s launcher has)."""
     env = {**os.environ, "MOTOCELL_LOG": LOG_LEVEL}
     where = ["--config", str(config_file)] if config_file else ["--listen", listen]
-    process = subprocess.Popen([*ROUTER, *where], env=env)
+    process, lifeline = spawn_with_lifeline([*ROUTER, *where], env)
     try:
         yield listen
     finally:
@@ -309,6 +366,8 @@ def zenoh_router(listen: str = "", config_file: Path | None = None) -> Iterator[
             process.kill()
             process.wait()
             raise AssertionError(f"the router did not stop within {STOP_TIMEOUT_S} s") from None
+        finally:
+            os.close(lifeline)
 
 
 T = TypeVar("T")

@@ -1,6 +1,8 @@
 """Started cells for a test, whatever runs it: ``cell()`` starts one, ``cells()`` as many as a
 test asks for; each stops, with every process of it proven gone, when its block ends, also on
-a failure or Ctrl-C. The pytest plugin (``motocell.testing.plugin``) is these as fixtures.
+a failure or Ctrl-C; and with the process that started it, however that process ends, leaving
+no file behind (``running_cell.start_cell``). The pytest plugin (``motocell.testing.plugin``)
+is these as fixtures.
 
 A cell here is what ``testing.running_cell`` starts for the project's own tests:
 free loopback ports, its own router on a free port, secured (every identity has a password),
@@ -157,7 +159,7 @@ def cell(
         path = write_cell_file(
             Path(directory) / "cell.toml", config, name or unique_name(), settings
         )
-        with running_cell(path, timeout=timeout, attempts=2) as running:
+        with running_cell(path, timeout=timeout, attempts=2, scratch=[Path(directory)]) as running:
             session = running.session(Role.OPERATOR)
             try:
                 yield CellUnderTest(running, session)

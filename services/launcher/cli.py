@@ -7,6 +7,7 @@ import argparse
 
 from motocell.services.launcher.core.endpoints import WELL_KNOWN_ENDPOINT
 from motocell.services.launcher.core.tcp_ports import PORT_BASE_AUTO
+from motocell.services.launcher.lifeline import lifeline_argument
 from motocell.shared.service import add_cell_arguments
 
 
@@ -69,6 +70,28 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="no credentials and no access control: anyone who reaches the router can move "
         "the robot. Only for a trusted lab network (see docs/security.md)",
     )
+    add_lifeline_argument(parser, "cell")
+    parser.add_argument(
+        "--lifeline-scratch",
+        action="append",
+        default=[],
+        metavar="DIR",
+        help="with --lifeline: a directory the starting program made for this cell alone (its "
+        "registry, credentials, cell file), removed once the cell stopped because the lifeline "
+        "ended (repeatable)",
+    )
+
+
+def add_lifeline_argument(parser: argparse.ArgumentParser, what: str) -> None:
+    parser.add_argument(
+        "--lifeline",
+        type=lifeline_argument,
+        metavar="FD",
+        help=f"for a program that starts the {what} and must not leave it behind "
+        "(motocell.testing): the read end of a pipe whose write end that program alone holds; "
+        f"when the program ends, however it ends, the pipe reads end of file and the {what} "
+        "stops",
+    )
 
 
 def add_router_arguments(parser: argparse.ArgumentParser) -> None:
@@ -94,3 +117,4 @@ def add_router_arguments(parser: argparse.ArgumentParser) -> None:
         help="run from a Zenoh router config file instead, as `zenohd -c FILE` does (e.g. "
         "deploy/zenoh/router.json5); --listen/--connect are then ignored",
     )
+    add_lifeline_argument(parser, "router")

@@ -41,6 +41,7 @@ from motocell.services.launcher.core.children import (
 )
 from motocell.services.launcher.core.restarts import RestartPolicy
 from motocell.services.launcher.core.tcp_ports import PORT_BASE_AUTO, port_base_problem, tcp_ports
+from motocell.services.launcher.lifeline import LifelineError, check_lifeline, lifeline
 from motocell.services.launcher.loop import supervise
 from motocell.services.launcher.ports import PortError, check_router_endpoints, check_tcp_ports
 from motocell.services.launcher.processes import Child, stop_children
@@ -71,10 +72,15 @@ def run(args: argparse.Namespace) -> int:
     try:
         cell = load_cell(args.config, args.name)
         this_host = ThisHost(cell, args)
+        check_lifeline(args.lifeline, args.lifeline_scratch)
         # Before the router opens, so that its threads inherit it; then this thread, which
         # starts the services, leaves it, so that their imports do not run at it.
         realtime = enter_service_priority(log, quiet=True)
-        with stop_on_signals() as stop, _cell_bus(cell, args, this_host, stop) as bus:
+        with (
+            stop_on_signals() as stop,
+            lifeline(args.lifeline, args.lifeline_scratch, stop),
+            _cell_bus(cell, args, this_host, stop) as bus,
+        ):
             if realtime:
                 leave_service_priority()
             return run_children(cell, args, this_host, bus, stop, realtime=realtime)
@@ -87,6 +93,7 @@ def run(args: argparse.Namespace) -> int:
         CredentialsError,
         UnknownServiceError,
         PortError,
+        LifelineError,
     ) as exc:
         print(f"motocell up: {_hint(exc, args)}", file=sys.stderr)
         return EXIT_CONFIG
@@ -281,10 +288,11 @@ def _pid(children: list[Child], name: str) -> int | None:
 def router(args: argparse.Namespace) -> int:
     """A Zenoh router in this process until SIGINT or SIGTERM."""
     try:
-        with stop_on_signals() as stop:
+        check_lifeline(args.lifeline, ())
+        with stop_on_signals() as stop, lifeline(args.lifeline, (), stop):
             enter_service_priority(log)  # every stream of the cells it serves goes through it
             serve_router(args.listen, args.connect, stop, args.config)
-    except ConnectionError as exc:
+    except (ConnectionError, LifelineError) as exc:
         print(f"motocell router: {exc}", file=sys.stderr)
         return EXIT_CONFIG
     return 0

@@ -1,7 +1,8 @@
 """A user's own tests, run as a user runs them: motocell built into a wheel and installed with
 pytest into a fresh venv, the test files in a directory outside the repository, ``python -m
 pytest`` there. The plugin comes from the installed entry point alone; every cell it started
-is gone afterwards, after a test that fails on purpose and after Ctrl-C too.
+is gone afterwards, after a test that fails on purpose, after Ctrl-C, and after pytest is
+killed outright (SIGKILL, SIGTERM) too.
 
 The build and the install are tests/test_packaging.py's (a copy of the source tree, pip with
 this machine's configuration). The user's files are ``tests/testing/user``'s, typed and
@@ -9,6 +10,7 @@ checked with the project's code."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import shutil
@@ -16,6 +18,7 @@ import signal
 import subprocess
 import sys
 from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -32,6 +35,8 @@ RUN_TIMEOUT_S = 300.0
 cold venv also compiles what it imports first."""
 READY_TIMEOUT_S = 180.0
 EXIT_TIMEOUT_S = 60.0
+GONE_TIMEOUT_S = 15.0
+"""For a cell to be gone once the run that started it is: its launcher stops it within 5 s."""
 
 
 @pytest.fixture(scope="module")
@@ -108,9 +113,11 @@ def test_a_passing_and_a_failing_test_leave_no_cell_behind(venv: Path, project: 
     assert_nothing_left(venv, project, output)
 
 
-def test_ctrl_c_stops_the_cell_of_the_test_it_interrupts(venv: Path, project: Path) -> None:
-    log = project / "pytest.log"
-    with log.open("w") as out:
+@contextmanager
+def interrupted_run(venv: Path, project: Path) -> Iterator[subprocess.Popen[bytes]]:
+    """``test_interrupted.py`` run by pytest in a session of its own, once its test runs
+    with its cell; killed (its whole session) on exit if it still runs."""
+    with (project / "pytest.log").open("w") as out:
         user = subprocess.Popen(
             pytest_command(venv, "test_interrupted.py"),
             cwd=project,
@@ -125,15 +132,42 @@ def test_ctrl_c_stops_the_cell_of_the_test_it_interrupts(venv: Path, project: Pa
             READY_TIMEOUT_S,
             "the test to run",
         )
-        assert user.poll() is None, log.read_text()
+        assert user.poll() is None, output_of(project)
         # The cell runs the venv's Python: what is left of it afterwards cannot hide.
-        assert len(processes_of(venv)) > len(("pytest", "launcher", "services")), log.read_text()
-        os.killpg(user.pid, signal.SIGINT)  # what Ctrl-C at a terminal sends
-        assert user.wait(EXIT_TIMEOUT_S) == pytest.ExitCode.INTERRUPTED, log.read_text()
+        assert len(processes_of(venv)) > len(("pytest", "launcher", "services")), output_of(project)
+        yield user
     finally:
         if user.poll() is None:
             os.killpg(user.pid, signal.SIGKILL)
             user.wait()
-    output = log.read_text()
+
+
+def output_of(project: Path) -> str:
+    return (project / "pytest.log").read_text()
+
+
+def test_ctrl_c_stops_the_cell_of_the_test_it_interrupts(venv: Path, project: Path) -> None:
+    with interrupted_run(venv, project) as user:
+        os.killpg(user.pid, signal.SIGINT)  # what Ctrl-C at a terminal sends
+        assert user.wait(EXIT_TIMEOUT_S) == pytest.ExitCode.INTERRUPTED, output_of(project)
+    output = output_of(project)
     assert "KeyboardInterrupt" in output, output
     assert_nothing_left(venv, project, output)
+
+
+@pytest.mark.parametrize("how", [signal.SIGKILL, signal.SIGTERM], ids=["SIGKILL", "SIGTERM"])
+def test_a_run_killed_outright_leaves_no_cell_behind(
+    venv: Path, project: Path, how: signal.Signals
+) -> None:
+    """Only pytest's process is signalled, as the OOM killer or ``kill PID`` does: it tears
+    nothing down, and the cell goes by itself."""
+    with interrupted_run(venv, project) as user:
+        user.send_signal(how)
+        assert user.wait(EXIT_TIMEOUT_S) == -how
+    with contextlib.suppress(TimeoutError):  # the assertion below says what is left
+        wait_until(
+            lambda: not processes_of(venv) and not any((project / "tmp").iterdir()),
+            GONE_TIMEOUT_S,
+            "the cell to be gone",
+        )
+    assert_nothing_left(venv, project, output_of(project))
