@@ -23,7 +23,7 @@ import re
 import sys
 from pathlib import Path
 
-from motocell.shared.bus.access import cell_identities
+from motocell.shared.bus.access import ROUTER_SUFFIX, cell_identities, is_router_name
 from motocell.shared.bus.bundles import BUNDLES, ROUTER_BUNDLE, bundle_path, write_bundles
 from motocell.shared.bus.credentials import (
     CA_FILE,
@@ -123,6 +123,12 @@ def _check_arguments(args: argparse.Namespace) -> None:
             raise ValueError(
                 f"--identity {user!r}: a Zenoh username is words of letters, digits, - or _ "
                 "joined by dots (site.observer), not 'router'"
+            )
+        if is_router_name(user):
+            raise ValueError(
+                f"--identity {user}: a name ending in {ROUTER_SUFFIX} is a router's (its "
+                "certificate's, or site.router, which `motocell site` makes for a mesh): a "
+                "client named so would pass for a router; choose another name"
             )
 
 

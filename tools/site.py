@@ -149,8 +149,11 @@ def site_router_settings(
     for cell in cells:
         parties += cell_parties(cell.name, cell_identities(cell.groups))
     if tls:
-        # Any TLS router of the site may be one a mesh's other routers connect to.
-        parties += router_links(SITE_ROUTER, _router_common_name(directory))
+        # Any TLS router of the site may be one a mesh's other routers connect to; only one
+        # that dials others knows a router by its certificate alone.
+        router_name = _router_common_name(directory)
+        _check_no_client_named(directory, router_name)
+        parties += router_links(SITE_ROUTER, router_name if connect else None)
     files = files_at or directory
     link = None
     if connect:
@@ -169,6 +172,25 @@ def _router_common_name(directory: Path) -> str:
     certificate = x509.load_pem_x509_certificate((directory / ROUTER_CERTIFICATE).read_bytes())
     (attribute,) = certificate.subject.get_attributes_for_oid(NameOID.COMMON_NAME)
     return str(attribute.value)
+
+
+def _check_no_client_named(directory: Path, router_name: str) -> None:
+    """No client identity in ``directory`` has the router's name: with its certificate, any
+    password of the site would pass for a router the others dial."""
+    found = [
+        path.name
+        for path in (
+            password_path(directory, router_name),
+            *certificate_paths(directory, router_name),
+        )
+        if path.exists()
+    ]
+    if found:
+        raise ValueError(
+            f"{directory} holds a client identity named like its router ({router_name}: "
+            f"{', '.join(found)}), which would pass for a router of the site: remove those "
+            "files, and any copy of them"
+        )
 
 
 def _check_cells(directory: Path, cells: Sequence[SiteCell]) -> None:

@@ -51,6 +51,10 @@ SITE_OBSERVER = "site.observer"
 """The site observer's username and certificate common name: it watches every cell."""
 SITE_ROUTER = "site.router"
 """What a router of a site's mesh logs in as to the others."""
+ROUTER_SUFFIX = ".router"
+"""How every router's name ends: its certificate's common name (``<cell>.router``) and
+SITE_ROUTER. No client identity may be named so: a client certificate with a router's name
+would pass for that router where it is known by its certificate alone."""
 MESSAGES = (
     ("put", "delete", "declare_subscriber"),
     ("query", "reply", "declare_queryable"),
@@ -181,19 +185,30 @@ def site_observer(name: str) -> Party:
     return Party(name, tuple(_rules_for(ANY_CELL, Identity(Role.OBSERVER), groups=0)))
 
 
-def router_links(name: str, router_certificate: str) -> list[Party]:
+def is_router_name(user: str) -> bool:
+    """Whether ``user`` is named like a router (ROUTER_SUFFIX): never a client's name."""
+    return user.endswith(ROUTER_SUFFIX)
+
+
+def router_links(name: str, dialed: str | None) -> list[Party]:
     """Another router of the site's mesh: every message both ways on every cell's keys. Each
     router filters its own clients by the same rules, so what a router passes on was allowed
-    where it came in. A router that connected here logs in as ``name`` with its client
-    certificate; one this router connected to shows only its server certificate, whose common
-    name is ``router_certificate`` (a server certificate cannot log in as a client)."""
+    where it came in. A router that connected here logs in as ``name`` with its password and
+    client certificate, both required. A router this one dials logs in to no one (Zenoh
+    checks a password only of the side that dials): it shows only its server certificate,
+    whose common name is ``dialed``. That subject is the one a certificate alone matches, so
+    only a router that dials others has it (``dialed`` None: it dials none), and no client
+    certificate may carry a router's name (``is_router_name``)."""
     everything = tuple(kind for kinds in MESSAGES for kind in kinds)
     rules = tuple(
         (flow, everything, f"{root}/**")
         for flow in (INGRESS, EGRESS)
         for root in (ROOT, ALIVE_ROOT)
     )
-    return [Party(name, rules), Party(router_certificate, rules, certificate_only=True)]
+    links = [Party(name, rules)]
+    if dialed is not None:
+        links.append(Party(dialed, rules, certificate_only=True))
+    return links
 
 
 def access_control(parties: Iterable[Party], *, certificates: bool) -> dict[str, Any]:

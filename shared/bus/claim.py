@@ -17,12 +17,16 @@ service name"):
    declares). It logs it and keeps running.
 4. A holder that lost its router has been apart from the cell: whoever claimed the name
    meanwhile has been driving. It gives way to a held claim it finds there while it is apart
-   or within ``REJOIN_S`` of being back; after that its claim is final again.
+   or within ``REJOIN_S`` of being back; after that its claim is final again. A claimant it
+   saw while it held the name with its router lost then, and stays lost: its claim, sent
+   anew when the router comes back, is not one made meanwhile.
+5. A token whose last chunk is no Zenoh session id was declared by hand: no claim at all.
 """
 
 from __future__ import annotations
 
 import logging
+import re
 import threading
 import time
 from collections.abc import Callable, Iterable
@@ -46,6 +50,12 @@ REJOIN_S = 1.0
 while it was apart (rule 4): the router sends the claims it holds when the subscription is
 declared again, within milliseconds."""
 HELD = ".held"
+SESSION_ID = re.compile(r"[1-9a-f][0-9a-f]{0,31}")
+"""What Zenoh accepts as a session id: lowercase hex, no leading zero, at most 128 bits."""
+MAX_LOSERS = 256
+"""How many claimants a holder remembers as lost (rule 4). More than that on one name is a
+flood of forged tokens: the holder then never gives way, which keeps a running cell whole
+(docs/topology.md)."""
 ZENOH_TIMEOUT = "Timeout"
 """The error reply Zenoh gives a query that ran out of time (whatever came before it is not
 all there is)."""
@@ -82,6 +92,12 @@ class Claim:
     def chunk(self) -> str:
         return self.session + (HELD if self.held else "")
 
+    @property
+    def possible(self) -> bool:
+        """Whether a claimant could have declared it: ``claim_name`` names its session's id;
+        anything else was declared by hand (rule 5)."""
+        return SESSION_ID.fullmatch(self.session) is not None
+
 
 def rival_of_bid(own: str, claims: Iterable[Claim]) -> Claim | None:
     """What a settled bid of session ``own`` loses to (rule 2): another session's held claim,
@@ -104,14 +120,17 @@ _STAGES = ((False, rival_of_bid), (True, rival_of_hold))
 
 
 class Standing:
-    """Whether a holder must give way to a held claim it sees appear (rules 3 and 4): only
-    while none of its routers is connected, or within REJOIN_S of one connecting again.
-    Fed from Zenoh's threads, so its state is behind a lock; times are monotonic seconds."""
+    """Whether a holder must give way to a held claim it sees appear (rules 3 to 5): only
+    while none of its routers is connected, or within REJOIN_S of one connecting again, and
+    only to a claimant it has not seen lose. Fed from Zenoh's threads, so its state is behind
+    a lock; times are monotonic seconds."""
 
     def __init__(self) -> None:
         self._routers: set[str] = set()
         self._apart = False
         self._back_at: float | None = None
+        self._losers: set[str] = set()
+        self._too_many = False
         self._lock = threading.Lock()
 
     def router_up(self, router: str, now: float) -> None:
@@ -126,11 +145,23 @@ class Standing:
             self._apart = not self._routers
 
     def gives_way_to(self, claim: Claim, own: str, now: float) -> bool:
-        if not claim.held or claim.session == own:
+        """Whether ``claim``, just seen, takes the name from this holder. A claimant seen
+        while the holder has its router has lost (rule 3) and is remembered as such: a
+        router that comes back sends every claim anew, and an old one must not pass for one
+        made meanwhile (rule 4)."""
+        if not claim.possible or claim.session == own:
             return False
         with self._lock:
+            if self._too_many or claim.session in self._losers:
+                return False
             rejoining = self._back_at is not None and now - self._back_at <= REJOIN_S
-            return self._apart or rejoining
+            if self._apart or rejoining:
+                return claim.held
+            if len(self._losers) < MAX_LOSERS:
+                self._losers.add(claim.session)
+            else:
+                self._too_many = True
+            return False
 
 
 class HeldName:
@@ -147,17 +178,18 @@ class HeldName:
 def claim_name(session: zenoh.Session, keys: CellKeys, service: str, instance: str) -> HeldName:
     """The name held for this session (rules 1 and 2); ClaimError if it cannot be."""
     own = str(session.info.zid())
-    found = _claims(session, keys, service, instance)
+    found = _claims(session, keys, service, instance, first=True)
     if found:
-        raise NameTakenError(_taken(session, keys, service, instance))
+        raise NameTakenError(_taken(session, keys, service, instance, found))
     tokens: list[zenoh.LivelinessToken] = []
     try:
         for held, rival_of in _STAGES:
             chunk = Claim(own, held).chunk
             tokens.append(session.liveliness().declare_token(keys.claim(service, instance, chunk)))
             time.sleep(SETTLE_S)
-            if rival_of(own, _claims(session, keys, service, instance)) is not None:
-                raise NameTakenError(_taken(session, keys, service, instance))
+            rival = rival_of(own, _claims(session, keys, service, instance))
+            if rival is not None:
+                raise NameTakenError(_taken(session, keys, service, instance, [rival]))
     except BaseException:
         HeldName(tokens).undeclare()
         raise
@@ -231,8 +263,11 @@ def _name(service: str, instance: str) -> str:
     return f"{service}/{instance}" if service == PER_GROUP else service
 
 
-def _claims(session: zenoh.Session, keys: CellKeys, service: str, instance: str) -> list[Claim]:
-    """Every claim on the name, from a look-up the router answered in full (rule 1)."""
+def _claims(
+    session: zenoh.Session, keys: CellKeys, service: str, instance: str, *, first: bool = False
+) -> list[Claim]:
+    """Every claim on the name, from a look-up the router answered in full (rule 1); a token
+    no claimant could have declared is none (rule 5), said once, in the ``first`` look-up."""
     name = _name(service, instance)
     deadline = time.monotonic() + LOOKUP_DEADLINE_S
     while True:
@@ -240,7 +275,17 @@ def _claims(session: zenoh.Session, keys: CellKeys, service: str, instance: str)
         replies = list(session.liveliness().get(key, timeout=QUERY_TIMEOUT_S))
         errors = [reply.err.payload.to_string() for reply in replies if reply.err]
         if not errors:
-            return [Claim.from_key(str(reply.ok.key_expr)) for reply in replies if reply.ok]
+            found = [Claim.from_key(str(reply.ok.key_expr)) for reply in replies if reply.ok]
+            for claim in found:
+                if first and not claim.possible:
+                    log.warning(
+                        "a token on the claim of %s of cell %s names no Zenoh session (%s): "
+                        "declared by hand, it is ignored",
+                        name,
+                        keys.cell,
+                        claim.chunk,
+                    )
+            return [claim for claim in found if claim.possible]
         if any(error != ZENOH_TIMEOUT for error in errors):
             raise ClaimLookupError(f"cannot look up the claims on {name}: {errors[0]}")
         if time.monotonic() >= deadline:
@@ -251,8 +296,11 @@ def _claims(session: zenoh.Session, keys: CellKeys, service: str, instance: str)
             )
 
 
-def _taken(session: zenoh.Session, keys: CellKeys, service: str, instance: str) -> str:
-    """Who holds the name, as far as its info queryable says."""
+def _taken(
+    session: zenoh.Session, keys: CellKeys, service: str, instance: str, claims: list[Claim]
+) -> str:
+    """Who holds the name: the host and pid its info queryable gives, else the session that
+    claims it and what that can be."""
     name = _name(service, instance)
     article = "an" if name[0] in "aeiou" else "a"
     holder = f"{article} {name} of cell {keys.cell} is already running on this Zenoh network"
@@ -260,4 +308,9 @@ def _taken(session: zenoh.Session, keys: CellKeys, service: str, instance: str) 
         if reply.ok:
             info = _info_decoder.decode(reply.ok.payload.to_bytes())
             return f"{holder} (host {info.host}, pid {info.pid})"
-    return holder
+    claimant = min(claims, key=lambda claim: (not claim.held, claim.session))
+    return (
+        f"{holder} as session {claimant.session}, which does not answer (still starting, "
+        f"stopped, or a claim token declared with the {name}'s credentials): stop that "
+        "process or session, or give this cell another name"
+    )

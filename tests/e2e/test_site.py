@@ -17,14 +17,22 @@ import sys
 import tempfile
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import pytest
 import zenoh
 
-from motocell.shared.bus.access import SITE_OBSERVER, SITE_ROUTER, Identity, cell_identities
+from motocell.shared.bus.access import (
+    ROUTER_SUFFIX,
+    SITE_OBSERVER,
+    SITE_ROUTER,
+    Identity,
+    cell_identities,
+)
 from motocell.shared.bus.bundles import ROUTER_BUNDLE, bundle_path
+from motocell.shared.bus.catalog import Role
+from motocell.shared.bus.certificates import issue_client_certificate, load_authority
 from motocell.shared.bus.credentials import load, load_user
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import ControllerStatus
@@ -137,7 +145,7 @@ def test_every_identity_of_one_cell_gets_nothing_of_another(site: Site) -> None:
                 credentials=load(site.credentials, one.cell.name, identity),
             )
             try:
-                _refused_everything(foreign, other, watcher, identity)
+                _refused_everything(foreign, other, watcher, f"{identity.name} of the other cell")
                 mark = len(ticks)
                 attack(foreign, other)
                 assert_untouched(other, ticks, watcher, mark)
@@ -148,8 +156,48 @@ def test_every_identity_of_one_cell_gets_nothing_of_another(site: Site) -> None:
         watcher.close()
 
 
+def test_a_client_certificate_with_the_routers_name_passes_for_no_router(
+    site: Site, tmp_path: Path
+) -> None:
+    """A client certificate named like the router (``<cell>.router``, which `motocell
+    credentials --identity` issued until it refused to), signed by the site's CA, with a valid
+    password of another identity: the router dials no other, so no subject is a certificate
+    alone, and the pair matches none. It gets nothing of its cell or another."""
+    first = site.cells[0].cell.name
+    rogue = tmp_path / "rogue"
+    rogue.mkdir(mode=0o700)
+    certificate, key = issue_client_certificate(
+        rogue, f"{first}{ROUTER_SUFFIX}", load_authority(site.credentials)
+    )
+    observer = load(site.credentials, first, Identity(Role.OBSERVER))
+    posing = replace(observer, certificate=certificate, key=key)
+    watcher = open_session(
+        "client",
+        [site.endpoint],
+        wait=False,
+        credentials=load_user(site.credentials, SITE_OBSERVER),
+    )
+    try:
+        for cell in site.cells[:2]:
+            foreign = open_session("client", [site.endpoint], wait=False, credentials=posing)
+            ticks = TickLog(watcher, cell.keys)
+            try:
+                with cell.motion() as motion:
+                    assert motion.command(Command.START_TRAJ_MODE).result == Result.SUCCESS
+                who = f"{observer.user}'s password with the certificate of {first}.router"
+                _refused_everything(foreign, cell, watcher, who)
+                mark = len(ticks)
+                attack(foreign, cell)
+                assert_untouched(cell, ticks, watcher, mark)
+            finally:
+                ticks.subscriber.undeclare()
+                foreign.close()
+    finally:
+        watcher.close()
+
+
 def _refused_everything(
-    foreign: zenoh.Session, other: RunningCell, watcher: zenoh.Session, identity: Identity
+    foreign: zenoh.Session, other: RunningCell, watcher: zenoh.Session, who: str
 ) -> None:
     """``foreign`` subscribes to all of ``other``'s keys and tokens, declares a token among
     them and asks on a key of every query route there: nothing comes and no token appears,
@@ -170,7 +218,6 @@ def _refused_everything(
     seen = SampleLog(watcher, keys.controller_status, ControllerStatus)
     try:
         wait_until(lambda: len(seen) >= SAMPLES_SEEN, DEADLINE_S, "the site observer's statuses")
-        who = f"{identity.name} of the other cell"
         assert not samples, f"{who} received {other.cell.name}'s samples"
         # Its own token reaches its own subscriber inside the session, never the router.
         assert not [key for key in tokens if key != planted_key], (

@@ -406,6 +406,8 @@ def test_renewal_stops_at_a_ca_that_expires_within_the_window(
         (["--renew", "--cell", "x"], "--renew goes alone"),
         (["--identity", "a b"], "--identity 'a b': a Zenoh username"),
         (["--identity", "router"], "not 'router'"),
+        (["--identity", "lab.router"], "--identity lab.router: a name ending in .router is"),
+        (["--identity", "site.router"], "a client named so would pass for a router"),
         (["--host", "robot-pc"], "holds passwords only, so --host cannot be added"),
         (["--renew"], "holds passwords only: they do not expire"),
     ],

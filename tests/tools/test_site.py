@@ -51,6 +51,31 @@ def test_a_site_router_serves_every_cell_the_site_observer_and_the_mesh(tmp_path
     zenoh_config(settings)  # Zenoh takes every field
 
 
+def test_a_router_that_dials_no_other_knows_no_party_by_its_certificate_alone(
+    tmp_path: Path,
+) -> None:
+    directory = credentials(tmp_path, tls=True)
+    settings = site_router_settings(directory, CELLS, ["tls/127.0.0.1:0"], [])
+    subjects = settings["access_control"]["subjects"]
+    assert SITE_ROUTER in {subject["id"] for subject in subjects}
+    for subject in subjects:
+        assert subject["usernames"] == subject["cert_common_names"] == [subject["id"]], subject
+
+
+@pytest.mark.parametrize("connect", [[], ["tls/127.0.0.1:1"]])
+@pytest.mark.parametrize("kind", ["certificate", "password"])
+def test_a_directory_with_a_client_named_like_its_router_is_refused(
+    tmp_path: Path, connect: list[str], kind: str
+) -> None:
+    directory = credentials(tmp_path, tls=True)
+    if kind == "certificate":
+        issue_client_certificate(directory, "arm.router")
+    else:
+        add_passwords(directory, ["arm.router"])
+    with pytest.raises(ValueError, match=r"a client identity named like its router \(arm.router"):
+        site_router_settings(directory, CELLS, ["tls/127.0.0.1:0"], connect)
+
+
 def test_a_password_only_site_names_users_alone_and_links_no_router(tmp_path: Path) -> None:
     """A mesh needs TLS (test_what_cannot_be_served_is_refused)."""
     settings = site_router_settings(

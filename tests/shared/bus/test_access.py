@@ -20,6 +20,7 @@ from motocell.shared.bus.access import (
     access_control,
     cell_identities,
     cell_parties,
+    is_router_name,
     router_links,
     site_observer,
 )
@@ -83,6 +84,30 @@ def test_a_router_of_the_mesh_passes_everything_on_every_cell() -> None:
     assert subjects["site.router"]["usernames"] == ["site.router"]
     # A router this one connected to shows its server certificate and logs in as no one.
     assert subjects["lab.router"] == {"id": "lab.router", "cert_common_names": ["lab.router"]}
+
+
+def test_a_router_that_dials_no_other_has_no_subject_of_a_certificate_alone() -> None:
+    config = access_control(router_links("site.router", None), certificates=True)
+    (subject,) = config["subjects"]
+    assert subject == {
+        "id": "site.router",
+        "usernames": ["site.router"],
+        "cert_common_names": ["site.router"],
+    }
+
+
+@pytest.mark.parametrize(
+    ("user", "router"),
+    [
+        ("lab.router", True),
+        ("site.router", True),
+        ("lab.observer", False),
+        ("router", False),
+        ("lab.routers", False),
+    ],
+)
+def test_names_ending_in_router_are_routers(user: str, router: bool) -> None:
+    assert is_router_name(user) is router
 
 
 def test_an_interpolator_sends_only_on_its_own_group() -> None:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import pytest
 
 from motocell.shared.bus.claim import (
+    MAX_LOSERS,
     REJOIN_S,
     Claim,
     Standing,
@@ -22,6 +23,68 @@ def bid(session: str) -> Claim:
 
 def held(session: str) -> Claim:
     return Claim(session, held=True)
+
+
+@pytest.mark.parametrize(
+    ("session", "possible"),
+    [
+        ("ab12", True),
+        ("1", True),
+        ("f" * 32, True),
+        ("0", False),
+        ("0ab", False),
+        ("AB12", False),
+        ("f" * 33, False),
+        ("", False),
+        ("x", False),
+    ],
+)
+def test_a_claim_names_a_zenoh_session_or_was_declared_by_hand(
+    session: str, possible: bool
+) -> None:
+    assert held(session).possible is possible
+
+
+def test_a_token_declared_by_hand_is_never_given_way_to() -> None:
+    standing = Standing()
+    standing.router_up("r1", 0.0)
+    standing.router_down("r1")
+    assert not standing.gives_way_to(held("0"), OWN, 1.0)
+    standing.router_up("r1", 2.0)
+    assert not standing.gives_way_to(held("0"), OWN, 2.5)
+
+
+def test_a_claimant_seen_losing_never_wins_after_an_outage() -> None:
+    standing = Standing()
+    standing.router_up("r1", 0.0)
+    assert not standing.gives_way_to(held("9"), OWN, 1.0)
+    assert not standing.gives_way_to(bid("7"), OWN, 1.0)
+    standing.router_down("r1")
+    assert not standing.gives_way_to(held("9"), OWN, 2.0)
+    standing.router_up("r1", 3.0)
+    for session in ("9", "7"):
+        assert not standing.gives_way_to(held(session), OWN, 3.1)
+    assert standing.gives_way_to(held("8"), OWN, 3.1)
+
+
+def test_a_claimant_first_seen_while_rejoining_is_not_taken_for_a_loser() -> None:
+    """A start made while the holder was apart bids before it holds: its bid, seen in the
+    rejoin window, must not make its hold look like a loser's."""
+    standing = Standing()
+    standing.router_up("r1", 0.0)
+    standing.router_down("r1")
+    standing.router_up("r1", 10.0)
+    assert not standing.gives_way_to(bid("8"), OWN, 10.1)
+    assert standing.gives_way_to(held("8"), OWN, 10.2)
+
+
+def test_past_so_many_losers_a_holder_never_gives_way() -> None:
+    standing = Standing()
+    standing.router_up("r1", 0.0)
+    for number in range(1, MAX_LOSERS + 2):
+        assert not standing.gives_way_to(held(f"a{number:x}"), OWN, 1.0)
+    standing.router_down("r1")
+    assert not standing.gives_way_to(held("bcdef"), OWN, 2.0)
 
 
 def test_a_claim_is_read_from_its_key_and_written_back() -> None:
@@ -94,6 +157,6 @@ def test_losing_one_of_two_routers_is_not_being_apart() -> None:
     standing.router_up("r1", 0.0)
     standing.router_up("r2", 0.0)
     standing.router_down("r1")
-    assert not standing.gives_way_to(held("0"), OWN, 1.0)
+    assert not standing.gives_way_to(held("9"), OWN, 1.0)
     standing.router_down("r2")
-    assert standing.gives_way_to(held("0"), OWN, 2.0)
+    assert standing.gives_way_to(held("8"), OWN, 2.0)
