@@ -11,8 +11,10 @@ the payloads the catalogue knows as JSON with their JSON Schema, anything else a
 writer thread writes the file, and hands it to the file system at least every ``FLUSH_S``.
 Ctrl-C (SIGINT) or SIGTERM ends the recording normally: the file gets its summary, and the
 closing lines count what it holds. A recorder killed outright (SIGKILL, a power cut) leaves a
-file without a summary that Foxglove and the standard MCAP reader refuse; it holds everything
-up to about a second before the kill, and ``motocell plot`` reads it and says it was cut.
+file without a summary, which ``mcap``'s ``make_reader`` refuses and its ``StreamReader``
+reads up to the cut: its first sample is flushed at once, then at least every ``FLUSH_S``, so
+it holds all but about the last half second. ``motocell plot`` reads it and says it was cut;
+``--repair`` writes a copy with its summary (docs/observing.md says which readers open what).
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ import queue
 import sys
 import threading
 import time
+from pathlib import Path
 from typing import Protocol
 
 import zenoh
@@ -50,10 +53,12 @@ QUEUE_SIZE = 100_000
 """Samples waiting for the writer: about 100 s of one busy cell, a few tens of MB at most. A
 writer that falls further behind than that loses samples (counted) instead of memory."""
 
-FLUSH_S = 1.0
+FLUSH_S = 0.5
 """How long a sample may wait in the writer's chunk before it reaches the file: what a
-recorder killed outright (SIGKILL, a power cut) loses at most, beside its queue. Each flush
-ends an MCAP chunk; a chunk of a second still compresses well."""
+recorder killed outright (SIGKILL, a power cut) loses at most, beside its queue, so that with
+the writer's lag on a loaded machine it stays within about a second. Each flush ends an MCAP
+chunk; a chunk of half a second still compresses well, and costs a few hundred bytes of
+indexes."""
 
 OBSERVED = tuple(
     route.suffix for route in ROUTES if route.op is Op.PUT and Role.OBSERVER in route.receivers
@@ -96,11 +101,10 @@ class Recorder:
                 self.dropped += 1
 
     def _drain(self) -> None:
-        flush_at: float | None = None
-        """When what the sink holds unflushed must reach the file (None: nothing waits)."""
+        flushes = Flushes()
         while True:
             try:
-                item = self.queue.get(timeout=_until(flush_at))
+                item = self.queue.get(timeout=_until(flushes.due))
             except queue.Empty:  # quiet for a while: hand the file what waits
                 item = _FLUSH
             if item is None:  # the stop marker
@@ -110,11 +114,10 @@ class Recorder:
             try:
                 if item is not _FLUSH:
                     self.sink.write(*item)
-                    if flush_at is None:
-                        flush_at = time.monotonic() + FLUSH_S
-                if flush_at is not None and time.monotonic() >= flush_at:
+                    flushes.wrote(time.monotonic())
+                if flushes.is_due(time.monotonic()):
                     self.sink.flush()
-                    flush_at = None
+                    flushes.flushed()
             except Exception as exc:  # a full disk, a closed file: report it, stop recording
                 self.error = exc
                 self.stop.set()
@@ -132,6 +135,31 @@ class Recorder:
 
 _FLUSH = (0, "", b"")
 """Not a sample: the writer's own reminder that a flush is due."""
+
+
+class Flushes:
+    """When the writer hands the file what the sink holds (times on ``time.monotonic``).
+
+    The first sample at once: it brings the channels and schemas, so a recorder killed at any
+    moment after its first sample leaves a file that holds it. After that, at most ``FLUSH_S``
+    after the oldest sample not yet flushed, so a kill loses at most that and the queue."""
+
+    def __init__(self) -> None:
+        self.due: float | None = None
+        """When what the sink holds unflushed must reach the file (None: nothing waits)."""
+        self._first = True
+
+    def wrote(self, now: float) -> None:
+        """A sample went into the sink at ``now``."""
+        if self.due is None:
+            self.due = now if self._first else now + FLUSH_S
+
+    def is_due(self, now: float) -> bool:
+        return self.due is not None and now >= self.due
+
+    def flushed(self) -> None:
+        self.due = None
+        self._first = False
 
 
 def _until(deadline: float | None) -> float | None:
@@ -168,6 +196,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.description = __doc__
     parser.formatter_class = argparse.RawDescriptionHelpFormatter
     parser.add_argument("out", metavar="OUT", help="the MCAP file to write (replaced if present)")
+    parser.add_argument(
+        "--repair",
+        metavar="CUT",
+        help="record nothing: write OUT from CUT, a recording whose recorder was killed, with "
+        "the summary that indexed MCAP readers (mcap's make_reader) need",
+    )
     cell_files.add_arguments(parser)
     cells.add_arguments(parser, several=True)
     parser.set_defaults(run=run)
@@ -180,7 +214,41 @@ def key_exprs(target: Target) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.repair is not None:
+        return _repair(Path(args.repair), Path(args.out))
     return cell_files.observe(args, "record", lambda joined, known: _record(joined, known, args))
+
+
+def _repair(cut: Path, out: Path) -> int:
+    """``out``: what ``cut`` holds, as a whole file (``recording.repair``)."""
+    from motocell.tools.recording import MCAP_MAGIC, Recording, repair  # noqa: PLC0415
+
+    try:
+        with cut.open("rb") as stream:
+            magic = stream.read(len(MCAP_MAGIC))
+    except OSError as exc:
+        print(f"motocell record: cannot read {cut}: {exc.strerror}", file=sys.stderr)
+        return 2
+    if magic != MCAP_MAGIC:
+        print(f"motocell record: {cut}: not an MCAP file, nothing to repair", file=sys.stderr)
+        return 2
+    if out.exists() and out.samefile(cut):
+        print(
+            f"motocell record: --repair would write over {cut} while reading it: give OUT a "
+            "new name",
+            file=sys.stderr,
+        )
+        return 2
+    recording = Recording(cut)
+    try:
+        with out.open("wb") as stream:
+            copied = repair(recording, stream)
+    except OSError as exc:
+        print(f"motocell record: writing {out} failed: {exc}", file=sys.stderr)
+        return 1
+    held = "all it held before its cut" if recording.cut else "it was whole"
+    print(f"wrote {out}: {copied} messages from {cut} ({held}), with its summary")
+    return 0
 
 
 def _record(joined: Joined, known: dict[str, Cell], args: argparse.Namespace) -> int:
@@ -209,6 +277,13 @@ def _record(joined: Joined, known: dict[str, Cell], args: argparse.Namespace) ->
                 "started_unix_ns": str(time.time_ns()),
             },
         )
+        # The header and the metadata on disk before any sample: killed before the first
+        # one, the file is an empty recording that readers open, not a bare file.
+        try:
+            sink.flush()
+        except OSError as exc:
+            print(f"motocell record: writing {args.out} failed: {exc}", file=sys.stderr)
+            return 1
         where = ", ".join(target.describe() for target, _ in joined)
         ready = f"recording {where} into {args.out}; Ctrl-C to stop"
         recorder = run_recorder(sink, exprs, args.duration, ready)

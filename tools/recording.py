@@ -14,14 +14,15 @@ executor, the 3D scene), so a recording opened in Foxglove shows the view's pane
 and ``publish_time`` are the receive time in ns since the Unix epoch.
 
 The file is written by ``foxglove-sdk``, the library ``motocell view`` serves with, and read back
-with ``mcap``; both are in the ``tools`` extra: only the commands that record, view or plot import
-this module.
+(a cut one repaired) with ``mcap``; both are in the ``tools`` extra: only the commands that
+record, view or plot import this module.
 """
 
 from __future__ import annotations
 
 import struct
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Generator, Iterator, Mapping
+from contextlib import closing
 from pathlib import Path
 from typing import IO, Any
 
@@ -30,9 +31,20 @@ import msgspec
 from foxglove.mcap import MCAPWriteOptions
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
-from mcap.records import Channel, Message
+from mcap.records import (
+    Attachment,
+    Channel,
+    DataEnd,
+    Header,
+    McapRecord,
+    Message,
+    Metadata,
+    Schema,
+)
 from mcap.stream_reader import StreamReader
 from mcap.well_known import MessageEncoding
+from mcap.writer import CompressionType
+from mcap.writer import Writer as McapWriter
 
 from motocell.shared.bus import catalog
 from motocell.shared.bus.keys import ROOT
@@ -165,14 +177,9 @@ class Recording:
         self.cut = False
         """Known once ``messages`` has run to its end: the file stops before its footer."""
 
-    def messages(self) -> Iterator[tuple[str, int, dict[str, Any]]]:
-        """(key, log_time_ns, payload) of every JSON message on a key of the cells, in
-        log-time order (``McapSink`` writes them in that order). OSError for a file that
-        cannot be read, NotARecordingError for one that is not MCAP.
-
-        The view's topics (``/<cell>/...``) and raw msgpack channels (keys the catalogue does
-        not know) are left out; read them with ``mcap.reader.make_reader``.
-        """
+    def records(self) -> Generator[McapRecord]:
+        """Every record before the cut (chunks opened into their records), in file order.
+        OSError for a file that cannot be read, NotARecordingError for one that is not MCAP."""
         with open(self.path, "rb") as stream:
             if stream.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
                 raise NotARecordingError(
@@ -180,7 +187,6 @@ class Recording:
                 )
             stream.seek(0)
             self.cut = True
-            topics: dict[int, str] = {}
             records = StreamReader(stream).records
             while True:
                 try:
@@ -190,11 +196,73 @@ class Recording:
                     return
                 except (McapError, struct.error):
                     return  # the cut: a record, or the closing magic, runs past the end
-                if isinstance(record, Channel) and _of_the_cells(record):
-                    topics[record.id] = record.topic
-                elif isinstance(record, Message) and record.channel_id in topics:
-                    payload = msgspec.json.decode(record.data, type=dict[str, Any])
-                    yield topics[record.channel_id], record.log_time, payload
+                yield record
+
+    def messages(self) -> Iterator[tuple[str, int, dict[str, Any]]]:
+        """(key, log_time_ns, payload) of every JSON message on a key of the cells, in
+        log-time order (``McapSink`` writes them in that order). OSError for a file that
+        cannot be read, NotARecordingError for one that is not MCAP.
+
+        The view's topics (``/<cell>/...``) and raw msgpack channels (keys the catalogue does
+        not know) are left out; read them with ``mcap.reader.make_reader``.
+        """
+        topics: dict[int, str] = {}
+        for record in self.records():
+            if isinstance(record, Channel) and _of_the_cells(record):
+                topics[record.id] = record.topic
+            elif isinstance(record, Message) and record.channel_id in topics:
+                payload = msgspec.json.decode(record.data, type=dict[str, Any])
+                yield topics[record.channel_id], record.log_time, payload
+
+
+def repair(cut: Recording, out: IO[bytes]) -> int:
+    """Everything ``cut`` holds before its cut, into ``out`` as a whole MCAP file: the same
+    header, metadata, attachments, schemas, channels and messages in the same order, and the
+    summary a recorder killed outright could not write, which indexed readers (Foxglove,
+    ``make_reader``) need. The messages copied; OSError, NotARecordingError as ``records``."""
+    writer = McapWriter(out, compression=CompressionType.ZSTD)
+    started = False
+    schemas: dict[int, int] = {0: 0}
+    """A schema's id in ``cut``: its id in ``out`` (0: none, in both)."""
+    channels: dict[int, int] = {}
+    copied = 0
+    with closing(cut.records()) as records:
+        for record in records:
+            if isinstance(record, Header):
+                writer.start(record.profile, record.library)
+                started = True
+            elif isinstance(record, Schema) and record.id not in schemas:
+                schemas[record.id] = writer.register_schema(
+                    record.name, record.encoding, record.data
+                )
+            elif isinstance(record, Channel) and record.id not in channels:
+                channels[record.id] = writer.register_channel(
+                    record.topic,
+                    record.message_encoding,
+                    schemas[record.schema_id],
+                    record.metadata,
+                )
+            elif isinstance(record, Message):
+                writer.add_message(
+                    channels[record.channel_id],
+                    record.log_time,
+                    record.data,
+                    record.publish_time,
+                    record.sequence,
+                )
+                copied += 1
+            elif isinstance(record, Metadata):
+                writer.add_metadata(record.name, record.metadata)
+            elif isinstance(record, Attachment):
+                writer.add_attachment(
+                    record.create_time, record.log_time, record.name, record.media_type, record.data
+                )
+            elif isinstance(record, DataEnd):
+                break  # a whole file: its summary follows, and the writer makes its own
+    if not started:  # cut inside its header
+        writer.start()
+    writer.finish()  # type: ignore[no-untyped-call]  # mcap leaves it unannotated
+    return copied
 
 
 def channel_counts(path: str | Path) -> list[tuple[str, int]]:

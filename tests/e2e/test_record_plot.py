@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import os
 import signal
+import struct
 import subprocess
 import sys
 import threading
@@ -21,9 +22,14 @@ from matplotlib.colors import to_rgb
 from matplotlib.figure import Figure
 from matplotlib.image import imread
 from matplotlib.lines import Line2D
+from mcap.exceptions import McapError
 from mcap.reader import make_reader
+from mcap.records import Channel
+from mcap.records import Message as McapMessage
+from mcap.stream_reader import StreamReader
 
 from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.schemas import State
 from motocell.shared.bus.session import open_session
 from motocell.shared.motion.forward_kinematics import Chain, pose
 from motocell.shared.motion.kinematics import AxisMap
@@ -32,9 +38,9 @@ from motocell.shared.protocol.constants import Command, Result
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
 from motocell.testing.client import smooth_move, stream
 from motocell.testing.processes import connectable, wait_until
-from motocell.testing.running_cell import RunningCell, zenoh_router
+from motocell.testing.running_cell import RunningCell, SampleLog, zenoh_router
 from motocell.tools.plotting import plot_recording
-from motocell.tools.recording import NotARecordingError
+from motocell.tools.record import FLUSH_S
 from motocell.tools.recording import Recording as RecordingFile
 
 pytestmark = pytest.mark.cell
@@ -314,33 +320,53 @@ def test_plot_draws_the_recorded_series(recording: Recording, tmp_path: Path) ->
     assert matching.sum() > 50, "joint 1's line is not visible in the position panel"
 
 
-KILL_LOSS_S = 3.0
-"""What a killed recorder may lose at most in this test: its flushes come a second apart
-(``record.FLUSH_S``), plus the writer's lag on a loaded machine."""
+KILLED_AFTER_S = (0.3, 0.8, 1.4, 3.0)
+"""When each recorder is killed, counted in state periods published after its first state
+reached it: within its first flush period, around the next ones, and well after."""
 
 
-def test_a_recorder_killed_outright_leaves_a_file_read_up_to_the_last_second(
+def test_a_recorder_killed_at_any_moment_keeps_all_but_the_last_flush_period(
     cell: RunningCell, tmp_path: Path
 ) -> None:
-    out = tmp_path / "killed.mcap"
+    """Killed outright (SIGKILL) from its first sample on, a recording holds its start, and
+    loses no more than ``FLUSH_S`` and one period of margin before the kill. Measured in the
+    states the cell published, as another observer saw them: not in wall-clock time, which a
+    loaded machine stretches for the recorder and the cell alike."""
     keys = cell.keys
-    env = {**os.environ, RUNTIME_DIR_ENV: str(cell.runtime_dir)}
-    with Recorder(record_command(out, "--cell", cell.cell.name), env) as recorder:
-        # At rest, with no state client, a cell sends a few kB a second: a 1 MiB chunk would
-        # take minutes to fill. What arrives reaches the file within a second all the same.
-        wait_until(lambda: _samples_in(out, "") > 0, 30.0, "a sample in the file being written")
-        # A state client connected: the broadcaster sends state every period.
+    period_s = cell.cell.state_period_ns / 1e9
+    lost_at_most = round(2 * FLUSH_S / period_s)
+    session = cell.session()
+    published = SampleLog(session, keys.state, State)
+    files = []
+    try:
+        # A state client connected: the broadcaster publishes a state every state period.
         with cell.state():
-            wait_until(lambda: _samples_in(out, "/state") > 0, 30.0, "a state in the file")
-            killed_ns = time.time_ns()
-            recorder.process.kill()
-            recorder.process.wait()
-    recording = RecordingFile(out)
-    states = [t for key, t, _ in recording.messages() if key == keys.state]
-    assert recording.cut
-    assert killed_ns - states[-1] < KILL_LOSS_S * 1e9, (killed_ns - states[-1]) / 1e9
+            wait_until(lambda: len(published) > 0, 30.0, "a published state")
+            for after_s in KILLED_AFTER_S:
+                out = tmp_path / f"killed-{after_s}.mcap"
+                began, killed = _record_and_kill(cell, out, published, after_s / period_s)
+                files.append(out)
+
+                recording = RecordingFile(out)
+                messages = list(recording.messages())
+                assert recording.cut, after_s
+                # Its first sample (whichever key brought it) went to the file at once.
+                assert messages, f"killed {after_s} s in, the file holds nothing"
+                seqs = [p["seq"] for key, _, p in messages if key == keys.state]
+                if seqs:  # from its start: the states before it subscribed are not its own
+                    assert seqs[0] <= began + round(FLUSH_S / period_s), (after_s, seqs, began)
+                    assert seqs == list(range(seqs[0], seqs[-1] + 1)), f"a gap, {after_s} s in"
+                # The states it held up to (none yet: those up to the one it began with).
+                held = seqs[-1] if seqs else began - 1
+                assert killed - held <= lost_at_most, (after_s, (killed - held) * period_s)
+                # The mcap package's streaming reader reads it too, up to the cut.
+                assert _streamed_states(out, keys.state) == len(seqs), after_s
+    finally:
+        published.subscriber.undeclare()
+        session.close()
+
     plotted = subprocess.run(
-        [sys.executable, "-m", "motocell.tools.cli", "plot", str(out)],
+        [sys.executable, "-m", "motocell.tools.cli", "plot", str(files[-1])],
         check=False,
         capture_output=True,
         text=True,
@@ -348,17 +374,62 @@ def test_a_recorder_killed_outright_leaves_a_file_read_up_to_the_last_second(
     )
     assert plotted.returncode == 0, plotted
     assert plotted.stderr == (
-        f"motocell plot: {out}: cut short, its recorder did not close it (killed, or a full "
-        "disk); plotted what it holds\n"
+        f"motocell plot: {files[-1]}: cut short, its recorder did not close it (killed, or a "
+        "full disk); plotted what it holds\n"
     )
 
+    # Repaired, it opens in the indexed reader too, with every state it held.
+    fixed = tmp_path / "fixed.mcap"
+    repaired = subprocess.run(
+        [*record_command(fixed), "--repair", str(files[-1])],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert repaired.returncode == 0, repaired
+    with fixed.open("rb") as file:
+        reader = make_reader(file, validate_crcs=True)
+        states = [m for _, c, m in reader.iter_messages(topics=[keys.state])]
+    assert len(states) == _streamed_states(files[-1], keys.state)
 
-def _samples_in(path: Path, suffix: str) -> int:
-    """The samples of keys ending in ``suffix`` that the file holds now."""
-    try:
-        return sum(1 for key, _, _ in RecordingFile(path).messages() if key.endswith(suffix))
-    except (FileNotFoundError, NotARecordingError):  # not yet opened, or no magic yet
-        return 0
+
+def _record_and_kill(
+    cell: RunningCell, out: Path, published: SampleLog[State], periods: float
+) -> tuple[int, int]:
+    """Records ``cell`` into ``out`` and kills the recorder outright ``periods`` state periods
+    after its first state: the sequence numbers published then, and at the kill."""
+    env = {**os.environ, RUNTIME_DIR_ENV: str(cell.runtime_dir)}
+    with Recorder(record_command(out, "--cell", cell.cell.name), env) as recorder:
+        # Printed as its first state is written: the recording has begun.
+        first = f"+ {cell.keys.state} (json, State)"
+        wait_until(lambda: first in recorder.stdout, 30.0, "the first recorded state")
+        began = _last_seq(published)
+        kill_at = began + round(periods)
+        wait_until(lambda: _last_seq(published) >= kill_at, 30.0, "states published")
+        killed = _last_seq(published)
+        recorder.process.kill()
+        recorder.process.wait()
+    return began, killed
+
+
+def _last_seq(published: SampleLog[State]) -> int:
+    return published.since(len(published) - 1)[0].seq
+
+
+def _streamed_states(path: Path, key: str) -> int:
+    """The states ``mcap``'s StreamReader reads before the cut, where it raises."""
+    topics: dict[int, str] = {}
+    count = 0
+    with path.open("rb") as file:
+        records = StreamReader(file).records
+        with pytest.raises((McapError, struct.error)):  # the cut: no footer, maybe half a chunk
+            for record in records:
+                if isinstance(record, Channel):
+                    topics[record.id] = record.topic
+                elif isinstance(record, McapMessage) and topics.get(record.channel_id) == key:
+                    count += 1
+    return count
 
 
 def test_record_without_a_router_fails_fast_and_clearly(tmp_path: Path) -> None:

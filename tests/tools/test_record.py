@@ -1,6 +1,7 @@
 """The recorder's queue between Zenoh's callback threads and its one writer: what fits is
 written in order, what does not is counted, exactly, whichever threads drop it; what was
-written reaches the file by a flush, also when no sample follows."""
+written reaches the file by a flush, also when no sample follows: the first sample at once,
+each later one within ``FLUSH_S``."""
 
 from __future__ import annotations
 
@@ -91,6 +92,24 @@ def test_a_sample_is_flushed_without_waiting_for_another(monkeypatch: pytest.Mon
     finally:
         recorder.close()
     assert sink.events == ["write only", "flush", "finish"]
+
+
+def test_the_first_sample_is_flushed_at_once_then_every_flush_period() -> None:
+    # Times are given, not read: this is the policy alone, what the writer thread follows.
+    flushes = record.Flushes()
+    assert flushes.due is None  # nothing written, nothing to flush
+    flushes.wrote(100.0)
+    assert flushes.is_due(100.0), "a recording's start waits for nothing"
+    flushes.flushed()
+    assert flushes.due is None
+    flushes.wrote(100.01)
+    flushes.wrote(100.3)  # a later sample does not push the flush back
+    assert flushes.due == 100.01 + record.FLUSH_S
+    assert not flushes.is_due(100.01 + record.FLUSH_S - 0.001)
+    assert flushes.is_due(100.01 + record.FLUSH_S)
+    flushes.flushed()
+    flushes.wrote(205.0)  # after a quiet while: one period from this sample on
+    assert flushes.due == 205.0 + record.FLUSH_S
 
 
 def test_samples_that_do_not_fit_are_counted_exactly_across_callback_threads(
