@@ -83,6 +83,15 @@ def others_alive_keys(cell: Cell, keys: CellKeys) -> list[str]:
     return [key for key in required_alive_keys(cell) if key != own]
 
 
+def not_on_its_key(name: str, asked_on: str, own_key: str, reply_to: ReplyTo) -> Arrival | None:
+    """A bad request when a command or fault was asked on any key but its own: a query on a
+    wildcard (``controller/cmd/*``) reaches every verb's queryable, and obeying it would run
+    every command at once with one payload. None when it was asked on its own key."""
+    if asked_on == own_key:
+        return None
+    return BadPayload(name, f"asked on {asked_on}: ask a command on its own key", reply_to)
+
+
 def command_arrival(verb: Verb, payload: bytes | None, reply_to: ReplyTo) -> Arrival:
     """A command query, its payload decoded (none is an empty request)."""
     try:
@@ -145,11 +154,15 @@ class ZenohControllerBus:
         self._status = publisher(session, keys.controller_status, realtime=True)
         self._tokens = Liveness(session, keys.alive_all, self._tokens_changed)
         self._declared: list[object] = [
-            session.declare_queryable(keys.controller_cmd(verb), self._on_command(verb))
+            session.declare_queryable(
+                keys.controller_cmd(verb), self._on_command(verb, keys.controller_cmd(verb))
+            )
             for verb in Verb
         ]
         self._declared += [
-            session.declare_queryable(keys.controller_fault(kind), self._on_fault(kind))
+            session.declare_queryable(
+                keys.controller_fault(kind), self._on_fault(kind, keys.controller_fault(kind))
+            )
             for kind in FaultKind
         ]
         self._declared += [
@@ -177,15 +190,23 @@ class ZenohControllerBus:
         return self._tokens.present()
 
     # -- Zenoh's callbacks: decode and queue, nothing else ---------------------------------
-    def _on_command(self, verb: Verb) -> Callable[[zenoh.Query], None]:
+    def _on_command(self, verb: Verb, key: str) -> Callable[[zenoh.Query], None]:
         def on_query(query: zenoh.Query) -> None:
-            self._inbox.offer(command_arrival(verb, _payload_of(query), _QueryReplyTo(query)))
+            reply_to = _QueryReplyTo(query)
+            self._inbox.offer(
+                not_on_its_key(f"cmd/{verb}", str(query.key_expr), key, reply_to)
+                or command_arrival(verb, _payload_of(query), reply_to)
+            )
 
         return on_query
 
-    def _on_fault(self, kind: FaultKind) -> Callable[[zenoh.Query], None]:
+    def _on_fault(self, kind: FaultKind, key: str) -> Callable[[zenoh.Query], None]:
         def on_query(query: zenoh.Query) -> None:
-            self._inbox.offer(fault_arrival(kind, _payload_of(query), _QueryReplyTo(query)))
+            reply_to = _QueryReplyTo(query)
+            self._inbox.offer(
+                not_on_its_key(f"fault/{kind}", str(query.key_expr), key, reply_to)
+                or fault_arrival(kind, _payload_of(query), reply_to)
+            )
 
         return on_query
 

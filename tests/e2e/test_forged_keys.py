@@ -49,6 +49,8 @@ def forged_queries(cell: RunningCell) -> list[tuple[str, bytes]]:
     queries = [(keys.controller_cmd("*"), GARBAGE), (keys.executor_cmd("stop"), GARBAGE)]
     queries += [(f"{keys.prefix}/group/{chunk}/slot", GARBAGE) for chunk in ("*", "0", "1")]
     queries.append((keys.controller_cmd("select_tool"), encode(CommandRequest(value=99))))
+    # A well-formed request on a wildcard reaches every verb's queryable at once.
+    queries += [(keys.controller_cmd("*"), encode(CommandRequest(value=value))) for value in (0, 1)]
     return queries
 
 

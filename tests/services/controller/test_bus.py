@@ -11,6 +11,7 @@ from motocell.services.controller.bus import (
     connections_arrival,
     fault_arrival,
     incmove_error_arrival,
+    not_on_its_key,
     others_alive_keys,
 )
 from motocell.services.controller.core.dispatch import FaultKind, Verb
@@ -69,6 +70,20 @@ def test_a_query_with_garbage_is_a_bad_payload_that_keeps_its_reply_handle(
         assert isinstance(arrival, BadPayload)
         assert (arrival.source, arrival.reply_to) == (source, REPLY_TO)
         assert arrival.reason
+
+
+@pytest.mark.parametrize("asked_on", ["motocell/c/controller/cmd/*", "motocell/c/controller/**"])
+def test_a_command_asked_on_a_wildcard_is_a_bad_request_answered(asked_on: str) -> None:
+    own = CellKeys("c").controller_cmd(Verb.STOP_SERVOS)
+    arrival = not_on_its_key("cmd/stop_servos", asked_on, own, REPLY_TO)
+    assert isinstance(arrival, BadPayload)
+    assert (arrival.source, arrival.reply_to) == ("cmd/stop_servos", REPLY_TO)
+    assert asked_on in arrival.reason
+
+
+def test_a_command_asked_on_its_own_key_goes_on_to_be_decoded() -> None:
+    own = CellKeys("c").controller_fault(FaultKind.HOLD)
+    assert not_on_its_key("fault/hold", own, own, REPLY_TO) is None
 
 
 def test_the_notices_are_decoded() -> None:
