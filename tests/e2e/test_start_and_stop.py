@@ -29,6 +29,7 @@ from motocell.shared.config import EXIT_CONFIG, load_cell
 from motocell.shared.ports import free_port, free_port_block
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
 from motocell.testing.processes import alive, connectable, wait_until
+from motocell.testing.running_cell import zenoh_router
 
 pytestmark = pytest.mark.cell
 
@@ -386,6 +387,50 @@ def test_ctrl_c_during_the_demo_stops_it_and_its_cell_quietly(tmp_path: Path, mo
         output = demo.text()
     assert status in (0, 130, -signal.SIGINT), output
     assert clean(output), output
+
+
+# -- nothing left behind ------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("stop", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
+def test_a_cell_stopped_cleanly_leaves_no_credentials(tmp_path: Path, stop: signal.Signals) -> None:
+    credentials = registry.credentials_dir(CELL, tmp_path / "run")
+    with motocell(tmp_path, "up", *up_options()) as up:
+        up.wait_for(" ready: ")
+        assert (credentials / "users").is_file()
+        up.process.send_signal(stop)
+        assert up.finish() == 0
+    assert list(credentials.parent.iterdir()) == []
+
+
+def test_credentials_a_user_gives_are_left_as_they_are(tmp_path: Path) -> None:
+    """A cell joining a router of the user's, with the user's credentials: its stop removes
+    nothing of theirs."""
+    given = tmp_path / "given"
+    endpoint = f"tcp/{HOST}:{free_port(HOST)}"
+    router = tmp_path / "router.json5"
+    status, output = run_to_the_end(tmp_path, "credentials", str(given))
+    assert status == 0, output
+    site = ["site", str(given), "--config", "single-arm", "--listen", endpoint]
+    status, output = run_to_the_end(tmp_path, *site, "--out", str(router))
+    assert status == 0, output
+    before = {
+        path: (path.read_bytes(), path.stat().st_mode)
+        for path in given.rglob("*")
+        if path.is_file()
+    }
+    with zenoh_router(config_file=router):
+        joining = ["--zenoh-connect", endpoint, "--credentials", str(given)]
+        with motocell(tmp_path, "up", "--port-base", str(free_port_block(3, HOST)), *joining) as up:
+            up.wait_for(" ready: ")
+            up.process.send_signal(signal.SIGTERM)
+            assert up.finish() == 0
+    after = {
+        path: (path.read_bytes(), path.stat().st_mode)
+        for path in given.rglob("*")
+        if path.is_file()
+    }
+    assert after == before
 
 
 # -- a service by hand -----------------------------------------------------------------------
