@@ -22,6 +22,7 @@ from typing import Any, Literal
 
 import msgspec
 
+from motocell.shared.files import CELL_FILE_LIMIT, FileRefusedError, read_text_bounded
 from motocell.shared.protocol.constants import MAX_AXES, TOOL_NUMBERS
 
 DEFAULT_MAX_LATENESS_PERIODS = 25
@@ -474,7 +475,9 @@ def _cell_text(path: str | Path) -> str:
             raise ConfigError(f"{path}: no such file, nor a sample cell (samples: {known})")
         return sample.read_text()
     try:
-        return candidate.read_text()
+        return read_text_bounded(candidate, CELL_FILE_LIMIT)
+    except FileRefusedError as exc:
+        raise ConfigError(f"cell file {exc}") from None
     except OSError as exc:
         raise ConfigError(f"{path}: cannot read: {exc.strerror}") from exc
 

@@ -4,6 +4,11 @@
 asked about a cell finds its Zenoh endpoint and credentials here instead of guessing a port.
 An entry whose launcher is gone (killed, machine rebooted) is stale and ignored.
 
+The credentials ``motocell up`` writes for a cell (``credentials_dir``) live as long as the
+cell: its launcher removes them with its entry when it stops, and a registration removes those
+of every cell whose launcher is gone (killed: it could not remove its own). They are new at
+every start, so nothing is lost; credentials a user gives (``--credentials``) are never here.
+
 The directory is ``$MOTOCELL_RUNTIME_DIR``, else ``$XDG_RUNTIME_DIR/motocell``, else
 ``~/.local/state/motocell``; tests point it at a directory of their own.
 """
@@ -13,6 +18,7 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import os
+import shutil
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -61,8 +67,13 @@ def runtime_dir() -> Path:
 
 def credentials_dir(name: str, runtime: Path | None = None) -> Path:
     """Where ``motocell up`` keeps cell ``name``'s credentials: private to this user, new at
-    every start of the cell. ``runtime``: another registry directory than this process's."""
-    return (runtime or runtime_dir()) / "credentials" / name
+    every start of the cell, gone when it stops. ``runtime``: another registry directory than
+    this process's."""
+    return _credentials_root(runtime) / name
+
+
+def _credentials_root(runtime: Path | None = None) -> Path:
+    return (runtime or runtime_dir()) / "credentials"
 
 
 def _cells_dir() -> Path:
@@ -103,6 +114,20 @@ def register(entry: CellEntry) -> None:
         draft = directory / f".{entry.name}.draft"
         _write_private(draft, msgspec.json.encode(entry))
         draft.replace(path)
+        _remove_stale_credentials(directory)
+
+
+def _remove_stale_credentials(cells: Path) -> None:
+    """The credentials folders of cells that no longer run; under the registry's lock, so a
+    cell registering meanwhile keeps its own."""
+    folder = _credentials_root()
+    if not folder.is_dir():
+        return
+    entries = [_read(path) for path in cells.glob("*.json")]
+    running = {entry.name for entry in entries if entry is not None and _alive(entry.pid)}
+    for path in folder.iterdir():
+        if path.name not in running:
+            shutil.rmtree(path, ignore_errors=True)
 
 
 @contextlib.contextmanager
@@ -123,13 +148,15 @@ def _write_private(path: Path, data: bytes) -> None:
 
 
 def unregister(name: str, pid: int) -> None:
-    """Remove ``name``'s entry if it is still the one ``pid`` wrote."""
+    """Remove ``name``'s entry if it is still the one ``pid`` wrote, and the credentials
+    ``motocell up`` wrote for it (``credentials_dir``)."""
     directory = _cells_dir()
     path = directory / f"{name}.json"
     with _locked(directory):
         held = _read(path)
         if held is not None and held.pid == pid:
             path.unlink()
+            shutil.rmtree(credentials_dir(name), ignore_errors=True)
 
 
 def running() -> list[CellEntry]:

@@ -173,13 +173,22 @@ class StopFlag:
         """A descriptor that becomes readable once the flag is set, for ``poll``."""
         return self._wake_read
 
+    @property
+    def wakeup_fd(self) -> int:
+        """The pipe's write end, for ``signal.set_wakeup_fd``: a byte written there wakes
+        every waiter as ``set`` does (``stop_on_signals``)."""
+        return self._wake_write
+
     def wait(self, timeout: float | None = None) -> bool:
         """True once set; False when ``timeout`` seconds passed first (None: no limit)."""
-        if not self._requested:
-            poller = select.poll()  # one per call: a poll object refuses concurrent waiters
-            poller.register(self._wake_read, select.POLLIN)
-            poller.poll(None if timeout is None else max(0, math.ceil(timeout * 1000)))
-        return self._requested
+        if self._requested:
+            return True
+        poller = select.poll()  # one per call: a poll object refuses concurrent waiters
+        poller.register(self._wake_read, select.POLLIN)
+        woken = poller.poll(None if timeout is None else max(0, math.ceil(timeout * 1000)))
+        # Readable before the flag is set: a stop signal's wakeup byte, its handler about to
+        # run on the main thread.
+        return self._requested or bool(woken)
 
 
 def _close_pipe(*fds: int) -> None:
@@ -203,6 +212,12 @@ def stop_on_signals(
         stop.set()
 
     previous = {sig: signal.signal(sig, handler) for sig in signals}
+    # A signal sent to the process may be taken by any thread that does not block it (one of
+    # Zenoh's), and the handler then waits to run until the main thread wakes, which may sleep
+    # in poll on this very flag: a launcher's SIGINT, or the SIGTERM a service gets when its
+    # launcher dies, would wait for ever. Python writes to the wakeup descriptor from whichever
+    # thread takes the signal, so the flag's own pipe wakes the main thread and every waiter.
+    previous_wakeup = signal.set_wakeup_fd(stop.wakeup_fd, warn_on_full_buffer=False)
     # Whoever started this process may have blocked them (``motocell service``), so that one
     # arriving during start-up waits for this handler instead of interrupting the imports
     # with a traceback: it is delivered now.
@@ -210,6 +225,7 @@ def stop_on_signals(
     try:
         yield stop
     finally:
+        signal.set_wakeup_fd(previous_wakeup)
         for sig, old in previous.items():
             signal.signal(sig, old)
 

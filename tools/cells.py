@@ -56,6 +56,13 @@ class JoinError(CellsError):
     """A cell's bus cannot be joined: the message says why and what to do."""
 
 
+class UnusableCredentialsError(JoinError):
+    """The credentials given cannot be used as they are (missing, open to other users, no
+    small file): the user's to fix, status 2 as for any mistake."""
+
+    status = 2
+
+
 class NoRouterError(JoinError):
     """Nothing listens at the target's endpoint (yet): a command that can wait for it may."""
 
@@ -196,7 +203,7 @@ def join(target: Target, identity: Identity) -> zenoh.Session:
                 else load_user(target.credentials, SITE_OBSERVER)
             )
         except CredentialsError as exc:
-            raise JoinError(target.explain(exc)) from None
+            raise UnusableCredentialsError(target.explain(exc)) from None
     try:
         return open_session("client", [target.endpoint], wait=False, credentials=credentials)
     except NothingListens as exc:

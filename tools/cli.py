@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import signal
 import sys
 from collections.abc import Sequence
 from typing import Any, cast
@@ -112,8 +113,17 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+OWN_SIGNALS = frozenset({"up", "router", "watch", "echo", "hz", "record", "service"})
+"""The commands that take SIGINT and SIGTERM themselves once their handlers are in place
+(``shared.service.stop_on_signals``; ``service`` execs a service that does): until then the two
+stay held (``tools.__main__``), so one that comes while they start stops them there, cleanly."""
+
+
 def main(argv: Sequence[str] | None = None) -> None:
     args = build_parser().parse_args(argv)
+    if args.command not in OWN_SIGNALS:
+        # Held while the command loaded (tools.__main__); it stops on them from here on.
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
     logging.basicConfig(level=logging.INFO, format="%(asctime)s motocell %(levelname)s %(message)s")
     sys.exit(args.run(args))
 

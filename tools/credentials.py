@@ -35,7 +35,8 @@ from motocell.shared.bus.credentials import (
 )
 from motocell.shared.bus.expiry import WARN_WITHIN
 from motocell.shared.bus.router import ROUTER_CERTIFICATE, ROUTER_KEY
-from motocell.shared.config import ConfigError, load_cell
+from motocell.shared.config import Cell, ConfigError, load_cell
+from motocell.tools.site import RESERVED
 
 DEFAULT_HOSTS = ("localhost", "127.0.0.1")
 """The names a router's certificate is valid for unless ``--host`` says otherwise."""
@@ -146,8 +147,20 @@ def _check_new_directory(directory: Path, args: argparse.Namespace) -> None:
         raise ValueError("--host names the router in its TLS certificate: add --tls")
 
 
-def _create(directory: Path, args: argparse.Namespace) -> list[str]:
+def _cell(args: argparse.Namespace) -> Cell:
+    """The cell whose identities the options name; ValueError for one no site could serve."""
     cell = load_cell(args.config, args.cell)
+    if cell.name == RESERVED:
+        raise ValueError(
+            f"a cell named {RESERVED} gets no credentials: its usernames ({RESERVED}.observer, "
+            "...) are the site's own, which watch every cell of a site; give it another name "
+            f"here with --cell NAME, and run it with `motocell up --name NAME`"
+        )
+    return cell
+
+
+def _create(directory: Path, args: argparse.Namespace) -> list[str]:
+    cell = _cell(args)
     identities = cell_identities(len(cell.groups))
     write_passwords(directory, cell.name, identities)
     extra = add_passwords(directory, args.identity)  # an --identity of the cell's is no extra
@@ -178,7 +191,7 @@ def _add(directory: Path, args: argparse.Namespace) -> list[str]:
         )
     users = list(args.identity)
     if args.config or args.cell:
-        cell = load_cell(args.config, args.cell)
+        cell = _cell(args)
         users = [i.username(cell.name) for i in cell_identities(len(cell.groups))] + users
     if not has_ca:
         return _added(directory, add_passwords(directory, users), [], signed=False)

@@ -37,6 +37,7 @@ from motocell.shared.bus.credentials import (
     certificate_paths,
     load_user,
     password_path,
+    read_credential,
     write_private,
 )
 from motocell.shared.bus.router import ROUTER_CERTIFICATE, secured_settings
@@ -169,7 +170,7 @@ def _router_common_name(directory: Path) -> str:
     from cryptography import x509  # noqa: PLC0415 (only a TLS site loads it)
     from cryptography.x509.oid import NameOID  # noqa: PLC0415
 
-    certificate = x509.load_pem_x509_certificate((directory / ROUTER_CERTIFICATE).read_bytes())
+    certificate = x509.load_pem_x509_certificate(read_credential(directory / ROUTER_CERTIFICATE))
     (attribute,) = certificate.subject.get_attributes_for_oid(NameOID.COMMON_NAME)
     return str(attribute.value)
 

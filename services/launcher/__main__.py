@@ -1,18 +1,37 @@
 """``python -m motocell.services.launcher`` (``motocell up``): the options in ``cli``, the cell
-in ``up``; this module wires them."""
+in ``up``; this module wires them. As ``motocell`` does (``tools.__main__``), it holds SIGINT
+and SIGTERM from its first line until the launcher's handlers are in place, and stops on SIGINT
+whatever disposition it inherits."""
 
 from __future__ import annotations
 
 import argparse
 import logging
+import signal
 import sys
 from collections.abc import Sequence
 
-from motocell.services.launcher.cli import add_arguments
-from motocell.services.launcher.up import run
+STOP_SIGNALS = frozenset({signal.SIGINT, signal.SIGTERM})
 
 
 def main(argv: Sequence[str] | None = None) -> None:
+    # Before the imports below, where a signal would land in the middle of loading Zenoh;
+    # ``up.run`` takes them (shared.service.stop_on_signals), then they stay held while the
+    # interpreter shuts down.
+    signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        _main(argv)
+    finally:
+        signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
+
+
+def _main(argv: Sequence[str] | None) -> None:
+    # Zenoh and the launcher load only once the signals are held.
+    from motocell.services.launcher.cli import add_arguments  # noqa: PLC0415
+    from motocell.services.launcher.up import run  # noqa: PLC0415
+
     parser = argparse.ArgumentParser(
         prog="python -m motocell.services.launcher",
         description="Run a whole cell.",

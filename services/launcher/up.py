@@ -2,10 +2,11 @@
 ``motocell router``, a standalone Zenoh router.
 
 The launcher claims the cell's name in this user's registry of running cells (a second cell
-of the same name is refused), writes fresh credentials for every identity of the cell, and runs
-a Zenoh router on loopback with the access control derived from the key map; every service
-joins it as a client with its own credentials. The first cell on a machine takes the
-well-known port 7447, a later one a free port; observers find each through the registry.
+of the same name is refused), writes fresh credentials for every identity of the cell (removed
+with its registry entry when it stops), and runs a Zenoh router on loopback with the access
+control derived from the key map; every service joins it as a client with its own
+credentials. The first cell on a machine takes the well-known port 7447, a later one a free
+port; observers find each through the registry.
 ``--open-bus`` runs without credentials or access control (and links a later cell's router to
 7447, so one observer there sees every open cell). A child that dies is logged and restarted;
 meanwhile the controller sees its liveliness token gone and the cell answers NOT_READY. A child

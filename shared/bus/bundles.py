@@ -26,6 +26,7 @@ from motocell.shared.bus.credentials import (
     certificate_paths,
     make_private_directory,
     password_path,
+    read_credential,
     write_private,
 )
 from motocell.shared.bus.router import ROUTER_CERTIFICATE, ROUTER_KEY
@@ -62,5 +63,5 @@ def _bundle(directory: Path, party: str, files: Sequence[Path]) -> Path:
     make_private_directory(bundle)
     for path in files:
         if path.is_file():
-            write_private(bundle / path.name, path.read_bytes())
+            write_private(bundle / path.name, read_credential(path))
     return bundle

@@ -26,6 +26,8 @@ from motocell.shared.bus.credentials import (
     CA_KEY_FILE,
     CredentialsError,
     certificate_paths,
+    check_private,
+    read_credential,
     write_private,
 )
 from motocell.shared.bus.router import ROUTER_CERTIFICATE, ROUTER_KEY
@@ -72,8 +74,9 @@ def create_authority(directory: Path, name: str) -> Authority:
 def load_authority(directory: Path) -> Authority:
     """The CA kept in ``directory``; CredentialsError if its key is not there."""
     try:
-        certificate = x509.load_pem_x509_certificate((directory / CA_FILE).read_bytes())
-        key = serialization.load_pem_private_key((directory / CA_KEY_FILE).read_bytes(), None)
+        certificate = _certificate(directory / CA_FILE)
+        check_private(directory / CA_KEY_FILE)
+        key = serialization.load_pem_private_key(read_credential(directory / CA_KEY_FILE), None)
     except FileNotFoundError as missing:
         raise CredentialsError(
             f"{directory} has no CA to sign with ({Path(str(missing.filename)).name} missing): "
@@ -148,7 +151,7 @@ def renew_certificates(
 
 
 def _certificate(path: Path) -> x509.Certificate:
-    return x509.load_pem_x509_certificate(path.read_bytes())
+    return x509.load_pem_x509_certificate(read_credential(path))
 
 
 def _common_name(certificate: x509.Certificate) -> str:

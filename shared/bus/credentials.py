@@ -13,17 +13,22 @@ can share one directory (and one CA):
 
 Passwords are 32 random bytes: Zenoh never sends them in clear, but without TLS a captured
 handshake could be attacked offline, so they must not be guessable.
+
+A password or private key that another user may read is refused, as ssh refuses such a key:
+one line naming the file and the ``chmod`` that fixes it (docs/credentials.md, Permissions).
 """
 
 from __future__ import annotations
 
 import os
 import secrets
+import stat
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 from motocell.shared.bus.access import Identity
+from motocell.shared.files import SECRET_LIMIT, FileRefusedError, read_bounded, read_text_bounded
 
 USERS_FILE = "users"
 PASSWORD_SUFFIX = ".password"
@@ -93,7 +98,7 @@ def load_user(directory: Path, user: str) -> Credentials:
     """The credentials of the Zenoh username ``user`` from ``directory``."""
     path = password_path(directory, user)
     try:
-        password = path.read_text().strip()
+        password = read_secret(path).strip()
     except FileNotFoundError:
         raise CredentialsError(
             f"no password for {user} in {directory}: generate the cell's credentials "
@@ -106,6 +111,8 @@ def load_user(directory: Path, user: str) -> Credentials:
     ca = directory / CA_FILE
     certificate, key = certificate_paths(directory, user)
     has_certificate = certificate.is_file() and key.is_file()
+    if has_certificate:
+        check_private(key)  # Zenoh reads it; its permissions are ours to check
     return Credentials(
         user,
         password,
@@ -113,6 +120,35 @@ def load_user(directory: Path, user: str) -> Credentials:
         certificate if has_certificate else None,
         key if has_certificate else None,
     )
+
+
+def read_secret(path: Path) -> str:
+    """A password or private key's text: CredentialsError if others may read it, or it is no
+    small text file; OSError if it cannot be read."""
+    check_private(path)
+    try:
+        return read_text_bounded(path, SECRET_LIMIT)
+    except FileRefusedError as exc:
+        raise CredentialsError(str(exc)) from None
+
+
+def read_credential(path: Path) -> bytes:
+    """A certificate's or key's bytes: CredentialsError for what is no small regular file;
+    OSError if it cannot be read. A key's permissions are the caller's to check first."""
+    try:
+        return read_bounded(path, SECRET_LIMIT)
+    except FileRefusedError as exc:
+        raise CredentialsError(str(exc)) from None
+
+
+def check_private(path: Path) -> None:
+    """CredentialsError unless only its owner may read or change the secret at ``path``."""
+    mode = stat.S_IMODE(path.stat().st_mode)
+    if mode & 0o077:
+        raise CredentialsError(
+            f"{path} is open to other users (permissions {mode:04o}) and a password or key must "
+            f"be its owner's alone: chmod 600 {path}"
+        )
 
 
 def make_private_directory(directory: Path) -> None:

@@ -12,6 +12,8 @@ import datetime
 from collections.abc import Iterable
 from pathlib import Path
 
+from motocell.shared.files import SECRET_LIMIT, read_bounded
+
 WARN_WITHIN = datetime.timedelta(days=30)
 """How long before its end a certificate is warned about; what ``--renew`` renews by
 default."""
@@ -62,7 +64,7 @@ def expiring(
     ends = []
     for path in directory.glob("*.pem"):
         try:
-            ends.append((path.name, not_after(path.read_bytes())))
+            ends.append((path.name, not_after(read_bounded(path, SECRET_LIMIT))))
         except (OSError, ValueError):
             continue
     return sorted(((name, end) for name, end in ends if end - now <= within), key=lambda e: e[1])

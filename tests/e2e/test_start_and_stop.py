@@ -29,6 +29,7 @@ from motocell.shared.config import EXIT_CONFIG, load_cell
 from motocell.shared.ports import free_port, free_port_block
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
 from motocell.testing.processes import alive, connectable, wait_until
+from motocell.testing.running_cell import zenoh_router
 
 pytestmark = pytest.mark.cell
 
@@ -92,9 +93,10 @@ class Run:
 
 
 @contextlib.contextmanager
-def motocell(tmp_path: Path, *args: str) -> Iterator[Run]:
+def motocell(tmp_path: Path, *args: str, sigint_ignored: bool = False) -> Iterator[Run]:
     """``motocell ARGS``, with this test's registry of running cells; killed, with whatever
-    it started, if the test leaves it running."""
+    it started, if the test leaves it running. ``sigint_ignored``: started as a shell script
+    starts ``motocell ARGS &``, with SIGINT ignored."""
     mark = uuid.uuid4().hex
     env = {
         **os.environ,
@@ -106,7 +108,7 @@ def motocell(tmp_path: Path, *args: str) -> Iterator[Run]:
     output = tmp_path / f"{mark}.log"
     with output.open("wb") as out:
         process = subprocess.Popen(
-            [*MOTOCELL, *args],
+            [*(IGNORING_SIGINT if sigint_ignored else ()), *MOTOCELL, *args],
             stdout=out,
             stderr=subprocess.STDOUT,
             env=env,
@@ -119,6 +121,37 @@ def motocell(tmp_path: Path, *args: str) -> Iterator[Run]:
             with contextlib.suppress(ProcessLookupError):
                 os.kill(pid, signal.SIGKILL)
         process.wait()
+
+
+IGNORING_SIGINT = ("sh", "-c", 'trap "" INT; exec "$0" "$@"')
+"""What a non-interactive shell does to a command it starts with ``&``: SIGINT ignored, and
+the command inherits that."""
+
+
+def stop_signals_held(pid: int) -> bool:
+    """Whether ``pid`` holds SIGINT blocked: ``motocell`` does from its first line until its
+    handlers are in place (tools.__main__)."""
+    try:
+        status = Path(f"/proc/{pid}/status").read_text()
+    except OSError:
+        return False
+    blocked = next(line for line in status.splitlines() if line.startswith("SigBlk:"))
+    return bool(int(blocked.split()[1], 16) & (1 << (signal.SIGINT - 1)))
+
+
+def wait_for_stage(run: Run, moment: str, zenoh_port: int) -> None:
+    """Until the ``motocell up`` of ``run`` has reached ``moment`` of its start."""
+    pid = run.process.pid
+    if moment in {"loading", "handlers in place"}:
+        wait_until(lambda: stop_signals_held(pid), DEADLINE_S, "motocell loading")
+    if moment == "handlers in place":
+        wait_until(lambda: not stop_signals_held(pid), DEADLINE_S, "the launcher's handlers")
+    elif moment == "router up":
+        wait_until(lambda: connectable(HOST, zenoh_port), DEADLINE_S, "the router")
+    elif moment == "services starting":
+        wait_until(lambda: len(marked(run.mark)) > 1, DEADLINE_S, "a service process")
+    elif moment == "ready":
+        run.wait_for(" ready: ")
 
 
 def run_to_the_end(tmp_path: Path, *args: str) -> tuple[int, str]:
@@ -292,23 +325,37 @@ def test_a_zenoh_runtime_zenoh_cannot_read_ends_in_one_line_and_status_2(
 # -- Ctrl-C at any moment --------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("moment", ["at once", "router up", "services starting", "ready"])
+START_MOMENTS = ["loading", "handlers in place", "router up", "services starting", "ready"]
+"""The stages of a start, in order, that ``wait_for_stage`` can tell from outside."""
+
+
+@pytest.mark.parametrize("moment", ["at once", *START_MOMENTS])
 def test_ctrl_c_at_any_moment_of_a_start_stops_everything_quietly(
     tmp_path: Path, moment: str
 ) -> None:
     options = up_options()
-    zenoh_port = int(options[3].rsplit(":", 1)[1])
     with motocell(tmp_path, "up", *options) as up:
-        if moment == "router up":
-            wait_until(lambda: connectable(HOST, zenoh_port), DEADLINE_S, "the router")
-        elif moment == "services starting":
-            wait_until(lambda: len(marked(up.mark)) > 1, DEADLINE_S, "a service process")
-        elif moment == "ready":
-            up.wait_for(" ready: ")
+        wait_for_stage(up, moment, int(options[3].rsplit(":", 1)[1]))
         up.ctrl_c()
         status = up.finish()
         output = up.text()
     assert status in (0, 130, -signal.SIGINT), output
+    assert clean(output), output
+
+
+@pytest.mark.parametrize("moment", START_MOMENTS)
+def test_sigint_stops_a_cell_a_script_started_in_the_background(
+    tmp_path: Path, moment: str
+) -> None:
+    """``motocell up &`` in a script inherits SIGINT ignored; ``kill -INT`` still stops it,
+    however early, and nothing is left running."""
+    options = up_options()
+    with motocell(tmp_path, "up", *options, sigint_ignored=True) as up:
+        wait_for_stage(up, moment, int(options[3].rsplit(":", 1)[1]))
+        up.process.send_signal(signal.SIGINT)
+        status = up.finish()
+        output = up.text()
+    assert status in (0, 130), output
     assert clean(output), output
 
 
@@ -357,6 +404,50 @@ def test_ctrl_c_during_the_demo_stops_it_and_its_cell_quietly(tmp_path: Path, mo
         output = demo.text()
     assert status in (0, 130, -signal.SIGINT), output
     assert clean(output), output
+
+
+# -- nothing left behind ------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("stop", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
+def test_a_cell_stopped_cleanly_leaves_no_credentials(tmp_path: Path, stop: signal.Signals) -> None:
+    credentials = registry.credentials_dir(CELL, tmp_path / "run")
+    with motocell(tmp_path, "up", *up_options()) as up:
+        up.wait_for(" ready: ")
+        assert (credentials / "users").is_file()
+        up.process.send_signal(stop)
+        assert up.finish() == 0
+    assert list(credentials.parent.iterdir()) == []
+
+
+def test_credentials_a_user_gives_are_left_as_they_are(tmp_path: Path) -> None:
+    """A cell joining a router of the user's, with the user's credentials: its stop removes
+    nothing of theirs."""
+    given = tmp_path / "given"
+    endpoint = f"tcp/{HOST}:{free_port(HOST)}"
+    router = tmp_path / "router.json5"
+    status, output = run_to_the_end(tmp_path, "credentials", str(given))
+    assert status == 0, output
+    site = ["site", str(given), "--config", "single-arm", "--listen", endpoint]
+    status, output = run_to_the_end(tmp_path, *site, "--out", str(router))
+    assert status == 0, output
+    before = {
+        path: (path.read_bytes(), path.stat().st_mode)
+        for path in given.rglob("*")
+        if path.is_file()
+    }
+    with zenoh_router(config_file=router):
+        joining = ["--zenoh-connect", endpoint, "--credentials", str(given)]
+        with motocell(tmp_path, "up", "--port-base", str(free_port_block(3, HOST)), *joining) as up:
+            up.wait_for(" ready: ")
+            up.process.send_signal(signal.SIGTERM)
+            assert up.finish() == 0
+    after = {
+        path: (path.read_bytes(), path.stat().st_mode)
+        for path in given.rglob("*")
+        if path.is_file()
+    }
+    assert after == before
 
 
 # -- a service by hand -----------------------------------------------------------------------

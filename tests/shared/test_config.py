@@ -4,6 +4,7 @@ bad files are refused with a message that names the field and the problem."""
 from __future__ import annotations
 
 import math
+import os
 import subprocess
 import sys
 from dataclasses import dataclass
@@ -24,6 +25,7 @@ from motocell.shared.config import (
     load_cell,
     sample_cells,
 )
+from motocell.shared.files import CELL_FILE_LIMIT
 from motocell.shared.protocol.constants import MAX_AXES
 
 REPO = Path(__file__).resolve().parents[2]
@@ -526,9 +528,40 @@ def test_missing_file_is_refused(tmp_path: Path) -> None:
 
 
 def test_directory_is_refused(tmp_path: Path) -> None:
-    with pytest.raises(ConfigError) as info:
+    with pytest.raises(ConfigError, match="is not a regular file \\(a directory\\)"):
         load_cell(tmp_path)
-    assert "cannot read" in str(info.value)
+
+
+def test_a_device_is_refused_without_reading_it() -> None:
+    with pytest.raises(ConfigError, match="/dev/zero is not a regular file \\(a device\\)"):
+        load_cell("/dev/zero")
+
+
+def test_a_fifo_is_refused_without_waiting_for_a_writer(tmp_path: Path) -> None:
+    fifo = tmp_path / "cell.toml"
+    os.mkfifo(fifo)
+    with pytest.raises(ConfigError, match="is not a regular file \\(a FIFO\\)"):
+        load_cell(fifo)
+
+
+def test_a_binary_file_is_one_line(tmp_path: Path) -> None:
+    path = tmp_path / "cell.toml"
+    path.write_bytes(b'name = "x"\n\xff\xfe\x00')
+    with pytest.raises(ConfigError) as info:
+        load_cell(path)
+    assert str(info.value) == (
+        f"cell file {path} is not a text file (no UTF-8 at byte 11): not the file meant?"
+    )
+
+
+def test_a_file_one_byte_beyond_the_limit_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "cell.toml"
+    path.write_bytes(b"#" * CELL_FILE_LIMIT)
+    assert load_cell(path) == load_cell(None)  # a comment alone, at exactly the limit
+    with path.open("ab") as grown:
+        grown.write(b"#")
+    with pytest.raises(ConfigError, match="is larger than 1 MiB"):
+        load_cell(path)
 
 
 # --- edge cases: empty and non-finite values, wording, misspelt fields, placement ---------

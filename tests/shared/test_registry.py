@@ -104,3 +104,34 @@ def test_of_many_simultaneous_claims_exactly_one_wins(own_registry: Path) -> Non
     finally:
         for claimant in claimants:
             claimant.communicate("done\n", timeout=10)
+
+
+def test_a_cell_s_credentials_go_with_its_entry() -> None:
+    credentials = registry.credentials_dir("cell1")
+    registry.register(entry())
+    credentials.mkdir(parents=True)
+    (credentials / "users").write_text("")
+    registry.unregister("cell1", os.getpid())
+    assert not credentials.exists()
+
+
+def test_another_launcher_s_credentials_stay() -> None:
+    parent = os.getppid()
+    registry.register(entry(pid=parent))
+    credentials = registry.credentials_dir("cell1")
+    credentials.mkdir(parents=True)
+    registry.unregister("cell1", os.getpid())  # not the entry this process wrote
+    assert credentials.is_dir()
+
+
+def test_a_registration_removes_the_credentials_of_cells_no_longer_running(
+    dead_pid: int,
+) -> None:
+    """A killed launcher cannot remove its own; the next one removes them, and only them."""
+    registry.register(entry("killed", pid=dead_pid))
+    registry.register(entry("running", pid=os.getppid()))
+    for name in ("killed", "running", "never-registered"):
+        registry.credentials_dir(name).mkdir(parents=True)
+    registry.register(entry("new"))
+    remaining = sorted(path.name for path in registry.credentials_dir("new").parent.iterdir())
+    assert remaining == ["running"]

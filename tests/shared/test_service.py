@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import gc
 import os
+import platform
 import signal
 import subprocess
 import sys
@@ -22,6 +23,7 @@ from motocell.shared.service import (
     listen,
     stop_on_signals,
 )
+from motocell.testing.processes import wait_until
 
 REPO = Path(__file__).resolve().parents[2]
 DEADLINE_S = 20.0
@@ -133,6 +135,45 @@ def test_a_raised_signal_sets_the_flag_and_the_old_handlers_come_back() -> None:
         signal.raise_signal(signal.SIGINT)
         assert stop.wait(DEADLINE_S)
     assert {sig: signal.getsignal(sig) for sig in before} == before
+
+
+POLL_SYSCALLS = {"x86_64": {"7", "271"}, "aarch64": {"73"}}.get(platform.machine(), set())
+"""The numbers of poll and ppoll, as /proc/<pid>/task/<tid>/syscall gives the call a thread is
+blocked in."""
+
+
+def asleep_in_poll(tid: int) -> bool:
+    try:
+        call = Path(f"/proc/self/task/{tid}/syscall").read_text().split()[0]
+    except (OSError, IndexError):
+        return False
+    return call in POLL_SYSCALLS
+
+
+@pytest.mark.skipif(not POLL_SYSCALLS, reason="poll's syscall number unknown on this machine")
+def test_a_signal_another_thread_takes_wakes_the_main_thread_waiting_on_the_flag() -> None:
+    """The kernel gives a signal sent to the process to any thread that does not block it;
+    the main thread asleep in ``wait`` must still wake and stop."""
+
+    rescued: list[bool] = []
+
+    def take_a_signal() -> None:
+        wait_until(
+            lambda: asleep_in_poll(threading.main_thread().native_id or 0),
+            DEADLINE_S,
+            "the main thread to wait on the flag",
+        )
+        signal.pthread_kill(threading.get_ident(), signal.SIGTERM)
+        # Had it not woken, the main thread would sleep on: wake it, and say so.
+        rescued.append(not stop.wait(DEADLINE_S))
+        stop.set()
+
+    with stop_on_signals() as stop:
+        taker = threading.Thread(target=take_a_signal)
+        taker.start()
+        stop.wait()
+        taker.join(DEADLINE_S)
+    assert rescued == [False]
 
 
 HELD_DURING_START_UP = """

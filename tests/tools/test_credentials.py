@@ -116,6 +116,8 @@ def test_with_tls_a_ca_a_router_certificate_for_the_hosts_and_one_per_identity(
         (["--cell", "a/b"], "name: 'a/b' must be letters, digits, - or _"),
         (["--config", "/nonexistent.toml"], "/nonexistent.toml"),
         (["--renew"], "holds no credentials to renew"),
+        (["--cell", "site"], "a cell named site gets no credentials"),
+        (["--config", "/dev/zero"], "/dev/zero is not a regular file (a device)"),
     ],
 )
 def test_arguments_that_cannot_work_write_nothing(
@@ -410,6 +412,7 @@ def test_renewal_stops_at_a_ca_that_expires_within_the_window(
         (["--identity", "site.router"], "a client named so would pass for a router"),
         (["--host", "robot-pc"], "holds passwords only, so --host cannot be added"),
         (["--renew"], "holds passwords only: they do not expire"),
+        (["--cell", "site"], "its usernames (site.observer, ...) are the site's own"),
     ],
 )
 def test_what_cannot_be_done_to_a_directory_leaves_it_alone(
