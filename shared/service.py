@@ -16,7 +16,7 @@ import sys
 import threading
 import time
 import weakref
-from collections.abc import Iterator, Sequence
+from collections.abc import Collection, Iterator, Sequence
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -45,6 +45,7 @@ from motocell.shared.service_names import (
     cell_services,
     parse_service,
 )
+from motocell.shared.signals import STOP_SIGNALS
 
 PARENT_PID_ENV = "MOTOCELL_PARENT_PID"
 """Set by ``motocell up`` for its children: they stop when that process goes away."""
@@ -198,7 +199,7 @@ def _close_pipe(*fds: int) -> None:
 
 @contextmanager
 def stop_on_signals(
-    signals: Sequence[signal.Signals] = (signal.SIGINT, signal.SIGTERM),
+    signals: Collection[signal.Signals] = STOP_SIGNALS,
 ) -> Iterator[StopFlag]:
     """A flag that SIGINT and SIGTERM set, however many arrive and however fast; the previous
     handlers come back on exit. Python sets signal handlers only in the main thread: elsewhere

@@ -2,13 +2,12 @@
 Ctrl-C or SIGTERM at any moment ends the command quietly, never with a KeyboardInterrupt
 traceback and never lost.
 
-From its first line the command holds SIGINT and SIGTERM blocked: one that arrives while Zenoh
-and the command modules load (0.2 s, seconds on a loaded machine) waits in the kernel instead of
-landing in an import, where Python may report it as "Exception ignored" and go on as if it had
-never come. Commands that run until stopped (``up``, ``router``, ``watch``, ``echo``, ``hz``,
-``record``, and the service ``service`` becomes) take them once their handlers are in place
-(``shared.service.stop_on_signals``), so one that came early stops them cleanly there; every
-other command gets them back before it runs (``cli.main``).
+From its first line the command holds SIGINT and SIGTERM (``shared.signals``): one that arrives
+while Zenoh and the command modules load (0.2 s, seconds on a loaded machine) waits in the
+kernel instead of landing in an import. Commands that run until stopped (``up``, ``router``,
+``watch``, ``echo``, ``hz``, ``record``, and the service ``service`` becomes) take them once
+their handlers are in place (``shared.service.stop_on_signals``), so one that came early stops
+them cleanly there; every other command gets them back before it runs (``cli.main``).
 
 SIGINT stops motocell whatever disposition it inherits: a shell script starts ``motocell up &``
 with SIGINT ignored, and a cell that a script started must still stop on the SIGINT that
@@ -18,22 +17,17 @@ is outside its reach (docs/topology.md, Stopping a cell).
 
 from __future__ import annotations
 
-import signal
 import sys
 from collections.abc import Sequence
 
+from motocell.shared.signals import hold_stop_signals
+
 INTERRUPTED = 130
 """The status a shell gives a command that SIGINT ended (128 + 2)."""
-STOP_SIGNALS = frozenset({signal.SIGINT, signal.SIGTERM})
-"""What stops a motocell command: held from its first line until it can act on them."""
 
 
 def main(argv: Sequence[str] | None = None) -> None:
-    signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
-    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
-        # Blocked, an ignored SIGINT stays pending (Linux discards only unblocked ones), so
-        # one that came before this line is not lost either.
-        signal.signal(signal.SIGINT, signal.default_int_handler)
+    hold_stop_signals()
     try:
         # Imported here, not at the top: the signals must be held while it loads.
         from motocell.tools import cli  # noqa: PLC0415
@@ -44,7 +38,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     finally:
         # The command is done: a signal now would only interrupt Python's shutdown (the
         # threads' join, atexit) with a traceback. It stays pending until the process exits.
-        signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
+        hold_stop_signals()
 
 
 if __name__ == "__main__":

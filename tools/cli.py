@@ -6,10 +6,11 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
-import signal
 import sys
 from collections.abc import Sequence
 from typing import Any, cast
+
+from motocell.shared.signals import release_stop_signals
 
 COMMANDS = (
     ("up", "run a whole cell in the foreground"),
@@ -123,7 +124,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     args = build_parser().parse_args(argv)
     if args.command not in OWN_SIGNALS:
         # Held while the command loaded (tools.__main__); it stops on them from here on.
-        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
+        release_stop_signals()
     logging.basicConfig(level=logging.INFO, format="%(asctime)s motocell %(levelname)s %(message)s")
     sys.exit(args.run(args))
 

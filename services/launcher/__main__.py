@@ -7,24 +7,21 @@ from __future__ import annotations
 
 import argparse
 import logging
-import signal
 import sys
 from collections.abc import Sequence
 
-STOP_SIGNALS = frozenset({signal.SIGINT, signal.SIGTERM})
+from motocell.shared.signals import hold_stop_signals
 
 
 def main(argv: Sequence[str] | None = None) -> None:
     # Before the imports below, where a signal would land in the middle of loading Zenoh;
     # ``up.run`` takes them (shared.service.stop_on_signals), then they stay held while the
     # interpreter shuts down.
-    signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
-    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
-        signal.signal(signal.SIGINT, signal.default_int_handler)
+    hold_stop_signals()
     try:
         _main(argv)
     finally:
-        signal.pthread_sigmask(signal.SIG_BLOCK, STOP_SIGNALS)
+        hold_stop_signals()
 
 
 def _main(argv: Sequence[str] | None) -> None:
