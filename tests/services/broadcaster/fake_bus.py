@@ -10,7 +10,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from motocell.shared.bus.schemas import CommandReply, Tick
-from tests.services.fake_publication import FakePublication
+from tests.services.fakes import FakePublication
 
 WAIT_S = 5.0
 """Deadline for what another thread is expected to do soon (generous for a loaded host)."""

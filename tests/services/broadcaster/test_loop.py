@@ -19,7 +19,7 @@ from motocell.shared.protocol.messages import JointFeedback, Message
 from motocell.shared.service import StopFlag
 from tests.services.broadcaster.fake_bus import RecordedReports, ScriptedTicks
 from tests.services.broadcaster.scripted import MS, FakeController, cell, group_tick, tick
-from tests.services.fake_publication import FakePublication
+from tests.services.fakes import FakePublication
 
 PULSES_PER_RADIAN = 58670
 STATE_PERIOD_S = 0.004

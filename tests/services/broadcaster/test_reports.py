@@ -10,7 +10,7 @@ from motocell.services.broadcaster.reports import REFRESH_S, StatePortReports
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import BroadcasterMetrics, CommandRequest, Decoder
 from tests.services.broadcaster.fake_bus import FakeBus
-from tests.services.fake_publication import FakePublication
+from tests.services.fakes import FakePublication
 
 KEYS = CellKeys("c1")
 

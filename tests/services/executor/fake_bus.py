@@ -16,7 +16,7 @@ from enum import Enum
 
 from motocell.services.executor.bus import Query, TokenEvent
 from motocell.shared.bus.schemas import CommandReply
-from tests.services.fake_publication import FakePublication
+from tests.services.fakes import FakeDoorbell, FakePublication
 
 WAIT_S = 5.0
 """Deadline for what another thread is expected to do soon (generous for a loaded host)."""
@@ -112,21 +112,6 @@ class FakeQuery:
 
     def answer(self, reply: CommandReply) -> None:
         self.replies.append(reply)
-
-
-class FakeDoorbell:
-    def __init__(self, bus: FakeBus, key: str) -> None:
-        self._bus = bus
-        self.key = key
-        self.rung = 0
-        self.closed = False
-
-    def ring(self) -> None:
-        self.rung += 1
-        self._bus.publish(self.key, b"")
-
-    def close(self) -> None:
-        self.closed = True
 
 
 @dataclass

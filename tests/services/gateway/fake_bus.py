@@ -10,7 +10,7 @@ import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from tests.services.fake_publication import FakePublication
+from tests.services.fakes import FakePublication
 
 WAIT_S = 5.0
 """Deadline for what another thread is expected to do soon (generous for a loaded host)."""

@@ -11,7 +11,7 @@ from motocell.services.gateway.reporter import NOT_SERVED, Reporter
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import CommandRequest, Decoder, GatewayMetrics
 from motocell.shared.protocol.constants import MsgType
-from tests.services.fake_publication import FakePublication
+from tests.services.fakes import FakePublication
 from tests.services.gateway.fake_bus import FakeBus
 
 KEYS = CellKeys("cell1")

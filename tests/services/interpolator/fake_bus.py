@@ -10,7 +10,7 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from tests.services.fake_publication import FakePublication
+from tests.services.fakes import FakeDoorbell, FakePublication
 
 WAIT_S = 5.0
 """Deadline for what another thread is expected to do soon (generous for a loaded host)."""
@@ -44,21 +44,6 @@ class FakeChannel:
 
     def undeclare(self) -> None:
         self.undeclared = True
-
-
-class FakeDoorbell:
-    def __init__(self, bus: FakeBus, key: str) -> None:
-        self._bus = bus
-        self.key = key
-        self.rung = 0
-        self.closed = False
-
-    def ring(self) -> None:
-        self.rung += 1
-        self._bus.publish(self.key, b"")
-
-    def close(self) -> None:
-        self.closed = True
 
 
 class FakeAnswer:
