@@ -372,8 +372,23 @@ def goal_within(start: Sequence[float], limits: Sequence[tuple[float, float]]) -
     goal = []
     for value, offset, (lower, upper) in zip(start, OFFSETS[: len(start)], limits, strict=True):
         target = value + offset if lower <= value + offset <= upper else value - offset
-        goal.append(min(max(target, lower), upper))
+        goal.append(as_sent(min(max(target, lower), upper), lower, upper))
     return tuple(goal)
+
+
+def as_sent(value: float, lower: float, upper: float) -> float:
+    """``value`` as a point's float32 carries it, kept within [lower, upper].
+
+    The goal the demo measures against must be the one the controller received: a float64
+    goal and its float32 on the wire can round to pulses one apart (a goal within about 0.005
+    pulse of a half pulse; the fourth demo run on a fresh single-arm cell is one), which once
+    read as a final error of 1 pulse although the robot stood exactly where it was sent."""
+    sent = np.float32(value)
+    if float(sent) > upper:
+        sent = np.nextafter(sent, np.float32(lower))
+    elif float(sent) < lower:
+        sent = np.nextafter(sent, np.float32(upper))
+    return float(sent)
 
 
 def _positions(feedback: Feedback, group: Group) -> tuple[float, ...]:

@@ -11,6 +11,10 @@ import pytest
 
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
 from motocell.tools import demo
+import numpy as np
+
+from motocell.shared.config import load_cell
+from motocell.shared.motion.kinematics import AxisMap
 from motocell.tools.demo import OFFSETS, goal_within
 
 LIMITS = ((-1.0, 1.0), (-1.0, 1.0), (-0.1, 0.1))
@@ -29,10 +33,32 @@ def test_byte_order_is_an_option() -> None:
 
 def test_goals_move_away_from_the_limits() -> None:
     goal = goal_within((0.0, 0.9, 0.0), LIMITS)
-    assert goal[0] == OFFSETS[0]
+    assert goal[0] == pytest.approx(OFFSETS[0])
     assert goal[1] == pytest.approx(0.9 + OFFSETS[1])
-    # Neither way fits a 0.2-wide range: as far as it goes.
-    assert goal[2] == -0.1
+    # Neither way fits a 0.2-wide range: as far as it goes, on the inside of the limit.
+    assert -0.1 <= goal[2] == pytest.approx(-0.1)
+
+
+def test_goals_are_what_a_points_float32_carries() -> None:
+    """The goal the demo measures against is the one the controller receives."""
+    goal = goal_within((0.0, 0.9, 0.0), LIMITS)
+    assert all(float(np.float32(value)) == value for value in goal)
+
+
+def test_the_goal_of_the_fourth_run_on_a_fresh_arm_is_the_pulse_it_was_sent() -> None:
+    """Found by demo runs back to back: one axis of the fourth goal from the arm's initial
+    position lies within 0.01 pulse of a half pulse, so its float64 and its float32 round to
+    pulses one apart; the robot stood on the float32's pulse and the demo measured 1 pulse."""
+    cell = load_cell(None)
+    (group,) = cell.groups
+    axis_map = AxisMap(group)
+    here = tuple(group.initial_position)
+    for _ in range(4):
+        goal = goal_within(here, group.joint_limits)
+        sent = np.array(goal, dtype=np.float32).astype(np.float64)
+        assert (axis_map.ros_to_pulses(sent) == axis_map.ros_to_pulses(np.array(goal))).all()
+        reached = axis_map.pulses_to_ros(axis_map.ros_to_pulses(sent)).astype(np.float32)
+        here = tuple(float(value) for value in reached)  # what the state port reports
 
 
 def test_a_goal_past_the_upper_limit_turns_back() -> None:
