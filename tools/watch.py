@@ -46,6 +46,7 @@ from motocell.shared.bus.schemas import (
     ControllerStatus,
     ExecutorMetrics,
     GatewayMetrics,
+    LateTicks,
     QueueState,
     State,
 )
@@ -76,6 +77,7 @@ SUBSCRIBED = (
     "group/*/queue",
     "controller/cmd/connections",
     "executor/metrics",
+    "executor/late",
     "gateway/metrics",
     "broadcaster/metrics",
 )
@@ -103,6 +105,8 @@ class CellView:
     clients: dict[str, Seen[int]] = field(default_factory=dict)
     """Per port (``PORTS``), from the notices of the service that serves it."""
     executor: Seen[ExecutorMetrics] | None = None
+    late: Seen[LateTicks] | None = None
+    """The executor's newest word on periods its clock missed."""
     gateway: Seen[GatewayMetrics] | None = None
     broadcaster: Seen[BroadcasterMetrics] | None = None
     heard: float | None = None
@@ -278,6 +282,8 @@ def _store(view: CellView, key: str, payload: object, now: float) -> None:
                 view.clients[port] = Seen(count, now)
     elif isinstance(payload, ExecutorMetrics):
         view.executor = Seen(payload, now)
+    elif isinstance(payload, LateTicks):
+        view.late = Seen(payload, now)
     elif isinstance(payload, GatewayMetrics):
         view.gateway = Seen(payload, now)
     elif isinstance(payload, BroadcasterMetrics):
@@ -377,7 +383,18 @@ def _executor(view: CellView, now: float) -> list[str]:
         lines.append(line)
     if metrics is not None and not metrics.value.realtime:
         lines.append(f"  !! the executor runs {NOT_REALTIME}; `motocell ps` says what allows it")
+    if view.late is not None:
+        lines.append(_clock_late(view.late, now))
     return lines
+
+
+def _clock_late(seen: Seen[LateTicks], now: float) -> str:
+    late = seen.value
+    return (
+        f"  clock late {now - seen.at:.0f} s ago: {late.periods} period(s) missed, "
+        f"the worst tick {late.tick} {late.lateness_ns / 1e6:.1f} ms late "
+        f"({late.missed_total} since start)"
+    )
 
 
 def _ports(view: CellView, now: float) -> list[str]:

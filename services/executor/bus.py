@@ -26,6 +26,7 @@ from motocell.shared.bus.schemas import (
     ControllerStatus,
     ExecutorMetrics,
     IncrementBatch,
+    LateTicks,
     Point,
     QueueState,
     Tick,
@@ -92,6 +93,10 @@ class OutputPort(Protocol):
 
     def notices(self, replies: Iterable[CommandReply]) -> None:
         """To the controller's increment path (``controller/cmd/incmove_error``)."""
+        ...
+
+    def late(self, late: LateTicks) -> None:
+        """Periods the clock missed, as ``core.late_ticks`` gathers them."""
         ...
 
     def metrics_wanted(self) -> bool:

@@ -17,10 +17,11 @@ from collections.abc import Callable
 
 from motocell.services.executor.bus import InputPort, OutputPort
 from motocell.services.executor.core.executor import ExecutorCore
+from motocell.services.executor.core.late_ticks import LateTickTally
 from motocell.services.executor.core.resting import next_on_grid
 from motocell.shared.bus.channels import StopSignal
 from motocell.shared.bus.liveness import AT_REST_HEARTBEAT_S
-from motocell.shared.bus.schemas import ExecutorMetrics
+from motocell.shared.bus.schemas import ExecutorMetrics, LateTicks
 from motocell.shared.metrics import Window
 from motocell.shared.realtime import RT_PRIORITY, clock_cpus, fix_command, tighten_timer_slack
 from motocell.shared.service import PARENT_PID_ENV
@@ -83,6 +84,7 @@ class Clock:
         self.stop = stop
         self.period_ns = core.period_ns
         self.missed = 0
+        self.late_ticks = LateTickTally()
         self.lateness = Window(max(1, round(1e9 / core.period_ns)))
         self.realtime = False
         self._next_metrics_ns = 0
@@ -165,6 +167,8 @@ class Clock:
         self._last_deadline = deadline
         self._next_rest_tick_ns = now + REST_TICK_EVERY_NS
         outputs.queues(core.queue_updates(now))
+        if lateness >= self.period_ns:  # said after what the cell needs from this tick
+            self._announce(self.late_ticks.count(core.tick, deadline, lateness, self.missed, now))
         self.lateness.add(lateness / 1000)
         self._metrics_if_due(now)
 
@@ -190,11 +194,27 @@ class Clock:
             self.outputs.tick(self.core.tick_report(self._last_deadline, 0, self.missed))
             self._next_rest_tick_ns = now + REST_TICK_EVERY_NS
 
+    def _announce(self, late: LateTicks | None) -> None:
+        """Missed periods, as they happen: on the bus and in the log."""
+        if late is None:
+            return
+        self.outputs.late(late)
+        log.warning(
+            "the clock missed %d period(s) (%d since start): tick %d came %.1f ms after its "
+            "deadline (docs/realtime.md, Missed periods that remain)",
+            late.periods,
+            late.missed_total,
+            late.tick,
+            late.lateness_ns / 1e6,
+        )
+
     def _metrics_if_due(self, now: int) -> None:
-        """Once a second, the lateness of the ticks since the last report, if anyone reads it."""
+        """Once a second, the late ticks not yet announced, and the lateness of the ticks since
+        the last report if anyone reads it."""
         if now < self._next_metrics_ns:
             return
         self._next_metrics_ns = now + METRICS_EVERY_NS
+        self._announce(self.late_ticks.due(self.missed, now))
         if self.outputs.metrics_wanted():
             self.outputs.metrics(
                 ExecutorMetrics(

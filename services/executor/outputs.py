@@ -1,6 +1,6 @@
 """What the executor publishes, its ``OutputPort`` over the ``Bus``: each tick, the queue states,
-its notices to the controller, its metrics (only while someone subscribes), and its answers to
-STOP_MOTION."""
+its notices to the controller, the periods its clock missed, its metrics (only while someone
+subscribes), and its answers to STOP_MOTION."""
 
 from __future__ import annotations
 
@@ -8,7 +8,14 @@ from collections.abc import Iterable
 
 from motocell.services.executor.bus import Bus, Query
 from motocell.shared.bus.keys import CellKeys
-from motocell.shared.bus.schemas import CommandReply, ExecutorMetrics, QueueState, Tick, encode
+from motocell.shared.bus.schemas import (
+    CommandReply,
+    ExecutorMetrics,
+    LateTicks,
+    QueueState,
+    Tick,
+    encode,
+)
 from motocell.shared.protocol.constants import Result
 
 
@@ -21,6 +28,9 @@ class Outputs:
         # Every notice matters (a stall, a broken increment path): it blocks rather than drops.
         self._notices = bus.publisher(keys.controller_cmd("incmove_error"), realtime=True)
         self._metrics = bus.publisher(keys.metrics("executor"), latest=True)
+        # At most one a second, so sent whether or not anyone listens; dropped rather than
+        # block the clock (the next one carries the total).
+        self._late = bus.publisher(keys.executor_late, latest=True)
 
     def tick(self, tick: Tick) -> None:
         self._tick.put(encode(tick))
@@ -32,6 +42,9 @@ class Outputs:
     def notices(self, replies: Iterable[CommandReply]) -> None:
         for reply in replies:
             self._notices.put(encode(reply))
+
+    def late(self, late: LateTicks) -> None:
+        self._late.put(encode(late))
 
     def metrics_wanted(self) -> bool:
         """Whether anyone subscribes to the metrics: nothing is summarised for nobody."""

@@ -22,6 +22,7 @@ from motocell.shared.bus.schemas import (
     GatewayMetrics,
     IncrementBatch,
     InterpolatorMetrics,
+    LateTicks,
     Point,
     QueueState,
     ServiceInfo,
@@ -160,6 +161,7 @@ ROUTES: tuple[Route, ...] = (
         CommandReply,
     ),
     Route("executor/metrics", Op.PUT, ExecutorMetrics, _roles(EXECUTOR), WATCHERS),
+    Route("executor/late", Op.PUT, LateTicks, _roles(EXECUTOR), WATCHERS),
     # Where the robot was at the newest tick the broadcaster had: a restarted executor resumes
     # there (the broadcaster follows every tick anyway; nobody else needs them all).
     Route(

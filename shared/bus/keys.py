@@ -16,6 +16,7 @@ class CellKeys:
         self.prefix = f"{ROOT}/{cell}"
         self.controller_status = f"{self.prefix}/controller/status"
         self.executor_tick = f"{self.prefix}/executor/tick"
+        self.executor_late = f"{self.prefix}/executor/late"
         self.state = f"{self.prefix}/state"
         self.group_slot_all = f"{self.prefix}/group/*/slot"
         self.group_point_all = f"{self.prefix}/group/*/point"

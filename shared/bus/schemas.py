@@ -293,6 +293,23 @@ class ExecutorMetrics(msgspec.Struct, array_like=True, frozen=True):
     realtime: bool
 
 
+class LateTicks(msgspec.Struct, array_like=True, frozen=True):
+    """``executor/late``: the clock missed periods (ticks a period or more after their
+    deadline), said as it happens: the first at once, later ones within a second gathered into
+    the next sample."""
+
+    tick: int
+    """The latest of the latest ones."""
+    deadline_ns: int
+    """That tick's scheduled time on CLOCK_MONOTONIC."""
+    lateness_ns: int
+    """How late it came: the worst of the ticks this sample counts."""
+    periods: int
+    """Ticks a period or more late since the previous sample."""
+    missed_total: int
+    """Since the executor started (``Tick.missed``)."""
+
+
 class RequestStats(msgspec.Struct, array_like=True, frozen=True):
     msg_type: int
     count: int

@@ -15,7 +15,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pytest
+import zenoh
 
+from motocell.shared.bus.schemas import LateTicks
 from motocell.shared.config import load_cell
 from motocell.shared.motion.kinematics import AxisMap
 from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
@@ -29,7 +31,7 @@ from motocell.testing.client import (
     smooth_move,
 )
 from motocell.testing.processes import wait_until
-from motocell.testing.running_cell import RunningCell, TickLog
+from motocell.testing.running_cell import RunningCell, SampleLog, TickLog
 from tests.e2e.stalling import beyond_the_lease, stall
 
 pytestmark = pytest.mark.cell
@@ -177,6 +179,18 @@ then runs dry as for a late client, and the motion resumes) is a matter of where
 the stop fell; each outcome is checked."""
 
 
+def assert_late_ticks_said(late: SampleLog[LateTicks]) -> None:
+    """The stopped executor's clock says on the bus that it missed periods, as soon as it runs
+    again: its first tick after the stall came about STALL_S late."""
+
+    def said() -> bool:
+        return any(sample.lateness_ns >= STALL_S / 2 * 1e9 for sample in late.since(0))
+
+    wait_until(said, DEADLINE_S, "the executor to say its clock missed periods")
+    (first, *_) = late.since(0)
+    assert first.periods >= 1 and first.missed_total >= first.periods, first
+
+
 def pids_of(cell: RunningCell, service: str) -> set[int]:
     """The launcher runs the router in-process: stopping it stops supervision too."""
     return {cell.process.pid} if service == "router" else cell.service_pids(service)
@@ -186,12 +200,23 @@ def pids_of(cell: RunningCell, service: str) -> set[int]:
     "service", ["executor", "controller", "router", "gateway", "interpolator", "broadcaster"]
 )
 def test_a_stalled_service_causes_no_late_motion(
-    cell: RunningCell, motion: MotionClient, state: StateListener, ticks: TickLog, service: str
+    cell: RunningCell,
+    bus: zenoh.Session,
+    motion: MotionClient,
+    state: StateListener,
+    ticks: TickLog,
+    service: str,
 ) -> None:
     stopped = pids_of(cell, service)
     assert stopped
     first = len(ticks)
-    moving, goal = stalled_stream(motion, state, stopped, service)
+    late = SampleLog(bus, cell.keys.executor_late, LateTicks)
+    try:
+        moving, goal = stalled_stream(motion, state, stopped, service)
+        if service == "executor":
+            assert_late_ticks_said(late)
+    finally:
+        late.subscriber.undeclare()
     if service in MAY_STOP_MOTION and moving.refusal is not None:
         assert moving.refusal.result == Result.NOT_READY, moving.refusal
         assert moving.refusal.subcode == NotReadySubcode.INC_MOVE_ERROR, moving.refusal

@@ -220,8 +220,9 @@ def test_a_normal_start_and_stop_says_ready_once_and_warns_of_nothing(tmp_path: 
         for line in output.splitlines()
         if (" WARNING " in line or " ERROR " in line)
         # A machine that refuses SCHED_FIFO is not all well: that warning is meant
-        # (tests/e2e/test_realtime.py).
+        # (tests/e2e/test_realtime.py). Nor is a machine that delays the clock's timer.
         and "real-time priority" not in line
+        and "the clock missed" not in line
     ]
     assert noisy == [], output
     assert clean(output), output
@@ -282,7 +283,9 @@ def test_an_open_bus_says_so_in_one_warning(tmp_path: Path) -> None:
     warnings = [
         line
         for line in output.splitlines()
-        if " WARNING " in line and "real-time priority" not in line  # as above
+        if " WARNING " in line
+        and "real-time priority" not in line  # as above
+        and "the clock missed" not in line
     ]
     assert len(warnings) == 1, output
     assert "anyone who reaches its Zenoh router can move the robot" in warnings[0]

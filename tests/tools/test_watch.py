@@ -23,6 +23,7 @@ from motocell.shared.bus.schemas import (
     CommandRequest,
     ExecutorMetrics,
     GroupState,
+    LateTicks,
     Percentiles,
     QueueState,
     RobotStatusFields,
@@ -82,6 +83,17 @@ def test_the_queue_depth_is_the_executors_latest_not_its_metrics_of_the_last_sec
     assert line_with(lines, "executor:").startswith("  executor: tick 900   lateness (last second)")
     watcher.received(KEYS.group_queue(0), queue_state(0, tick=950), T0 + 0.3)
     assert line_with(frame(watcher, T0 + 0.3), "group 0").strip() == "group 0  queue 0/200"
+
+
+def test_periods_the_clock_missed_are_shown_with_how_long_ago() -> None:
+    watcher = Watcher()
+    watcher.received(KEYS.metrics("executor"), executor_metrics([0]), T0)
+    assert not any("clock late" in line for line in frame(watcher, T0))
+    late = LateTicks(tick=812, deadline_ns=1, lateness_ns=9_400_000, periods=2, missed_total=5)
+    watcher.received(KEYS.executor_late, encode(late), T0)
+    assert line_with(frame(watcher, T0 + 3.2), "clock late").strip() == (
+        "clock late 3 s ago: 2 period(s) missed, the worst tick 812 9.4 ms late (5 since start)"
+    )
 
 
 def test_positions_come_from_the_state_and_show_their_age_once_it_stops() -> None:

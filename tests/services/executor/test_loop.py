@@ -4,10 +4,13 @@ in which order, what that order decides, and how it rests, wakes and recovers fr
 
 from __future__ import annotations
 
+import logging
 from collections import deque
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import TypeVar
+
+import pytest
 
 from motocell.services.executor.bus import Query
 from motocell.services.executor.core.executor import STALL_ALARM, ExecutorCore
@@ -19,6 +22,7 @@ from motocell.shared.bus.schemas import (
     ControllerStatus,
     ExecutorMetrics,
     IncrementBatch,
+    LateTicks,
     Point,
     QueueState,
     Tick,
@@ -205,6 +209,7 @@ class RecordedOutputs:
         self.sent_notices: list[tuple[int, CommandReply]] = []
         """With the number of ticks published before each."""
         self.sent_metrics: list[tuple[int, ExecutorMetrics]] = []
+        self.sent_late: list[tuple[int, LateTicks]] = []
         self.answered: list[Query] = []
         self.wanted_from_ns = T0
         """From when someone subscribes to the metrics."""
@@ -220,6 +225,9 @@ class RecordedOutputs:
     def notices(self, replies: Iterable[CommandReply]) -> None:
         self.log.append("notices")
         self.sent_notices += [(len(self.ticks), reply) for reply in replies]
+
+    def late(self, late: LateTicks) -> None:
+        self.sent_late.append((self._time.now_ns, late))
 
     def metrics_wanted(self) -> bool:
         return self._time.now_ns >= self.wanted_from_ns
@@ -354,6 +362,37 @@ def test_a_late_tick_is_counted_and_reported() -> None:
     (_, first), *_ = run.outputs.ticks
     assert (first.lateness_ns, first.missed) == (PERIOD_NS + 1, 1)
     assert run.clock.missed == 1
+
+
+def test_a_late_tick_is_said_on_the_bus_and_in_the_log_as_it_happens(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    run = Run()
+    run.time.oversleep_ns = 2 * PERIOD_NS
+    with caplog.at_level(logging.WARNING, logger="executor"):
+        run.until(FIRST_DEADLINE + 3 * PERIOD_NS)
+    [(at, late)] = run.outputs.sent_late
+    assert at == FIRST_DEADLINE + 2 * PERIOD_NS, "with the late tick, not at a later report"
+    # Said at once; the tick caught up after it (one period late) waits for the next second.
+    assert late == LateTicks(
+        tick=1, deadline_ns=FIRST_DEADLINE, lateness_ns=2 * PERIOD_NS, periods=1, missed_total=1
+    )
+    assert run.clock.missed == 2
+    [record] = caplog.records
+    assert "missed 1 period(s) (1 since start)" in record.getMessage()
+    assert "tick 1 came 8.0 ms after its deadline" in record.getMessage()
+
+
+def test_late_ticks_soon_after_one_said_are_said_within_a_second() -> None:
+    run = Run()
+    run.inputs.batch(0, 0, batch(FIRST_EPOCH, 0, [unit(3)] * 400))
+    run.time.oversleep_ns = PERIOD_NS
+    run.until(FIRST_DEADLINE + 10 * PERIOD_NS)
+    run.time.oversleep_ns = PERIOD_NS
+    run.until(FIRST_DEADLINE + METRICS_EVERY_NS + 2 * PERIOD_NS)
+    [(first_at, first), (second_at, second)] = run.outputs.sent_late
+    assert (first.periods, second.periods, second.missed_total) == (1, 1, 2)
+    assert second_at - first_at <= METRICS_EVERY_NS + PERIOD_NS
 
 
 def test_a_stall_restarts_the_clock_from_now_without_catching_up() -> None:

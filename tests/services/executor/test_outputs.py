@@ -10,6 +10,7 @@ from motocell.shared.bus.schemas import (
     Decoder,
     ExecutorMetrics,
     GroupTick,
+    LateTicks,
     Percentiles,
     QueueState,
     Tick,
@@ -37,6 +38,7 @@ def test_what_it_declares() -> None:
         KEYS.group_queue(1): (True, True),
         KEYS.controller_cmd("incmove_error"): (True, False),
         KEYS.metrics("executor"): (False, True),
+        KEYS.executor_late: (False, True),
     }
 
 
@@ -72,6 +74,15 @@ def test_metrics_are_wanted_only_while_someone_subscribes() -> None:
     metrics = ExecutorMetrics(3, Percentiles(1, 1.0, 1.0, 1.0), 0, [0, 0], True)
     out.metrics(metrics)
     assert bus.publications[KEYS.metrics("executor")].payloads == [encode(metrics)]
+
+
+def test_late_ticks_go_out_whether_or_not_anyone_subscribes() -> None:
+    bus, out = outputs()
+    late = LateTicks(
+        tick=9, deadline_ns=36_000_000, lateness_ns=5_000_000, periods=1, missed_total=3
+    )
+    out.late(late)
+    assert bus.publications[KEYS.executor_late].payloads == [encode(late)]
 
 
 def test_stop_motion_is_answered_success() -> None:
