@@ -176,6 +176,35 @@ class ZenohConfig(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
     directly, past the router's access control."""
 
 
+class UpdatePeriods(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
+    """MotoROS2's ``update_periods`` that apply to the face, milliseconds."""
+
+    controller_status_monitor_period: int = 10
+    """How often ``joint_states``, ``robot_status`` and ``tf`` are published (100 Hz)."""
+    action_feedback_publisher_period: int = 20
+    """How often a running FollowJointTrajectory goal gets feedback."""
+
+
+class Ros2Face(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
+    """``[ros2]``: the cell runs its ROS 2 face (``services/ros2``, docs/ros2.md): MotoROS2's ROS 2
+    API from an rclpy node. The keys are those of MotoROS2's ``motoros2_config.yaml`` that
+    apply to a simulated controller, with its defaults; ``open_discovery`` is motocell's own."""
+
+    ros_domain_id: int = 0
+    node_name: str = ""
+    """Empty: ``motoman_<cell name>`` (MotoROS2 names its node after the controller's MAC)."""
+    node_namespace: str = ""
+    joint_names: list[list[str]] | None = None
+    """Per group, in group order, ROS joint order; default ``group_<g>/joint_<j>`` from 1."""
+    publish_tf: bool = True
+    namespace_tf: bool = True
+    tf_frame_prefix: str = ""
+    update_periods: UpdatePeriods = msgspec.field(default_factory=UpdatePeriods)
+    open_discovery: bool = False
+    """Let ROS 2 discovery reach beyond this host. Off, the face is seen on this host only
+    (``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``): any node that sees it can move the robot."""
+
+
 class CellFile(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
     """The TOML file as written; ``Cell`` is the resolved form the services use."""
 
@@ -206,6 +235,8 @@ class CellFile(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
     """The controller's tool files from tool 0 on: [x, y, z, rx, ry, rz] each, the tool centre
     point in the flange frame (metres; roll-pitch-yaw in radians, ``forward_kinematics``).
     Tools not listed are all zero: the TCP is the flange."""
+    ros2: Ros2Face | None = None
+    """The ROS 2 face; a cell file without ``[ros2]`` runs none."""
 
 
 @dataclass(frozen=True)
@@ -251,6 +282,8 @@ class Cell:
     tools: tuple[tuple[float, ...], ...] = ()
     """The tool files MOTO_SELECT_TOOL chooses from (``CellFile.tools``); one table for every
     group, as a controller has."""
+    ros2: Ros2Face | None = None
+    """The ROS 2 face's settings, its defaults filled in (``CellFile.ros2``); None: no face."""
 
     def tool(self, number: int) -> tuple[float, ...]:
         """Tool ``number``'s [x, y, z, rx, ry, rz]; an unlisted tool is all zero. A number a
@@ -582,4 +615,58 @@ def resolve(
         pending_points=cell_file.pending_points,
         start_buffer_periods=cell_file.start_buffer_periods,
         tools=tuple(tuple(tool) for tool in cell_file.tools),
+        ros2=None
+        if cell_file.ros2 is None
+        else _resolve_ros2(cell_file.ros2, cell_file.name, groups, where),
     )
+
+
+ROS_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+"""A ROS 2 name's token (node names, each part of a namespace or joint name)."""
+ROS_DOMAIN_IDS = range(233)
+"""What a ROS 2 domain id may be on Linux (0-101 and 215-232 leave DDS's ports clear of the
+kernel's ephemeral range; ROS 2 itself accepts up to 232)."""
+
+
+def _resolve_ros2(face: Ros2Face, cell_name: str, groups: Sequence[Group], where: str) -> Ros2Face:
+    """``[ros2]`` checked, with the node name and joint names filled in."""
+    field = f"{where}: ros2"
+    if face.ros_domain_id not in ROS_DOMAIN_IDS:
+        raise ConfigError(f"{field}.ros_domain_id: must be 0 to {ROS_DOMAIN_IDS[-1]}")
+    node_name = face.node_name or "motoman_" + re.sub(r"[^A-Za-z0-9_]", "_", cell_name)
+    if not ROS_NAME.fullmatch(node_name):
+        raise ConfigError(f"{field}.node_name: {node_name!r} is no ROS 2 node name")
+    if not all(
+        ROS_NAME.fullmatch(part) for part in face.node_namespace.strip("/").split("/") if part
+    ):
+        raise ConfigError(f"{field}.node_namespace: {face.node_namespace!r} is no ROS 2 namespace")
+    joint_names = face.joint_names or [
+        [f"group_{group.index + 1}/joint_{axis + 1}" for axis in range(group.axes)]
+        for group in groups
+    ]
+    _check_joint_names(f"{field}.joint_names", joint_names, groups)
+    for group in groups:
+        if not ROS_NAME.fullmatch(group.name.lower()):
+            raise ConfigError(
+                f"{where}: groups[{group.index}].name: {group.name!r} cannot name the face's "
+                f"ctrl_groups/<name>/joint_states topic (letters, digits, _)"
+            )
+    periods = face.update_periods
+    for name in ("controller_status_monitor_period", "action_feedback_publisher_period"):
+        if not 1 <= getattr(periods, name) <= 1000:
+            raise ConfigError(f"{field}.update_periods.{name}: must be 1 to 1000 (ms)")
+    return msgspec.structs.replace(face, node_name=node_name, joint_names=joint_names)
+
+
+def _check_joint_names(field: str, names: list[list[str]], groups: Sequence[Group]) -> None:
+    if [len(row) for row in names] != [group.axes for group in groups]:
+        raise ConfigError(
+            f"{field}: one list per group with a name per axis "
+            f"({[group.axes for group in groups]} names), got {[len(row) for row in names]}"
+        )
+    flat = [name for row in names for name in row]
+    bad = [name for name in flat if not all(ROS_NAME.fullmatch(part) for part in name.split("/"))]
+    if bad:
+        raise ConfigError(f"{field}: {bad[0]!r} is no ROS 2 joint name")
+    if len(set(flat)) != len(flat):
+        raise ConfigError(f"{field}: every joint needs a name of its own")

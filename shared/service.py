@@ -38,8 +38,7 @@ from motocell.shared.config import EXIT_CONFIG, Cell, ConfigError, load_cell
 from motocell.shared.ports import port_base_argument
 from motocell.shared.realtime import enter_service_priority
 from motocell.shared.service_names import (
-    PER_GROUP,
-    SERVICES,
+    ROS2_FACE,
     ServiceName,
     UnknownServiceError,
     cell_services,
@@ -51,13 +50,17 @@ PARENT_PID_ENV = "MOTOCELL_PARENT_PID"
 """Set by ``motocell up`` for its children: they stop when that process goes away."""
 PR_SET_PDEATHSIG = 1
 
-REQUIRED_SERVICES = tuple(service for service in SERVICES if service != PER_GROUP)
-"""Services a cell needs besides one interpolator per group; see ``required_alive_keys``."""
-
 
 def required_alive_keys(cell: Cell) -> list[str]:
+    """The liveliness keys of the services the cell cannot move without. Not its ROS 2 face:
+    a Simple Message client does not wait for it, as a MotoROS1 client never waited for
+    MotoROS2."""
     keys = CellKeys(cell.name)
-    return [keys.alive(name.service, name.instance) for name in cell_services(cell)]
+    return [
+        keys.alive(name.service, name.instance)
+        for name in cell_services(cell)
+        if name.service != ROS2_FACE
+    ]
 
 
 class StartError(Exception):

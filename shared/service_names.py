@@ -15,7 +15,9 @@ from motocell.shared.config import Cell
 
 PER_GROUP = "interpolator"
 """The service that runs once per control group, its group as its instance."""
-SERVICES = ("controller", "executor", "broadcaster", PER_GROUP, "gateway")
+ROS2_FACE = "ros2"
+"""MotoROS2's ROS 2 API (``services/ros2``): only in a cell whose file has ``[ros2]``."""
+SERVICES = ("controller", "executor", "broadcaster", PER_GROUP, "gateway", ROS2_FACE)
 """Every kind of service, in the order a launcher starts them."""
 
 
@@ -37,6 +39,8 @@ def cell_services(cell: Cell) -> list[ServiceName]:
     """The services ``cell`` has, in start order."""
     names = []
     for service in SERVICES:
+        if service == ROS2_FACE and cell.ros2 is None:
+            continue
         if service == PER_GROUP:
             names += [ServiceName(service, str(group.index)) for group in cell.groups]
         else:
@@ -62,6 +66,10 @@ def parse_service(text: str, cell: Cell) -> ServiceName:
     """``gateway``, ``gateway/0``, ``interpolator/1`` as one of ``cell``'s services;
     UnknownServiceError, listing them, for a name that is none of them."""
     service, instance = service_kind(text)
+    if service == ROS2_FACE and cell.ros2 is None:
+        raise UnknownServiceError(
+            f"cell {cell.name} has no ROS 2 face: add a [ros2] table to its file (docs/ros2.md)"
+        )
     candidates = [name for name in cell_services(cell) if name.service == service]
     if instance is None and len(candidates) == 1:
         return candidates[0]

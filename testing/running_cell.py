@@ -42,7 +42,7 @@ from motocell.shared.ports import free_port, free_port_block
 from motocell.shared.protocol.codec import ByteOrder
 from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
-from motocell.shared.service import REQUIRED_SERVICES
+from motocell.shared.service_names import cell_services
 from motocell.testing.client import MotionClient, StateListener, smooth_move, stream
 from motocell.testing.processes import alive, cmdline, connectable, descendants, wait_until
 
@@ -229,7 +229,7 @@ def start_cell(
     except BaseException:
         shutil.rmtree(runtime_dir, ignore_errors=True)
         raise
-    expected = len(REQUIRED_SERVICES) + len(cell.groups) - len(skip)
+    expected = len(cell_services(cell)) - len(skip)
     return RunningCell(
         *(cell, cell_file, HOST, port_base, endpoint, process, spawned_ns, runtime_dir, expected),
         lifeline=lifeline,

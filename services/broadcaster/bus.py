@@ -18,13 +18,14 @@ from typing import Protocol
 import zenoh
 
 from motocell.shared.bus.adapters import (
+    Channel,
     Declared,
     Latest,
     Publication,
+    ZenohChannel,
     ZenohLatest,
     ZenohPublication,
 )
-from motocell.shared.bus.channels import Doorbell
 from motocell.shared.bus.schemas import CommandReply, Tick
 from motocell.shared.bus.session import Liveness, answer, publisher
 
@@ -57,26 +58,6 @@ class StateReports(Protocol):
 
 
 # -- what the bus shells need of a session ---------------------------------------------------
-
-
-class Channel(Protocol):
-    """A subscription whose samples wait in a Zenoh ring channel for the thread that reads it,
-    which another thread can wake (a doorbell: an empty payload that never leaves the
-    session)."""
-
-    def recv(self) -> bytes:
-        """The oldest payload kept, blocking until there is one; empty: the doorbell."""
-        ...
-
-    def try_recv(self) -> bytes | None:
-        """The oldest payload kept, None if there is none; never blocks."""
-        ...
-
-    def ring(self) -> None:
-        """Wake a thread blocked in ``recv`` (from any thread)."""
-        ...
-
-    def close(self) -> None: ...
 
 
 class Tokens(Protocol):
@@ -114,26 +95,6 @@ class Bus(Protocol):
 # -- over Zenoh ------------------------------------------------------------------------------
 
 
-class _ZenohChannel:
-    def __init__(self, session: zenoh.Session, key: str, size: int) -> None:
-        self._subscriber = session.declare_subscriber(key, zenoh.handlers.RingChannel(size))
-        self._doorbell = Doorbell(session, key)
-
-    def recv(self) -> bytes:
-        return self._subscriber.recv().payload.to_bytes()
-
-    def try_recv(self) -> bytes | None:
-        sample = self._subscriber.try_recv()
-        return None if sample is None else sample.payload.to_bytes()
-
-    def ring(self) -> None:
-        self._doorbell.ring()
-
-    def close(self) -> None:
-        self._doorbell.close()
-        self._subscriber.undeclare()
-
-
 class ZenohBus:
     """``Bus`` over a Zenoh session."""
 
@@ -141,7 +102,7 @@ class ZenohBus:
         self._session = session
 
     def channel(self, key: str, size: int) -> Channel:
-        return _ZenohChannel(self._session, key, size)
+        return ZenohChannel(self._session, key, size)
 
     def latest(self, key: str) -> Latest:
         return ZenohLatest(self._session, key)

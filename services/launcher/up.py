@@ -60,8 +60,9 @@ from motocell.shared.config import EXIT_CONFIG, PORT_COUNT, Cell, ConfigError, l
 from motocell.shared.ports import free_port_block
 from motocell.shared.realtime import enter_service_priority, leave_service_priority
 from motocell.shared.registry import CellEntry, CellNameTakenError
+from motocell.shared.ros2.extra import missing_ros2
 from motocell.shared.service import StopFlag, stop_on_signals
-from motocell.shared.service_names import UnknownServiceError, cell_services
+from motocell.shared.service_names import ROS2_FACE, ServiceName, UnknownServiceError, cell_services
 
 log = logging.getLogger("motocell")
 
@@ -106,6 +107,13 @@ class ThisHost:
 
     def __init__(self, cell: Cell, args: argparse.Namespace) -> None:
         self.services = services_here(cell, args.skip or ())
+        if ServiceName(ROS2_FACE, "0") in self.services:
+            missing = missing_ros2()
+            if missing is not None:
+                raise ConfigError(
+                    f"the cell file asks for the ROS 2 face ([ros2]), but {missing} "
+                    f"(or --skip {ROS2_FACE} to run the cell without it)"
+                )
         self.host: str = args.host or cell.host
         self.port_base = self._port_base(args.port_base, cell)
         self.served = cell.listening_at(self.host, self.port_base)

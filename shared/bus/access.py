@@ -93,6 +93,8 @@ def cell_identities(groups: int) -> list[Identity]:
         Identity(Role.BROADCASTER),
         Identity(Role.GATEWAY),
         *(Identity(Role.INTERPOLATOR, str(group)) for group in range(groups)),
+        # Every cell has the face's identity, so turning the face on needs no new credentials.
+        Identity(Role.ROS2),
     ]
     return [*services, Identity(Role.OPERATOR), Identity(Role.OBSERVER)]
 

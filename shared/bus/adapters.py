@@ -1,8 +1,8 @@
 """The byte-level pieces of a Zenoh session that every service's bus adapter hands its shells:
-a publication, the newest sample of a key, a declaration to undo. The Protocols are what the
-shells (and the fake buses of their unit tests) see; the Zenoh classes are the thin
-implementations. Payloads are bytes both ways, so a shell decodes what it gets and a test can
-feed it garbage."""
+a publication, the newest sample of a key, a channel a thread blocks on, a declaration to undo.
+The Protocols are what the shells (and the fake buses of their unit tests) see; the Zenoh
+classes are the thin implementations. Payloads are bytes both ways, so a shell decodes what it
+gets and a test can feed it garbage."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ from typing import Protocol
 
 import zenoh
 
+from motocell.shared.bus.channels import Doorbell
 from motocell.shared.bus.session import observed
 
 
@@ -33,6 +34,26 @@ class Latest(Protocol):
         ...
 
     def undeclare(self) -> None: ...
+
+
+class Channel(Protocol):
+    """A subscription whose samples wait in a Zenoh ring channel for the thread that reads it,
+    which another thread can wake (a doorbell: an empty payload that never leaves the
+    session)."""
+
+    def recv(self) -> bytes:
+        """The oldest payload kept, blocking until there is one; empty: the doorbell."""
+        ...
+
+    def try_recv(self) -> bytes | None:
+        """The oldest payload kept, None if there is none; never blocks."""
+        ...
+
+    def ring(self) -> None:
+        """Wake a thread blocked in ``recv`` (from any thread)."""
+        ...
+
+    def close(self) -> None: ...
 
 
 class Declared(Protocol):
@@ -62,4 +83,24 @@ class ZenohLatest:
         return None if sample is None else sample.payload.to_bytes()
 
     def undeclare(self) -> None:
+        self._subscriber.undeclare()
+
+
+class ZenohChannel:
+    def __init__(self, session: zenoh.Session, key: str, size: int) -> None:
+        self._subscriber = session.declare_subscriber(key, zenoh.handlers.RingChannel(size))
+        self._doorbell = Doorbell(session, key)
+
+    def recv(self) -> bytes:
+        return self._subscriber.recv().payload.to_bytes()
+
+    def try_recv(self) -> bytes | None:
+        sample = self._subscriber.try_recv()
+        return None if sample is None else sample.payload.to_bytes()
+
+    def ring(self) -> None:
+        self._doorbell.ring()
+
+    def close(self) -> None:
+        self._doorbell.close()
         self._subscriber.undeclare()

@@ -51,6 +51,8 @@ class Role(StrEnum):
     BROADCASTER = "broadcaster"
     GATEWAY = "gateway"
     INTERPOLATOR = "interpolator"
+    ROS2 = "ros2"
+    """The ROS 2 face (``services/ros2``): MotoROS2's topics from the cell's state."""
     OPERATOR = "operator"
     """Injects faults (``motocell fault``, tests); acts only on the fault keys."""
     OBSERVER = "observer"
@@ -58,7 +60,7 @@ class Role(StrEnum):
 
 
 SERVICES = frozenset(
-    {Role.CONTROLLER, Role.EXECUTOR, Role.BROADCASTER, Role.GATEWAY, Role.INTERPOLATOR}
+    {Role.CONTROLLER, Role.EXECUTOR, Role.BROADCASTER, Role.GATEWAY, Role.INTERPOLATOR, Role.ROS2}
 )
 WATCHERS = frozenset({Role.OBSERVER, Role.OPERATOR})
 
@@ -82,7 +84,7 @@ def _roles(*roles: Role) -> frozenset[Role]:
 
 
 CONTROLLER, EXECUTOR, BROADCASTER = Role.CONTROLLER, Role.EXECUTOR, Role.BROADCASTER
-GATEWAY, INTERPOLATOR = Role.GATEWAY, Role.INTERPOLATOR
+GATEWAY, INTERPOLATOR, ROS2 = Role.GATEWAY, Role.INTERPOLATOR, Role.ROS2
 
 ROUTES: tuple[Route, ...] = (
     Route(
@@ -90,7 +92,7 @@ ROUTES: tuple[Route, ...] = (
         Op.PUT,
         ControllerStatus,
         _roles(CONTROLLER),
-        _roles(EXECUTOR, BROADCASTER, GATEWAY, INTERPOLATOR) | WATCHERS,
+        _roles(EXECUTOR, BROADCASTER, GATEWAY, INTERPOLATOR, ROS2) | WATCHERS,
     ),
     Route(
         "controller/cmd/*",
@@ -174,7 +176,7 @@ ROUTES: tuple[Route, ...] = (
     ),
     Route("gateway/metrics", Op.PUT, GatewayMetrics, _roles(GATEWAY), WATCHERS),
     Route("broadcaster/metrics", Op.PUT, BroadcasterMetrics, _roles(BROADCASTER), WATCHERS),
-    Route("state", Op.PUT, State, _roles(BROADCASTER), WATCHERS),
+    Route("state", Op.PUT, State, _roles(BROADCASTER), _roles(ROS2) | WATCHERS),
     Route("service/*/*", Op.QUERY, None, WATCHERS | SERVICES, SERVICES, ServiceInfo),
     Route(
         "alive/*/*",

@@ -6,6 +6,7 @@ from __future__ import annotations
 import pytest
 
 from motocell.shared.config import load_cell, parse_cell
+from motocell.shared.service import required_alive_keys
 from motocell.shared.service_names import (
     ServiceName,
     UnknownServiceError,
@@ -69,3 +70,20 @@ def test_a_name_that_is_no_service_of_the_cell_is_refused_with_what_there_is(
 def test_without_a_cell_the_kind_and_a_given_instance_are_told_apart() -> None:
     assert service_kind("gateway") == ("gateway", None)
     assert service_kind("interpolator/3") == ("interpolator", "3")
+
+
+def test_the_ros2_face_is_a_service_only_of_a_cell_whose_file_asks_for_it() -> None:
+    with_face = parse_cell({"ros2": {}})
+    assert [str(name) for name in cell_services(with_face)][-1] == "ros2/0"
+    assert parse_service("ros2", with_face) == ServiceName("ros2", "0")
+    assert "ros2/0" not in map(str, cell_services(ONE_ARM))
+    with pytest.raises(UnknownServiceError, match=r"no ROS 2 face: add a \[ros2\] table"):
+        parse_service("ros2", ONE_ARM)
+
+
+def test_a_cell_moves_without_its_ros2_face() -> None:
+    """The controller waits for every service but the face: Simple Message clients never
+    wait for it."""
+    with_face = parse_cell({"name": "f", "ros2": {}})
+    assert not any("/alive/ros2/" in key for key in required_alive_keys(with_face))
+    assert len(required_alive_keys(with_face)) == len(cell_services(with_face)) - 1

@@ -31,6 +31,7 @@ from motocell.shared.bus.liveness import AT_REST_HEARTBEAT_S
 from motocell.shared.bus.schemas import CommandReply, ControllerStatus, GroupState, State, Tick
 from motocell.shared.config import Cell
 from motocell.shared.protocol.constants import Result
+from motocell.shared.schedule import Schedule
 
 MIN_SILENCE_S = 0.05
 
@@ -45,27 +46,6 @@ class ControllerView(Protocol):
     def alive(self) -> bool:
         """Whether the controller's liveliness token is present."""
         ...
-
-
-class Schedule:
-    """When to send state, on the executor's own clock: the first tick at or after each due
-    time. Feedback then leaves the moment the tick that produced it arrives (no wait for a
-    second clock), and the rate is exact on average even when the state period is not a
-    whole number of ticks (10 ms at 4 ms: 8 and 12 ms alternately)."""
-
-    def __init__(self, period_ns: int) -> None:
-        self.period_ns = period_ns
-        self.next_due: int | None = None
-
-    def due(self, tick_ns: int) -> bool:
-        if self.next_due is None:
-            self.next_due = tick_ns
-        if tick_ns < self.next_due:
-            return False
-        self.next_due += self.period_ns
-        if self.next_due <= tick_ns:
-            self.next_due = tick_ns + self.period_ns  # fell behind: no burst to catch up
-        return True
 
 
 TICK_EVENT = (PacingEvent.TICK, PacingEvent.RESTING_TICK)

@@ -4,7 +4,7 @@ when the next beat without a tick is due (``PACING``). ``broadcaster.Broadcaster
 pacing and consults the table on every tick and every wake-up; what it does with a step (is
 the beat due, when is the next) is the same for every row.
 
-While the executor's clock runs, snapshots follow its ticks (``broadcaster.Schedule``). Without
+While the executor's clock runs, snapshots follow its ticks (``shared.schedule.Schedule``). Without
 ticks the state port still beats, from the last tick: every state period while the executor's
 clock rests (nothing moves, so the last tick is the robot as it is) and a client is connected,
 every ``AT_REST_HEARTBEAT_S`` for observers only; every ``silence_s`` when ticks stop

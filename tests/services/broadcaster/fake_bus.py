@@ -5,50 +5,11 @@ and reads what the shell published and declared."""
 from __future__ import annotations
 
 import threading
-from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from motocell.shared.bus.schemas import CommandReply, Tick
-from tests.services.fakes import FakePublication
-
-WAIT_S = 5.0
-"""Deadline for what another thread is expected to do soon (generous for a loaded host)."""
-
-
-class FakeChannel:
-    """A ring channel: the newest ``size`` payloads; ``recv`` blocks until one comes (at most
-    ``WAIT_S``: a test that would hang fails instead)."""
-
-    def __init__(self, key: str, size: int) -> None:
-        self.key = key
-        self.size = size
-        self._kept: deque[bytes] = deque(maxlen=size)
-        self._arrived = threading.Condition()
-        self.rung = 0
-        self.closed = False
-
-    def put(self, payload: bytes) -> None:
-        with self._arrived:
-            self._kept.append(payload)
-            self._arrived.notify_all()
-
-    def recv(self) -> bytes:
-        with self._arrived:
-            if not self._arrived.wait_for(lambda: bool(self._kept), WAIT_S):
-                raise TimeoutError(f"nothing on {self.key} within {WAIT_S} s")
-            return self._kept.popleft()
-
-    def try_recv(self) -> bytes | None:
-        with self._arrived:
-            return self._kept.popleft() if self._kept else None
-
-    def ring(self) -> None:
-        self.rung += 1
-        self.put(b"")
-
-    def close(self) -> None:
-        self.closed = True
+from tests.services.fakes import FakeChannel, FakePublication
 
 
 class FakeLatest:

@@ -13,8 +13,9 @@ from motocell.services.broadcaster.ticks import CHANNEL_SIZE, TickSource
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import encode
 from motocell.shared.service import StopFlag
-from tests.services.broadcaster.fake_bus import FakeBus, FakeChannel
+from tests.services.broadcaster.fake_bus import FakeBus
 from tests.services.broadcaster.scripted import tick
+from tests.services.fakes import FakeChannel
 
 KEYS = CellKeys("c1")
 SOON_S = 0.05

@@ -6,7 +6,7 @@ import itertools
 
 import pytest
 
-from motocell.services.broadcaster.core.broadcaster import Schedule
+from motocell.shared.schedule import Schedule
 from tests.services.broadcaster.scripted import MS
 
 

@@ -1,0 +1,64 @@
+"""The ROS 2 face: MotoROS2's ROS 2 API from an rclpy node of the cell (docs/ros2.md).
+
+Wiring only: ``core`` decides what to publish and when, ``loop`` runs the thread that carries a
+state sample to the topics, ``bus`` feeds it the cell's ``state``, and ``node`` is the rclpy
+node. ROS 2 is an extra: without it the face says in one line what to install.
+"""
+
+from __future__ import annotations
+
+import logging
+import sys
+from collections.abc import Sequence
+
+from motocell.services.ros2.bus import StateFeed, ZenohBus
+from motocell.services.ros2.core.face import Face
+from motocell.services.ros2.loop import FaceLoop
+from motocell.shared.config import EXIT_CONFIG
+from motocell.shared.ros2.extra import missing_ros2
+from motocell.shared.service import argument_parser, running_service
+
+log = logging.getLogger("ros2")
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    parser = argument_parser("ros2", "MotoROS2's ROS 2 API from an rclpy node of the cell.")
+    args = parser.parse_args(argv)
+    missing = missing_ros2()
+    if missing is not None:
+        print(f"motocell ros2/0: {missing}", file=sys.stderr)
+        raise SystemExit(EXIT_CONFIG)
+    # Only now, so that a missing extra is the one line above, not an ImportError.
+    from motocell.services.ros2.node import FaceNode  # noqa: PLC0415
+
+    with running_service("ros2", "0", args) as ctx:
+        cell = ctx.cell
+        face = cell.ros2
+        if face is None:  # running_service refuses a service the cell lacks
+            raise SystemExit(EXIT_CONFIG)
+        node = FaceNode(cell, face)
+        feed = StateFeed(ZenohBus(ctx.session), ctx.keys, ctx.stop)
+        log.info(
+            "node %s%s on ROS domain %d (discovery %s)",
+            face.node_namespace.rstrip("/") + "/" if face.node_namespace else "/",
+            face.node_name,
+            face.ros_domain_id,
+            "beyond this host" if face.open_discovery else "this host only",
+        )
+        if face.open_discovery:
+            log.warning(
+                "ROS 2 discovery reaches beyond this host (open_discovery): any ROS 2 node "
+                "that sees this face can move the robot"
+            )
+        feed.start()
+        ctx.alive.announce()
+        try:
+            FaceLoop(Face(cell, face), feed, node).run(ctx.stop)
+        finally:
+            ctx.stop.set()  # on an error too: it ends the waker
+            feed.close()
+            node.close()
+
+
+if __name__ == "__main__":
+    main()

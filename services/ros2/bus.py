@@ -1,0 +1,70 @@
+"""The face's bus, behind Protocols: the feed of the cell's ``state`` its loop reads
+(``StateFeed``), what that feed needs of a session (``Bus``), and ``ZenohBus`` over a real one.
+
+The loop's thread blocks in a ring channel's ``recv`` (no Python on Zenoh's threads for the
+samples, docs/conventions.md, The bus); a ``Waker`` rings the channel's doorbell at the face's
+next deadline and at stop, since zenoh-python has no ``recv`` with a timeout.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+import zenoh
+
+from motocell.shared.bus.adapters import Channel, ZenohChannel
+from motocell.shared.bus.channels import StopSignal, Waker
+from motocell.shared.bus.ignored import decoded_payload
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.schemas import Decoder, State
+
+CHANNEL_SIZE = 4
+"""Samples kept while the loop publishes; only the newest is used."""
+
+_state_decoder = Decoder(State)
+
+
+class Bus(Protocol):
+    def channel(self, key: str, size: int) -> Channel:
+        """The samples of ``key``, the newest ``size`` kept."""
+        ...
+
+
+class ZenohBus:
+    """``Bus`` over a Zenoh session."""
+
+    def __init__(self, session: zenoh.Session) -> None:
+        self._session = session
+
+    def channel(self, key: str, size: int) -> Channel:
+        return ZenohChannel(self._session, key, size)
+
+
+class StateFeed:
+    """The cell's ``state`` samples for the loop's thread, with the ``Waker`` that ends its
+    waits."""
+
+    def __init__(self, bus: Bus, keys: CellKeys, stop: StopSignal) -> None:
+        self._key = keys.state
+        self._channel = bus.channel(keys.state, CHANNEL_SIZE)
+        self._waker = Waker(self._channel.ring, stop, "state-waker")
+
+    def start(self) -> None:
+        self._waker.start()
+
+    def next(self, deadline_ns: int | None) -> State | None:
+        """The newest sample, blocking until one comes; None when woken without one, at
+        ``deadline_ns`` (CLOCK_MONOTONIC ns; None: no deadline) or at stop."""
+        self._waker.wake_at(None if deadline_ns is None else deadline_ns / 1e9)
+        payload: bytes | None = self._channel.recv()
+        newest: State | None = None
+        while payload is not None:
+            # A doorbell (empty) or garbage decodes to None and leaves the newest good one.
+            newest = decoded_payload(payload, _state_decoder, self._key) or newest
+            payload = self._channel.try_recv()
+        return newest
+
+    def close(self) -> None:
+        """Once the stop flag is set: the waker ends with it."""
+        self._waker.close()
+        self._channel.close()

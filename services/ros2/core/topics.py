@@ -1,0 +1,61 @@
+"""What MotoROS2's topics carry, from one ``state`` sample of the cell (docs/ros2.md, Topics).
+
+``joint_states`` holds every joint of every group, in group order; ``ctrl_groups/<group>/
+joint_states`` one group's (MotoROS2 names the groups r1, r2, b1, s1: here the cell file's group
+names in lower case). Positions and velocities are the feedback's, in ROS order and units, as
+the state port sends them. MotoROS2 also fills ``effort`` from the drives' torque feedback; the
+simulated drives have none, so ``effort`` is empty (a JointState may leave any array empty).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from motocell.shared.bus.schemas import RobotStatusFields, State
+from motocell.shared.config import Group
+
+
+@dataclass(frozen=True)
+class JointValues:
+    names: tuple[str, ...]
+    positions: tuple[float, ...]
+    velocities: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class TopicValues:
+    """One publication of the face's topics."""
+
+    sampled_ns: int
+    """CLOCK_MONOTONIC when the values were measured: the tick's time, or now when the newest
+    sample is published again while the robot rests (the shell stamps messages with it)."""
+    joint_states: JointValues
+    groups: tuple[JointValues, ...]
+    """One per group, in group order."""
+    status: RobotStatusFields
+
+
+def ctrl_group_topic(group: Group) -> str:
+    return f"ctrl_groups/{group.name.lower()}/joint_states"
+
+
+def topic_values(
+    state: State, groups: Sequence[Group], joint_names: Sequence[Sequence[str]], sampled_ns: int
+) -> TopicValues:
+    per_group = []
+    for group, names in zip(groups, joint_names, strict=True):
+        shown = state.groups[group.index]
+        per_group.append(
+            JointValues(
+                tuple(names),
+                tuple(shown.positions[: group.axes]),
+                tuple(shown.velocities[: group.axes]),
+            )
+        )
+    everything = JointValues(
+        tuple(name for values in per_group for name in values.names),
+        tuple(value for values in per_group for value in values.positions),
+        tuple(value for values in per_group for value in values.velocities),
+    )
+    return TopicValues(sampled_ns, everything, tuple(per_group), state.status)

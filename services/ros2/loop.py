@@ -1,0 +1,49 @@
+"""The face's thread: waits for the cell's next ``state`` sample or the face's next deadline,
+hands either to ``core.face.Face``, and publishes what it returns (``Topics``). It decides
+nothing itself."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Protocol
+
+from motocell.services.ros2.core.face import Face
+from motocell.services.ros2.core.topics import TopicValues
+from motocell.shared.bus.channels import StopSignal
+from motocell.shared.bus.schemas import State
+
+
+class Samples(Protocol):
+    def next(self, deadline_ns: int | None) -> State | None:
+        """The newest sample; None when woken at ``deadline_ns`` or at stop without one."""
+        ...
+
+
+class Topics(Protocol):
+    """MotoROS2's topics (``node.FaceNode``)."""
+
+    def publish(self, values: TopicValues) -> None: ...
+
+
+class FaceLoop:
+    def __init__(
+        self,
+        face: Face,
+        samples: Samples,
+        topics: Topics,
+        monotonic_ns: Callable[[], int] = time.monotonic_ns,
+    ) -> None:
+        self.face = face
+        self.samples = samples
+        self.topics = topics
+        self._monotonic_ns = monotonic_ns
+
+    def run(self, stop: StopSignal) -> None:
+        face = self.face
+        while not stop.is_set():
+            state = self.samples.next(face.wake_ns)
+            now_ns = self._monotonic_ns()
+            values = face.on_wake(now_ns) if state is None else face.on_sample(state, now_ns)
+            if values is not None:
+                self.topics.publish(values)

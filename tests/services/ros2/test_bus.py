@@ -1,0 +1,62 @@
+"""``StateFeed`` over a scripted channel: the newest sample of those waiting, garbage and
+doorbells skipped, and a wake-up at the deadline it is given."""
+
+from __future__ import annotations
+
+import time
+
+from motocell.services.ros2.bus import CHANNEL_SIZE, StateFeed
+from motocell.shared.bus.adapters import Channel
+from motocell.shared.bus.keys import CellKeys
+from motocell.shared.bus.schemas import encode
+from motocell.shared.service import StopFlag
+from tests.services.fakes import FakeChannel
+from tests.services.ros2.scripted import MS, face_cell, sample
+
+KEYS = CellKeys("face")
+CELL = face_cell()
+
+
+class OneChannelBus:
+    def __init__(self) -> None:
+        self.opened: FakeChannel | None = None
+
+    def channel(self, key: str, size: int) -> Channel:
+        self.opened = FakeChannel(key, size)
+        return self.opened
+
+
+def feed() -> tuple[StateFeed, FakeChannel, StopFlag]:
+    bus, stop = OneChannelBus(), StopFlag()
+    state_feed = StateFeed(bus, KEYS, stop)
+    assert bus.opened is not None and (bus.opened.key, bus.opened.size) == (
+        KEYS.state,
+        CHANNEL_SIZE,
+    )
+    state_feed.start()
+    return state_feed, bus.opened, stop
+
+
+def test_the_newest_sample_waiting_is_taken_garbage_and_doorbells_skipped() -> None:
+    state_feed, channel, stop = feed()
+    try:
+        channel.put(encode(sample(CELL, 4 * MS)))
+        channel.put(encode(sample(CELL, 8 * MS)))
+        channel.put(b"\xc1 not a state")
+        channel.put(b"")
+        state = state_feed.next(None)
+        assert state is not None and state.tick_ns == 8 * MS
+    finally:
+        stop.set()
+        state_feed.close()
+
+
+def test_a_deadline_wakes_the_feed_without_a_sample() -> None:
+    state_feed, channel, stop = feed()
+    try:
+        assert state_feed.next(time.monotonic_ns() + 20 * MS) is None
+        assert channel.rung == 1
+    finally:
+        stop.set()
+        state_feed.close()
+    assert channel.closed

@@ -1,0 +1,78 @@
+"""The face's loop on a clock of the test's own, with scripted samples and recorded topics around
+the real core: a sample is published as it comes, a rest is held at the period, and the loop
+tells the samples when it must wake."""
+
+from __future__ import annotations
+
+from collections import deque
+
+from motocell.services.ros2.core.face import Face
+from motocell.services.ros2.core.topics import TopicValues
+from motocell.services.ros2.loop import FaceLoop
+from motocell.shared.bus.schemas import State
+from tests.services.ros2.scripted import MS, PERIOD_NS, face_cell, sample
+
+T0 = 50_000 * MS
+CELL = face_cell()
+
+
+class Script:
+    """``loop.Samples``: each ``next`` returns the next scripted (time, sample or None) and
+    moves the clock there; the deadlines it was given are kept. The stop comes when the script
+    ends."""
+
+    def __init__(self, steps: list[tuple[int, State | None]]) -> None:
+        self.steps = deque(steps)
+        self.now_ns = T0
+        self.deadlines: list[int | None] = []
+
+    def next(self, deadline_ns: int | None) -> State | None:
+        self.deadlines.append(deadline_ns)
+        self.now_ns, state = self.steps.popleft()
+        return state
+
+    def is_set(self) -> bool:
+        return not self.steps
+
+    def fileno(self) -> int:
+        raise AssertionError("the loop never waits on the stop flag itself")
+
+
+class Published:
+    def __init__(self) -> None:
+        self.values: list[TopicValues] = []
+
+    def publish(self, values: TopicValues) -> None:
+        self.values.append(values)
+
+
+def run(steps: list[tuple[int, State | None]]) -> tuple[Script, Published]:
+    assert CELL.ros2 is not None
+    script, published = Script(steps), Published()
+    FaceLoop(Face(CELL, CELL.ros2), script, published, lambda: script.now_ns).run(script)
+    return script, published
+
+
+def test_samples_go_out_as_they_come_and_a_rest_is_held_at_the_period() -> None:
+    hold_at = T0 + PERIOD_NS * 3 // 2
+    script, published = run(
+        [
+            (T0, sample(CELL, T0 - MS)),
+            (hold_at, None),  # woken at the deadline it was given
+            (hold_at + PERIOD_NS, None),
+            (hold_at + PERIOD_NS + MS, sample(CELL, hold_at + PERIOD_NS, 0.5)),
+        ]
+    )
+    assert script.deadlines == [None, hold_at, hold_at + PERIOD_NS, hold_at + 2 * PERIOD_NS]
+    assert [values.sampled_ns for values in published.values] == [
+        T0 - MS,
+        hold_at,
+        hold_at + PERIOD_NS,
+        hold_at + PERIOD_NS,
+    ]
+    assert published.values[-1].joint_states.positions == (0.5,) * 6
+
+
+def test_a_wake_up_before_the_deadline_publishes_nothing() -> None:
+    _, published = run([(T0, sample(CELL, T0)), (T0 + MS, None)])
+    assert len(published.values) == 1
