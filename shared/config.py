@@ -195,7 +195,8 @@ class Ros2Face(msgspec.Struct, frozen=True, forbid_unknown_fields=True):
     """Empty: ``motoman_<cell name>`` (MotoROS2 names its node after the controller's MAC)."""
     node_namespace: str = ""
     joint_names: list[list[str]] | None = None
-    """Per group, in group order, ROS joint order; default ``group_<g>/joint_<j>`` from 1."""
+    """Per group, in group order, each group's in the controller's axis order (a 7-axis arm's
+    elbow E last, as motoros2_config.yaml lists them); default ``group_<g>/joint_<j>`` from 1."""
     publish_tf: bool = True
     namespace_tf: bool = True
     tf_frame_prefix: str = ""

@@ -2,9 +2,12 @@
 
 ``joint_states`` holds every joint of every group, in group order; ``ctrl_groups/<group>/
 joint_states`` one group's (MotoROS2 names the groups r1, r2, b1, s1: here the cell file's group
-names in lower case). Positions and velocities are the feedback's, in ROS order and units, as
-the state port sends them. MotoROS2 also fills ``effort`` from the drives' torque feedback; the
-simulated drives have none, so ``effort`` is empty (a JointState may leave any array empty).
+names in lower case). Joints go in ROS order: the cell file lists a group's names in the
+controller's axis order, as motoros2_config.yaml does (a 7-axis arm's elbow E last), and the
+face, as MotoROS2, publishes the elbow third (``ros_order_names``). Positions and velocities are
+the feedback's, in ROS units, as the state port sends them. MotoROS2 also fills ``effort`` from
+the drives' torque feedback; the simulated drives have none, so ``effort`` is empty (a
+JointState may leave any array empty).
 """
 
 from __future__ import annotations
@@ -14,6 +17,7 @@ from dataclasses import dataclass
 
 from motocell.shared.bus.schemas import RobotStatusFields, State
 from motocell.shared.config import Group
+from motocell.shared.motion.kinematics import AxisMap
 
 
 @dataclass(frozen=True)
@@ -40,9 +44,15 @@ def ctrl_group_topic(group: Group) -> str:
     return f"ctrl_groups/{group.name.lower()}/joint_states"
 
 
+def ros_order_names(group: Group, names: Sequence[str]) -> tuple[str, ...]:
+    """``names``, given in the controller's axis order, in the order the face publishes."""
+    return tuple(names[int(moto)] for moto in AxisMap(group).moto_index_of_ros)
+
+
 def topic_values(
     state: State, groups: Sequence[Group], joint_names: Sequence[Sequence[str]], sampled_ns: int
 ) -> TopicValues:
+    """``joint_names``: per group, in ROS order (``ros_order_names``)."""
     per_group = []
     for group, names in zip(groups, joint_names, strict=True):
         shown = state.groups[group.index]

@@ -3,15 +3,22 @@ each group's in its ``ctrl_groups`` topic, under the configured names."""
 
 from __future__ import annotations
 
-from motocell.services.ros2.core.topics import ctrl_group_topic, topic_values
-from motocell.shared.config import parse_cell
+from motocell.services.ros2.core.topics import ctrl_group_topic, ros_order_names, topic_values
+from motocell.shared.config import Cell, parse_cell
 from tests.services.ros2.scripted import MS, STATUS, face_cell, sample
+
+
+def names_of(cell: Cell) -> list[tuple[str, ...]]:
+    assert cell.ros2 is not None and cell.ros2.joint_names is not None
+    return [
+        ros_order_names(group, names)
+        for group, names in zip(cell.groups, cell.ros2.joint_names, strict=True)
+    ]
 
 
 def test_joint_states_hold_every_group_in_order_and_each_group_its_own() -> None:
     cell = face_cell(groups=3)
-    assert cell.ros2 is not None and cell.ros2.joint_names is not None
-    values = topic_values(sample(cell, 8 * MS), cell.groups, cell.ros2.joint_names, 8 * MS)
+    values = topic_values(sample(cell, 8 * MS), cell.groups, names_of(cell), 8 * MS)
     axes = [group.axes for group in cell.groups]
     assert [len(group.names) for group in values.groups] == axes == [6, 7, 1]
     assert values.joint_states.names[:2] == ("group_1/joint_1", "group_1/joint_2")
@@ -29,10 +36,21 @@ def test_names_come_from_the_cell_file_and_topics_from_the_group_names() -> None
             "ros2": {"joint_names": [[f"r1_{a}" for a in "slurbt"], ["s1_tilt", "s1_turn"]]},
         }
     )
-    assert cell.ros2 is not None and cell.ros2.joint_names is not None
-    values = topic_values(sample(cell, 0), cell.groups, cell.ros2.joint_names, 0)
+    values = topic_values(sample(cell, 0), cell.groups, names_of(cell), 0)
     assert values.groups[1].names == ("s1_tilt", "s1_turn")
     assert [ctrl_group_topic(group) for group in cell.groups] == [
         "ctrl_groups/r1/joint_states",
         "ctrl_groups/s1/joint_states",
     ]
+
+
+def test_a_seven_axis_arms_elbow_is_published_third_as_motoros2_does() -> None:
+    """The cell file lists S L U R B T E (motoros2_config.yaml's order); ROS order is
+    S L E U R B T."""
+    cell = parse_cell(
+        {
+            "groups": [{"name": "R1", "model": "arm7"}],
+            "ros2": {"joint_names": [["s", "l", "u", "r", "b", "t", "e"]]},
+        }
+    )
+    assert names_of(cell) == [("s", "l", "e", "u", "r", "b", "t")]
