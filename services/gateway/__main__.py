@@ -7,13 +7,17 @@ I/O.
 
 from __future__ import annotations
 
+import itertools
 import logging
 import time
 from collections.abc import Sequence
+from typing import Protocol
 
 from motocell.services.gateway.bus import ZenohBus
 from motocell.services.gateway.core.motion import MotionHandler
 from motocell.services.gateway.core.robot_io import RobotIoHandler
+from motocell.services.gateway.core.sources import Source
+from motocell.services.gateway.face_port import FacePort
 from motocell.services.gateway.metrics import GatewayStats
 from motocell.services.gateway.reporter import Reporter
 from motocell.services.gateway.tcp import RequestServer, SocketListener
@@ -29,6 +33,12 @@ from motocell.shared.service import (
 log = logging.getLogger("gateway")
 
 
+class Adapter(Protocol):
+    def start(self) -> None: ...
+
+    def close(self) -> None: ...
+
+
 def main(argv: Sequence[str] | None = None) -> None:
     parser = argument_parser("gateway", "Simple Message TCP servers of one controller.")
     add_listening_arguments(parser)
@@ -39,8 +49,9 @@ def main(argv: Sequence[str] | None = None) -> None:
         bus = ZenohBus(ctx.session)
         cell_port = ZenohCell(cell, ctx.keys, bus)
         io = RobotIoHandler(cell_port)
-        # Sync ids start from the clock so they differ from a previous gateway's.
-        motion = MotionHandler(cell, cell_port, io, sync_seed=time.time_ns() // 1000)
+        # Sync ids count from the clock so they differ from a previous gateway's.
+        sync_ids = itertools.count(time.time_ns() // 1000 + 1)
+        motion = MotionHandler(cell, cell_port, io, sync_ids, Source.SIMPLE_MESSAGE)
         stats = GatewayStats(len(cell.groups))
         moving = cell_port.moving
         motion_socket, io_socket = (
@@ -56,7 +67,7 @@ def main(argv: Sequence[str] | None = None) -> None:
             respond=motion.respond,
             error_reply=motion.error_reply,
             moving=moving,
-            on_disconnect=motion.stop_motion,
+            on_disconnect=motion.disconnected,
             observe=stats.observe,
         )
         io_server = RequestServer(
@@ -70,7 +81,10 @@ def main(argv: Sequence[str] | None = None) -> None:
         )
         reporter = Reporter(bus, ctx.keys, stats=stats, motion=motion_server, io=io_server)
         motion_server.on_change = io_server.on_change = reporter.report_connections
-        adapters = (cell_port, motion_server, io_server, reporter)
+        adapters: tuple[Adapter, ...] = (cell_port, motion_server, io_server, reporter)
+        if cell.ros2 is not None:
+            face_motion = MotionHandler(cell, cell_port, io, sync_ids, Source.ROS2)
+            adapters += (FacePort(bus, ctx.keys, byte_order, face_motion, io),)
         for adapter in adapters:
             adapter.start()
         ctx.alive.announce()

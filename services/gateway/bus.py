@@ -65,6 +65,14 @@ class Bus(Protocol):
         """Watch the tokens under ``key``; nothing is asked until ``Tokens.ask``."""
         ...
 
+    def answer(self, key: str, on_query: Callable[[bytes, Answer], None]) -> Subscription:
+        """Take the queries on ``key``: ``on_query(payload, answer)`` runs on the bus's threads
+        for each; ``answer`` replies to it once, from any thread."""
+        ...
+
+
+Answer = Callable[[bytes], None]
+
 
 class ZenohBus:
     """``Bus`` over a Zenoh session."""
@@ -106,3 +114,14 @@ class ZenohBus:
 
     def tokens(self, key: str, on_change: Callable[[], None]) -> Tokens:
         return Liveness(self._session, key, on_change)
+
+    def answer(self, key: str, on_query: Callable[[bytes, Answer], None]) -> Subscription:
+        def take(query: zenoh.Query) -> None:
+            payload = b"" if query.payload is None else query.payload.to_bytes()
+
+            def reply(data: bytes) -> None:
+                query.reply(key, data, encoding=ENCODING)
+
+            on_query(payload, reply)
+
+        return self._session.declare_queryable(key, take)

@@ -31,6 +31,9 @@ class CellKeys:
     def executor_cmd(self, verb: str) -> str:
         return f"{self.prefix}/executor/cmd/{verb}"
 
+    def gateway_cmd(self, verb: str) -> str:
+        return f"{self.prefix}/gateway/cmd/{verb}"
+
     def broadcaster_cmd(self, verb: str) -> str:
         return f"{self.prefix}/broadcaster/cmd/{verb}"
 

@@ -293,6 +293,20 @@ class ExecutorMetrics(msgspec.Struct, array_like=True, frozen=True):
     realtime: bool
 
 
+class MotionRequest(msgspec.Struct, array_like=True, frozen=True):
+    """``gateway/cmd/motion``: one Simple Message request of the ROS 2 face, as the motion
+    port's client would send it (the cell's byte order), for the gateway's motion API."""
+
+    frame: bytes
+
+
+class MotionResponse(msgspec.Struct, array_like=True, frozen=True):
+    """The gateway's answer to a ``MotionRequest``: the reply frame, empty where the request
+    gets none (a DISCONNECT that succeeded, a frame that was itself a reply)."""
+
+    frame: bytes
+
+
 class LateTicks(msgspec.Struct, array_like=True, frozen=True):
     """``executor/late``: the clock missed periods (ticks a period or more after their
     deadline), said as it happens: the first at once, later ones within a second gathered into

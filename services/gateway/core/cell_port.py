@@ -10,6 +10,7 @@ from contextlib import AbstractContextManager
 from typing import Protocol
 
 from motocell.services.gateway.core.cell_state import CellState
+from motocell.services.gateway.core.sources import Source
 from motocell.shared.bus.schemas import CommandReply, CommandRequest, Point
 
 
@@ -50,7 +51,7 @@ class CellPort(Protocol):
         ...
 
 
-def readiness(cell: CellPort) -> tuple[bool, int]:
-    """Motion-ready and the NOT_READY subcode, as CHECK_MOTION_READY and every point see it
-    (inside ``current``)."""
-    return cell.state.readiness(cell.controller_alive())
+def readiness(cell: CellPort, source: Source) -> tuple[bool, int]:
+    """Motion-ready for ``source`` and the NOT_READY subcode, as CHECK_MOTION_READY and every
+    point see it (inside ``current``)."""
+    return cell.state.readiness(cell.controller_alive(), source)

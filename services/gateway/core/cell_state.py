@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from motocell.services.gateway.core.credits import GroupCredit
 from motocell.services.gateway.core.freshness import Freshness
+from motocell.services.gateway.core.sources import OTHER_HOLDS_SUBCODE, MotionSources, Source
 from motocell.shared.bus.liveness import Asking
 from motocell.shared.bus.schemas import ControllerStatus, QueueState, Slot
 from motocell.shared.protocol.constants import NotReadySubcode
@@ -36,6 +37,8 @@ class CellState:
         gateway, and a slot published meanwhile may have been lost the same way."""
         self._asking = [Asking() for _ in range(groups)]
         self._replan = False
+        self.sources = MotionSources()
+        """Which face holds trajectory mode: decided inside ``CellPort.current`` like the rest."""
 
     def on_status(self, status: ControllerStatus, now: float) -> None:
         self.freshness.heard(STATUS_STREAM, now, status.heartbeat_ms)
@@ -134,16 +137,23 @@ class CellState:
         """Every interpolator heard from, and the executor itself taking increments."""
         return all(group.known and group.ring_ready for group in self.groups)
 
-    def readiness(self, controller_alive: bool) -> tuple[bool, int]:
-        """Motion-ready and the NOT_READY subcode, from the controller's last status. Without a
-        live controller nothing can move: INC_MOVE_ERROR, as for any missing service."""
+    def readiness(self, controller_alive: bool, source: Source) -> tuple[bool, int]:
+        """Motion-ready for ``source`` and the NOT_READY subcode, from the controller's last
+        status. Without a live controller nothing can move: INC_MOVE_ERROR, as for any missing
+        service. While the other face holds trajectory mode, not for this one."""
         status = self.status
         if status is None or not controller_alive:
             return False, int(NotReadySubcode.INC_MOVE_ERROR)
+        if self.held_by_other(source):
+            return False, OTHER_HOLDS_SUBCODE[source]
         if status.motion_ready and not self.rings_ready():
             # An interpolator not heard from yet: its points could not be numbered.
             return False, int(NotReadySubcode.INC_MOVE_ERROR)
         return status.motion_ready, status.not_ready_subcode
+
+    def held_by_other(self, source: Source) -> bool:
+        operating = self.status is not None and self.status.operating
+        return self.sources.held_by_other(source, operating)
 
     def queue_count(self, group: int) -> int | None:
         """CHECK_QUEUE_CNT (motoros1 §2.3): the increment entries in the group's ring, not

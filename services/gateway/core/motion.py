@@ -5,11 +5,13 @@ MOTO_MOTION_CTRL commands (motoros1 §2.3) are answered here."""
 from __future__ import annotations
 
 import logging
+from collections.abc import Iterator
 
 from motocell.services.gateway.core.cell_port import CellPort, readiness
 from motocell.services.gateway.core.points import Verdict, invalid
 from motocell.services.gateway.core.response import Response
 from motocell.services.gateway.core.robot_io import RobotIoHandler
+from motocell.services.gateway.core.sources import Source
 from motocell.services.gateway.core.trajectories import Trajectories
 from motocell.shared.bus.schemas import CommandRequest
 from motocell.shared.config import Cell
@@ -66,11 +68,25 @@ M_REGISTER_TYPES = frozenset({int(MsgType.MOTO_READ_MREGISTER), int(MsgType.MOTO
 
 
 class MotionHandler:
-    def __init__(self, cell: Cell, port: CellPort, io: RobotIoHandler, sync_seed: int) -> None:
+    """One face's motion requests (``source``): the motion port's client, or the ROS 2 face's.
+    Both handlers share the cell port, whose state says which face holds trajectory mode
+    (``core.sources``): the other's points, CHECK_MOTION_READY and START_TRAJ_MODE are refused
+    NOT_READY, and what would end the holder's motion (STOP_MOTION, STOP_TRAJ_MODE, DISCONNECT,
+    a client gone) does nothing."""
+
+    def __init__(
+        self,
+        cell: Cell,
+        port: CellPort,
+        io: RobotIoHandler,
+        sync_ids: Iterator[int],
+        source: Source,
+    ) -> None:
         self.cell = cell
         self.port = port
         self.io = io
-        self.trajectories = Trajectories(cell, port, sync_seed)
+        self.source = source
+        self.trajectories = Trajectories(cell, port, sync_ids, source)
 
     @property
     def groups(self) -> int:
@@ -139,7 +155,7 @@ class MotionHandler:
         match command:
             case Command.CHECK_MOTION_READY:
                 with self.port.current():
-                    ready, subcode = readiness(self.port)
+                    ready, subcode = readiness(self.port, self.source)
                 if ready:
                     return motion_reply(request, Result.TRUE, 0)
                 return motion_reply(request, Result.FALSE, subcode)
@@ -152,9 +168,8 @@ class MotionHandler:
                     return motion_reply(request, Result.FAILURE, -1)
                 return motion_reply(request, Result.SUCCESS, count)
             case Command.STOP_MOTION:
-                return motion_reply(
-                    request, Result.SUCCESS if self.stop_motion() else Result.FAILURE, 0
-                )
+                stopped = not self._other_holds() and self.stop_motion()
+                return motion_reply(request, Result.SUCCESS if stopped else Result.FAILURE, 0)
             case Command.START_SERVOS | Command.RESET_ALARM:
                 verb = "start_servos" if command is Command.START_SERVOS else "reset_alarm"
                 return motion_reply(
@@ -182,17 +197,27 @@ class MotionHandler:
             return int(Result.FAILURE), 0
         return reply.result, reply.subcode
 
+    def _other_holds(self) -> bool:
+        with self.port.current() as state:
+            return state.held_by_other(self.source)
+
     def start_traj_mode(self) -> Verdict:
         """motoros1 §2.3: the controller starts the job; then every interpolator must be heard
         from and the executor taking increments, or the first point could not be numbered. A
-        failure is answered NOT_READY with the reason (motoros1 §7.2)."""
+        failure is answered NOT_READY with the reason (motoros1 §7.2). The face takes
+        trajectory mode before it asks, unless the other face holds it (``core.sources``)."""
+        with self.port.current() as state:
+            if state.held_by_other(self.source):
+                return int(Result.NOT_READY), readiness(self.port, self.source)[1]
+            state.sources.begin_start(self.source)
         result, subcode = self._controller("start_traj_mode", timeout=START_TRAJ_MODE_TIMEOUT_S)
         state = self.port.state
         if result == Result.SUCCESS and not self.port.wait_for(state.rings_ready, SLOTS_WAIT_S):
             result = int(Result.FAILURE)
-        if result == Result.FAILURE:
-            with self.port.current():
-                result, subcode = int(Result.NOT_READY), readiness(self.port)[1]
+        with self.port.current():
+            state.sources.end_start(self.source, started=result == Result.SUCCESS)
+            if result == Result.FAILURE:
+                result, subcode = int(Result.NOT_READY), readiness(self.port, self.source)[1]
         return result, subcode
 
     def stop_motion(self) -> bool:
@@ -205,12 +230,26 @@ class MotionHandler:
 
     def stop_traj_mode(self) -> bool:
         """motoros1 §2.3: refuse while anything is queued (a ring, as CHECK_QUEUE_CNT sees it,
-        or a pending point); else STOP_MOTION and release the job."""
+        or a pending point), or while the other face holds trajectory mode; else STOP_MOTION
+        and release the job, and the face gives trajectory mode up."""
         with self.port.current() as state:
-            idle = state.idle()
+            idle = state.idle() and not state.held_by_other(self.source)
         if not idle or not self.stop_motion():
             return False
-        return self._controller("stop_traj_mode")[0] == Result.SUCCESS
+        if self._controller("stop_traj_mode")[0] != Result.SUCCESS:
+            return False
+        with self.port.current() as state:
+            state.sources.release(self.source)
+        return True
+
+    def disconnected(self) -> None:
+        """The face's client went (the motion port's connection closed): its motion stops and
+        it gives trajectory mode up; the other face's motion, if it holds it, goes on."""
+        if self._other_holds():
+            return
+        self.stop_motion()
+        with self.port.current() as state:
+            state.sources.release(self.source)
 
     def select_tool(self, body: SelectTool) -> Verdict:
         if not 0 <= body.group_no < self.groups:

@@ -4,6 +4,7 @@ numbered for the group's interpolator and sent once the reply is written."""
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 from motocell.services.gateway.core.cell_port import CellPort, readiness
@@ -19,6 +20,7 @@ from motocell.services.gateway.core.points import (
     invalid,
     position_bounds,
 )
+from motocell.services.gateway.core.sources import Source
 from motocell.services.gateway.core.states import TRANSITIONS, TrajectoryEvent, TrajectoryState
 from motocell.shared.bus.schemas import Point
 from motocell.shared.config import Cell
@@ -56,15 +58,17 @@ class Trajectories:
     """Every group's trajectory as the gateway follows it, and the points accepted into them,
     waiting to be sent."""
 
-    def __init__(self, cell: Cell, port: CellPort, sync_seed: int) -> None:
+    def __init__(self, cell: Cell, port: CellPort, sync_ids: Iterator[int], source: Source) -> None:
         self.port = port
+        self.source = source
         self.maps = [AxisMap(group) for group in cell.groups]
         self.position_bounds = [position_bounds(axis_map) for axis_map in self.maps]
         self.tracks = [GroupTrajectory() for _ in cell.groups]
         self.period_ns = cell.period_ns
-        self.sync_id = sync_seed
-        """The last 2016 sync id given. The seed must differ across gateway restarts (the
-        start time in µs does), so an executor never confuses two trajectories."""
+        self.sync_ids = sync_ids
+        """The 2016 sync ids, shared by both faces' handlers. They must differ across gateway
+        restarts (counting from the start time in µs does), so an executor never confuses two
+        trajectories."""
         self._outbox: list[tuple[int, Point]] = []
 
     @property
@@ -100,7 +104,7 @@ class Trajectories:
 
     def point(self, body: JointTrajPtFull) -> Verdict:
         """motoros1 §2.4, in MotoROS's order."""
-        ready, subcode = readiness(self.port)
+        ready, subcode = readiness(self.port, self.source)
         if not ready:
             return int(Result.NOT_READY), subcode
         data = PointData(
@@ -134,7 +138,7 @@ class Trajectories:
             # gets the same answer, never a reply for a group it does not name.
             return motion_reply(request, Result.INVALID, InvalidSubcode.MSGSIZE)
         last_group = body.groups[-1].group_no
-        ready, subcode = readiness(self.port)
+        ready, subcode = readiness(self.port, self.source)
         if not ready:
             return motion_reply(request, Result.NOT_READY, subcode, last_group)
         blocks = [
@@ -157,8 +161,7 @@ class Trajectories:
         ):
             # The first segment of a 2016 trajectory: its groups start in the same tick
             # (executor barrier), so groups given the same times arrive in the same tick.
-            self.sync_id += 1
-            sync = (self.sync_id, tuple(data.group_no for data in blocks))
+            sync = (next(self.sync_ids), tuple(data.group_no for data in blocks))
         for data in blocks:
             self._accept(data, body.sequence, sync)
         return motion_reply(request, Result.SUCCESS, 0, last_group)

@@ -10,6 +10,7 @@ import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from motocell.services.gateway.bus import Answer
 from tests.services.fakes import FakePublication
 
 WAIT_S = 5.0
@@ -101,6 +102,7 @@ class FakeBus:
     under_lock: list[str] = field(default_factory=list)
     latests: dict[str, list[FakeLatest]] = field(default_factory=dict)
     subscriptions: dict[str, list[FakeSubscription]] = field(default_factory=dict)
+    answering: dict[str, Callable[[bytes, Answer], None]] = field(default_factory=dict)
     publications: dict[str, FakePublication] = field(default_factory=dict)
     tokens_made: list[FakeTokens] = field(default_factory=list)
     answers: dict[str, Callable[[Query], None]] = field(default_factory=dict)
@@ -153,6 +155,19 @@ class FakeBus:
         tokens = FakeTokens(self, key, on_change)
         self.tokens_made.append(tokens)
         return tokens
+
+    def answer(self, key: str, on_query: Callable[[bytes, Answer], None]) -> FakeSubscription:
+        """Queries the test asks with ``ask``."""
+        self.io(f"answer {key}")
+        self.answering[key] = on_query
+        return FakeSubscription(self, key, lambda payload: None)
+
+    def ask(self, key: str, payload: bytes) -> list[bytes]:
+        """A query on ``key`` as another process asks it; the answers it got (they may come
+        from another thread: read the list once they have)."""
+        answers: list[bytes] = []
+        self.answering[key](payload, answers.append)
+        return answers
 
     # -- the rest of the cell --------------------------------------------------------------
     def publish(self, key: str, payload: bytes) -> None:

@@ -5,6 +5,7 @@ clock; no bus call may be made under the decision lock (checked after every test
 
 from __future__ import annotations
 
+import itertools
 import logging
 import threading
 from collections.abc import Iterator
@@ -13,6 +14,7 @@ import pytest
 
 from motocell.services.gateway.core.motion import START_TRAJ_MODE_TIMEOUT_S, MotionHandler
 from motocell.services.gateway.core.robot_io import RobotIoHandler
+from motocell.services.gateway.core.sources import Source
 from motocell.services.gateway.zenoh_cell import ZenohCell
 from motocell.shared.bus import ignored
 from motocell.shared.bus.keys import CellKeys
@@ -103,7 +105,13 @@ def harness() -> Iterator[Harness]:
 
 
 def motion_request(harness: Harness, request: Message) -> Message | None:
-    handler = MotionHandler(two_groups(), harness.cell, RobotIoHandler(harness.cell), sync_seed=1)
+    handler = MotionHandler(
+        two_groups(),
+        harness.cell,
+        RobotIoHandler(harness.cell),
+        itertools.count(2),
+        Source.SIMPLE_MESSAGE,
+    )
     return handler.respond(request).reply
 
 

@@ -3,6 +3,7 @@ the other services' replies, and reads what the gateway sent and asked."""
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -11,6 +12,7 @@ from motocell.services.gateway.core.cell_state import CellState
 from motocell.services.gateway.core.motion import MotionHandler
 from motocell.services.gateway.core.response import Response
 from motocell.services.gateway.core.robot_io import RobotIoHandler
+from motocell.services.gateway.core.sources import Source
 from motocell.shared.bus.schemas import (
     CommandReply,
     CommandRequest,
@@ -167,7 +169,8 @@ def gateway(cell: Cell | None = None) -> tuple[MotionHandler, FakeCell]:
     """A motion handler on a ready fake cell."""
     cell = cell or one_group()
     fake = FakeCell(len(cell.groups), cell.pending_points).ready()
-    return MotionHandler(cell, fake, RobotIoHandler(fake), SYNC_SEED), fake
+    sync_ids = itertools.count(SYNC_SEED + 1)
+    return MotionHandler(cell, fake, RobotIoHandler(fake), sync_ids, Source.SIMPLE_MESSAGE), fake
 
 
 def exchange(handler: MotionHandler, request: Message | UnknownMessage) -> Response:

@@ -8,6 +8,7 @@ import pytest
 
 from motocell.services.gateway.core.cell_state import CellState
 from motocell.services.gateway.core.credits import GroupCredit
+from motocell.services.gateway.core.sources import Source
 from motocell.shared.bus.schemas import Point
 from motocell.shared.config import LOOK_AHEAD_POINTS, parse_cell
 from motocell.shared.motion.interpolation import Knot, Trajectory, max_segment_entries
@@ -251,14 +252,14 @@ def ready_state(groups: int = 2) -> CellState:
 
 def test_readiness_follows_the_controller_status() -> None:
     state = ready_state()
-    assert state.readiness(controller_alive=True) == (True, 0)
+    assert state.readiness(True, Source.SIMPLE_MESSAGE) == (True, 0)
     state.on_status(status(ready=False, subcode=int(NotReadySubcode.SERVO_OFF)), NOW)
-    assert state.readiness(controller_alive=True) == (False, int(NotReadySubcode.SERVO_OFF))
+    assert state.readiness(True, Source.SIMPLE_MESSAGE) == (False, int(NotReadySubcode.SERVO_OFF))
 
 
 def test_without_a_status_or_a_live_controller_nothing_is_ready() -> None:
-    assert CellState(1).readiness(controller_alive=True) == (False, INC_MOVE_ERROR)
-    assert ready_state().readiness(controller_alive=False) == (False, INC_MOVE_ERROR)
+    assert CellState(1).readiness(True, Source.SIMPLE_MESSAGE) == (False, INC_MOVE_ERROR)
+    assert ready_state().readiness(False, Source.SIMPLE_MESSAGE) == (False, INC_MOVE_ERROR)
 
 
 def test_ready_only_once_every_interpolator_and_ring_is_ready() -> None:
@@ -268,7 +269,7 @@ def test_ready_only_once_every_interpolator_and_ring_is_ready() -> None:
     state.on_queue(1, queue(), NOW)
     state.on_slot(0, slot())
     assert not state.rings_ready()
-    assert state.readiness(controller_alive=True) == (False, INC_MOVE_ERROR)
+    assert state.readiness(True, Source.SIMPLE_MESSAGE) == (False, INC_MOVE_ERROR)
     state.on_slot(1, slot())
     assert state.rings_ready()
     state.on_queue(1, queue(ready=False), NOW)

@@ -13,6 +13,7 @@ import pytest
 from motocell.services.gateway.core.cell_port import readiness
 from motocell.services.gateway.core.cell_state import STATUS_STREAM, CellState, queue_stream
 from motocell.services.gateway.core.freshness import LATE_CHECK_S, stale_after_s
+from motocell.services.gateway.core.sources import Source
 from motocell.shared.bus.liveness import (
     AT_REST_HEARTBEAT_S,
     HEARTBEAT_S,
@@ -125,7 +126,7 @@ def test_nonsense_heartbeats_are_taken_within_the_bus_range() -> None:
 def test_state_republished_in_time_is_kept() -> None:
     cell, watchdog = ready_cell()
     assert beats(watchdog, 20 * SPAN) == []
-    assert readiness(cell) == (True, 0)
+    assert readiness(cell, Source.SIMPLE_MESSAGE) == (True, 0)
 
 
 def test_the_watchdog_wakes_only_when_something_could_be_stale() -> None:
@@ -167,7 +168,7 @@ def test_a_queue_state_not_refreshed_is_missing_and_the_cell_not_ready() -> None
     assert stopped == [queue_stream(1)]
     assert cell.state.groups[1].queue is None
     assert cell.state.groups[0].queue is not None
-    assert readiness(cell) == (False, INC_MOVE_ERROR)
+    assert readiness(cell, Source.SIMPLE_MESSAGE) == (False, INC_MOVE_ERROR)
 
 
 def test_a_stale_controller_status_is_missing_and_ends_a_trajectory() -> None:
@@ -182,7 +183,7 @@ def test_a_stale_controller_status_is_missing_and_ends_a_trajectory() -> None:
     assert stopped == [STATUS_STREAM]
     assert cell.state.status is None
     assert cell.state.not_ready_count > count
-    assert readiness(cell) == (False, INC_MOVE_ERROR)
+    assert readiness(cell, Source.SIMPLE_MESSAGE) == (False, INC_MOVE_ERROR)
 
 
 def test_a_stopped_stream_is_logged_once_and_subscribed_again_until_heard(
@@ -198,7 +199,7 @@ def test_a_stopped_stream_is_logged_once_and_subscribed_again_until_heard(
     assert stopped == EVERY * 4
     assert tries == pytest.approx([watchdog.checks[start] + k * SPAN for k in range(4)])
     assert after == []
-    assert readiness(cell) == (True, 0)
+    assert readiness(cell, Source.SIMPLE_MESSAGE) == (True, 0)
     warned = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
     assert [message.split()[0] for message in warned] == EVERY
     heard = [r.getMessage() for r in caplog.records if r.levelno == logging.INFO]
@@ -221,7 +222,7 @@ def test_a_stall_of_the_gateway_itself_does_not_age_the_cell() -> None:
     republish(cell.state, watchdog.now)
     watchdog.woken()
     assert watchdog.run(SPAN / 2) == []
-    assert readiness(cell) == (True, 0)
+    assert readiness(cell, Source.SIMPLE_MESSAGE) == (True, 0)
 
 
 def test_after_a_stall_a_silent_stream_has_a_short_grace_to_be_heard() -> None:
