@@ -121,6 +121,7 @@ class ZenohBus:
 
             def reply(data: bytes) -> None:
                 query.reply(key, data, encoding=ENCODING)
+                query.drop()  # the asker's get ends only once the query is finalised
 
             on_query(payload, reply)
 

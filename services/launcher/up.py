@@ -235,13 +235,16 @@ def run_children(
     )
     specs = child_specs(this_host.services, options, bus.endpoints, [sys.executable, "-m"])
     children = [Child(spec) for spec in specs]
-    skipped = set(map(str, cell_services(cell))) - {spec.name for spec in specs}
-    if skipped:
+    skipped = set(cell_services(cell)) - {spec.service for spec in specs}
+    awaited = sorted(str(name) for name in skipped if name.service != ROS2_FACE)
+    if awaited:
         log.info(
             "cell %s: %s not started here; the cell is ready once they join",
             cell.name,
-            ", ".join(sorted(skipped)),
+            ", ".join(awaited),
         )
+    if len(awaited) < len(skipped):
+        log.info("cell %s: its ROS 2 face not started here; the cell moves without it", cell.name)
     keys = CellKeys(cell.name)
     security = "secured" if bus.credentials else "open bus"
     if not bus.credentials:

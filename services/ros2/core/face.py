@@ -39,6 +39,8 @@ class Face:
         self.pacing = Pacing.QUIET
         self._newest: State | None = None
         self._heard_ns: int | None = None
+        self._stamped_ns = 0
+        """The newest stamp published: the next is always later."""
         self.wake_ns: int | None = None
         """When the face must wake without a sample (CLOCK_MONOTONIC ns); None: only for one."""
 
@@ -66,6 +68,10 @@ class Face:
         if step.publish is Publish.NOTHING or newest is None:
             return None
         sampled_ns = newest.tick_ns if step.publish is Publish.SAMPLE else now_ns
+        if sampled_ns <= self._stamped_ns:
+            # A resting cell's tick sent again is the robot as it is now: stamps never go back.
+            sampled_ns = now_ns
+        self._stamped_ns = sampled_ns
         return topic_values(newest, self._groups, self._joint_names, sampled_ns)
 
     def _wake(self, wake: Wake, now_ns: int) -> None:

@@ -143,6 +143,8 @@ def test_a_resting_cells_sample_while_holding_is_news_at_once() -> None:
     values = face.on_sample(sample(CELL, TICK0, 0.5), T0 + 500 * MS)
     assert values is not None and values.joint_states.positions == (0.5,) * 6
     assert pacing(face) is Pacing.FOLLOWING
+    # Its tick is older than what was published while holding: stamped now, never back.
+    assert values.sampled_ns == T0 + 500 * MS
 
 
 @row(Pacing.HOLDING, PacingEvent.DUE)
