@@ -60,7 +60,7 @@ def test_samples_go_out_as_they_come_and_a_rest_is_held_at_the_period() -> None:
             (T0, sample(CELL, T0 - MS)),
             (hold_at, None),  # woken at the deadline it was given
             (hold_at + PERIOD_NS, None),
-            (hold_at + PERIOD_NS + MS, sample(CELL, hold_at + PERIOD_NS, 0.5)),
+            (hold_at + PERIOD_NS + 2 * MS, sample(CELL, hold_at + PERIOD_NS + MS, 0.5)),
         ]
     )
     assert script.deadlines == [None, hold_at, hold_at + PERIOD_NS, hold_at + 2 * PERIOD_NS]
@@ -68,7 +68,7 @@ def test_samples_go_out_as_they_come_and_a_rest_is_held_at_the_period() -> None:
         T0 - MS,
         hold_at,
         hold_at + PERIOD_NS,
-        hold_at + PERIOD_NS,
+        hold_at + PERIOD_NS + MS,
     ]
     assert published.values[-1].joint_states.positions == (0.5,) * 6
 
