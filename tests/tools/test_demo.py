@@ -7,14 +7,13 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-import pytest
-
-from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
-from motocell.tools import demo
 import numpy as np
+import pytest
 
 from motocell.shared.config import load_cell
 from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
+from motocell.tools import demo
 from motocell.tools.demo import OFFSETS, goal_within
 
 LIMITS = ((-1.0, 1.0), (-1.0, 1.0), (-0.1, 0.1))
