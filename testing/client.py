@@ -51,7 +51,11 @@ class WrongByteOrderError(PeerProtocolError):
 
 def connect(host: str, port: int, timeout: float = 5.0) -> socket.socket:
     sock = socket.create_connection((host, port), timeout=timeout)
-    sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+    try:
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+    except OSError:  # the peer reset it already
+        sock.close()
+        raise
     return sock
 
 

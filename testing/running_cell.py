@@ -23,7 +23,7 @@ import tempfile
 import threading
 import time
 from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Generic, TypeVar
@@ -37,13 +37,14 @@ from motocell.shared.bus.credentials import load
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import Decoder, Tick
 from motocell.shared.bus.session import open_session
-from motocell.shared.config import Cell, load_cell
-from motocell.shared.ports import free_port, free_port_block
+from motocell.shared.config import PORT_COUNT, Cell, load_cell
+from motocell.shared.ports import free_port, free_port_block, port_free
 from motocell.shared.protocol.codec import ByteOrder
 from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
 from motocell.shared.service_names import ROS2_FACE, cell_services, parse_service
 from motocell.testing.client import MotionClient, StateListener, smooth_move, stream
+from motocell.testing.ports import PortTakenError, on_free_port
 from motocell.testing.processes import alive, cmdline, connectable, descendants, wait_until
 
 LAUNCHER = (sys.executable, "-m", "motocell.services.launcher")
@@ -174,6 +175,14 @@ class RunningCell:
         if problems:
             raise AssertionError("; ".join(problems))
 
+    def ports_taken(self) -> list[int]:
+        """Which of the ports this cell was to listen on (its TCP ports, its own router's) are
+        held now: once it stopped, by another process, which took them before the cell could."""
+        ports = list(range(self.port_base, self.port_base + PORT_COUNT))
+        if not self.joined_router:
+            ports.append(int(self.zenoh_endpoint.rsplit(":", 1)[1]))
+        return [port for port in ports if not port_free(port, self.host)]
+
     def _services_gone(self) -> bool:
         return not any(alive(pid) for pid in self._seen)
 
@@ -187,8 +196,10 @@ def start_cell(
     log: Path | None = None,
     log_level: str = LOG_LEVEL,
     scratch: Sequence[Path] = (),
+    port_base: int | None = None,
 ) -> RunningCell:
-    """Spawn the launcher on free ports and return at once. It runs its own router, or joins
+    """Spawn the launcher on free ports (``port_base``: on that one and the two after it) and
+    return at once. It runs its own router, or joins
     ``router`` (secured: with ``credentials``); ``skip``ped services are the caller's to run.
     ``log``: the launcher's and its services' output goes there (appended) instead of this
     process's. ``scratch``: directories the caller made for this cell alone, which the
@@ -203,7 +214,8 @@ def start_cell(
     a test."""
     cell_file = None if config is None else str(config)
     cell = load_cell(cell_file)
-    port_base = free_port_block(3, HOST)
+    if port_base is None:
+        port_base = free_port_block(3, HOST)
     endpoint = router or f"tcp/{HOST}:{_port_outside(port_base, 3)}"
     zenoh_option = "--zenoh-connect" if router else "--zenoh-listen"
     command = [*LAUNCHER, "--port-base", str(port_base), zenoh_option, endpoint]
@@ -286,10 +298,11 @@ def running_cell(
     scratch: Sequence[Path] = (),
 ) -> Iterator[RunningCell]:
     """A started cell (see ``start_cell``), whole unless services are skipped; stopped on exit,
-    also on errors and Ctrl-C. A start that fails is tried ``attempts`` times in all, each on
-    new ports (another process may take one between choosing and binding it)."""
-    attempt = 1
-    while True:
+    also on errors and Ctrl-C. A start that fails because one of its ports was taken between
+    choosing and binding it is tried again on new ports (``testing.ports.on_free_port``); one
+    that fails otherwise is tried ``attempts`` times in all, also on new ports."""
+
+    def started(port_base: int) -> RunningCell:
         running = start_cell(
             config,
             router=router,
@@ -298,24 +311,36 @@ def running_cell(
             log=log,
             log_level=log_level,
             scratch=scratch,
+            port_base=port_base,
         )
         try:
             running.wait_started(timeout)
             if not any(parse_service(text, running.cell).service != ROS2_FACE for text in skip):
                 # Whole but for its ROS 2 face, which motion does not wait for.
                 wait_for_whole_cell(running.host, running.port_base, running.byte_order, timeout)
-            break
         except (TimeoutError, OSError) as exc:
             running.stop()
+            taken = running.ports_taken()
+            if taken:
+                raise PortTakenError(f"ports {taken} were taken meanwhile ({exc})") from exc
+            raise
+        except BaseException:
+            running.stop()
+            raise
+        return running
+
+    attempt = 1
+    while True:
+        try:
+            running = on_free_port(started, count=PORT_COUNT, host=HOST)
+            break
+        except (TimeoutError, OSError) as exc:
             if attempt == attempts:
                 if log is not None:
                     exc.add_note(f"the end of {log}:\n{_log_tail(log)}")
                 raise
             print(f"warning: the cell did not start ({exc}); again on new ports", file=sys.stderr)
             attempt += 1
-        except BaseException:
-            running.stop()
-            raise
     try:
         yield running
     finally:
@@ -354,11 +379,51 @@ def zenoh_router(listen: str = "", config_file: Path | None = None) -> Iterator[
     """A Zenoh router in a process of its own: open on ``listen``, or as ``config_file``
     says (as ``zenohd -c``); stopped on exit, and with this process, however it ends (its
     lifeline, as ``start_cell``'s launcher has)."""
-    env = {**os.environ, "MOTOCELL_LOG": LOG_LEVEL}
-    where = ["--config", str(config_file)] if config_file else ["--listen", listen]
-    process, lifeline = spawn_with_lifeline([*ROUTER, *where], env)
-    try:
+    with _router(["--config", str(config_file)] if config_file else ["--listen", listen]):
         yield listen
+
+
+MAX_ROUTER_OUTPUT = 64 * 1024
+"""What of a router's output is read for its first lines."""
+
+
+@contextmanager
+def router_on_free_port(host: str = HOST) -> Iterator[str]:
+    """A Zenoh router as ``zenoh_router`` starts it, open on ``tcp/host:PORT`` with PORT picked
+    free, once it runs: its endpoint. Started again on a new port when another process took
+    that one first (``testing.ports.on_free_port``)."""
+    with ExitStack() as stack:
+
+        def started(port: int) -> str:
+            endpoint = f"tcp/{host}:{port}"
+            with ExitStack() as attempt:
+                # Its output in a file with no name: nothing of it is left, however this ends.
+                out = attempt.enter_context(tempfile.TemporaryFile())
+                process = attempt.enter_context(_router(["--listen", endpoint], out, "INFO"))
+
+                def running() -> bool:
+                    said = os.pread(out.fileno(), MAX_ROUTER_OUTPUT, 0).decode(errors="replace")
+                    if process.poll() is not None:
+                        raise ChildProcessError(
+                            f"the router exited with {process.returncode}: {said}"
+                        )
+                    return "Zenoh router running" in said
+
+                wait_until(running, START_TIMEOUT_S, f"the router to listen on {endpoint}")
+                stack.enter_context(attempt.pop_all())
+            return endpoint
+
+        yield on_free_port(started, host=host)
+
+
+@contextmanager
+def _router(
+    where: list[str], out: IO[bytes] | None = None, log_level: str = LOG_LEVEL
+) -> Iterator[subprocess.Popen[bytes]]:
+    env = {**os.environ, "MOTOCELL_LOG": log_level}
+    process, lifeline = spawn_with_lifeline([*ROUTER, *where], env, out)
+    try:
+        yield process
     finally:
         process.send_signal(signal.SIGTERM)
         try:

@@ -12,7 +12,8 @@ as "dummy" threads once they run a callback) are not the test's.
 Besides, a test outside the ``cell`` lane starts no process at all (``tests/lanes.py``), so
 ``pytest -m "not cell"`` stays fast; that lane fuzzes with the light Hypothesis profile, every
 other run with the deep one, and the lane run whole keeps to a CPU budget
-(``tests/budget.py``). A run starts by removing what earlier runs killed outright left outside
+(``tests/budget.py``). A property's timeout counts CPU seconds, not wall seconds
+(``tests/cpu_timeout.py``). A run starts by removing what earlier runs killed outright left outside
 their process (``tests/leftovers.py``), and gives every test a registry of running cells of its
 own instead of the user's.
 """
@@ -34,7 +35,7 @@ from hypothesis import settings
 from motocell.shared import registry
 from motocell.shared.bus import ignored
 from motocell.testing.processes import alive, children, descendants, wait_until
-from tests import budget, lanes, leftovers
+from tests import budget, cpu_timeout, lanes, leftovers
 
 pytest_plugins = ["tests.routers"]
 """The loopback router and its client sessions, for every test of a bus adapter."""
@@ -125,6 +126,7 @@ def fresh_ignored_samples(monkeypatch: pytest.MonkeyPatch) -> None:
 def pytest_configure(config: pytest.Config) -> None:
     config.pluginmanager.register(lanes.SpawnGuard(), "spawn-guard")
     config.pluginmanager.register(budget.CpuBudget(), "cpu-budget")
+    config.pluginmanager.register(cpu_timeout.CpuTimeout(), "cpu-timeout")
     settings.load_profile(
         lanes.hypothesis_profile(
             config.option.markexpr, config.getoption("hypothesis_profile", None)

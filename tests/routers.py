@@ -1,4 +1,5 @@
-"""Fixtures for tests of the bus adapters: a real Zenoh router on a free loopback port, and
+"""Fixtures for tests of the bus adapters: a real Zenoh router on a free loopback port (picked
+again when taken before the router could bind it), and
 client sessions of it, in the test's own process (no process started)."""
 
 from __future__ import annotations
@@ -10,14 +11,15 @@ import zenoh
 
 from motocell.shared.bus.router import router_settings, zenoh_config
 from motocell.shared.bus.session import open_session
-from motocell.shared.ports import free_port
+from motocell.testing.ports import listening
 
 
 @pytest.fixture
 def endpoint() -> Iterator[str]:
     """A running router's endpoint, closed after the test."""
-    listen = f"tcp/127.0.0.1:{free_port()}"
-    router = zenoh.open(zenoh_config(router_settings([listen])))
+    listen, router = listening(
+        lambda endpoint: zenoh.open(zenoh_config(router_settings([endpoint])))
+    )
     yield listen
     router.close()
 

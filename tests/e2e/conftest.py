@@ -25,8 +25,9 @@ TEST_CELLS = Path(__file__).parent / "cells"
 START_DEADLINE_S = 60.0
 """For a module's cell to be whole: eleven processes start in about a second here, many times
 that on a loaded machine; a bound for a hang, not a speed (start-up is benchmark figure 9),
-within pytest-timeout's 120 s for the module's first test. A start that fails at once (a
-port taken meanwhile) is tried once more on new ports."""
+within pytest-timeout's 120 s for the module's first test. A start that fails because a port
+was taken meanwhile is tried again on new ports (``running_cell``), one that fails otherwise
+once more."""
 
 
 @pytest.fixture(scope="session")

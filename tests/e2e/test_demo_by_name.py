@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from motocell.shared.config import load_cell
-from tests.e2e.test_start_and_stop import motocell, run_to_the_end, up_options
+from tests.e2e.test_start_and_stop import run_to_the_end, up_on_free_ports
 
 pytestmark = pytest.mark.cell
 
@@ -21,8 +21,8 @@ def test_demo_finds_a_renamed_cell_by_its_name_and_measures_its_following_error(
     tmp_path: Path,
 ) -> None:
     assert load_cell(None).name != NAME
-    with motocell(tmp_path, "up", "--name", NAME, "--port-base", "auto", *up_options()[2:]) as up:
-        up.wait_for(f"cell {NAME} ready: ")
+    renamed = up_on_free_ports(tmp_path, "--name", NAME, until=f"cell {NAME} ready: ", auto=True)
+    with renamed as (up, _):
         options = ("--cell", NAME, "--points", "6", "--duration", "0.6")
         # The fourth run from the initial position has a goal whose float64 and float32 round
         # to pulses one apart: each run must come to rest exactly on the goal it sent.

@@ -42,7 +42,7 @@ from motocell.shared.protocol.replies import (
     write_io_group,
     write_mregister,
 )
-from motocell.testing.client import MotionClient, smooth_move, stream
+from motocell.testing.client import MotionClient, StateListener, smooth_move, stream
 from motocell.testing.processes import wait_until
 from motocell.testing.running_cell import RunningCell
 
@@ -246,8 +246,10 @@ def test_a_new_motion_client_is_refused_while_the_robot_moves(cell: RunningCell)
 
 
 def test_state_port_takes_four_clients_and_a_fifth_replaces_the_first(cell: RunningCell) -> None:
-    listeners = [cell.state() for _ in range(4)]
+    listeners: list[StateListener] = []
     try:
+        for _ in range(4):  # each kept at once: closed below, however the others fare
+            listeners.append(cell.state())
         for listener in listeners:
             listener.wait_for(lambda f: f.status is not None, 5.0)
         fifth = cell.state()

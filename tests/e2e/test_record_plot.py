@@ -12,6 +12,7 @@ import sys
 import threading
 import time
 from collections.abc import Iterator
+from contextlib import ExitStack
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -37,8 +38,8 @@ from motocell.shared.ports import free_port
 from motocell.shared.protocol.constants import Command, Result
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
 from motocell.testing.client import smooth_move, stream
-from motocell.testing.processes import connectable, wait_until
-from motocell.testing.running_cell import RunningCell, SampleLog, zenoh_router
+from motocell.testing.processes import wait_until
+from motocell.testing.running_cell import RunningCell, SampleLog, router_on_free_port
 from motocell.tools.plotting import plot_recording
 from motocell.tools.record import FLUSH_S
 from motocell.tools.recording import Recording as RecordingFile
@@ -445,17 +446,15 @@ def test_record_without_a_router_fails_fast_and_clearly(tmp_path: Path) -> None:
 
 
 def test_an_open_bus_is_recorded_whole_keys_outside_the_catalogue_too(tmp_path: Path) -> None:
-    port = free_port()
-    endpoint = f"tcp/127.0.0.1:{port}"
     out = tmp_path / "open.mcap"
     unknown_key = "motocell/lab/observer/note"
-    with zenoh_router(endpoint):
-        wait_until(lambda: connectable("127.0.0.1", port), 15.0, "the router to listen")
-        with Recorder(record_command(out, "--zenoh-connect", endpoint)) as recorder:
-            started = recorder.stdout.started_with
-            wait_until(lambda: started("recording "), 15.0, "the recorder to start")
-            publish_unknown(endpoint, unknown_key, recorder.stdout)
-            assert recorder.stop() == 0
+    with ExitStack() as stack:
+        endpoint = stack.enter_context(router_on_free_port())
+        recorder = stack.enter_context(Recorder(record_command(out, "--zenoh-connect", endpoint)))
+        started = recorder.stdout.started_with
+        wait_until(lambda: started("recording "), 15.0, "the recorder to start")
+        publish_unknown(endpoint, unknown_key, recorder.stdout)
+        assert recorder.stop() == 0
     with out.open("rb") as file:
         reader = make_reader(file, validate_crcs=True)
         messages = list(reader.iter_messages())

@@ -17,11 +17,10 @@ import zenoh
 
 from motocell.shared.bus.session import open_session
 from motocell.shared.motion.kinematics import AxisMap
-from motocell.shared.ports import free_port
 from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
 from motocell.testing.client import MotionClient, StateListener, smooth_move, stream, stream_ex
 from motocell.testing.processes import alive, connectable, wait_until
-from motocell.testing.running_cell import RunningCell, running_cell, zenoh_router
+from motocell.testing.running_cell import RunningCell, router_on_free_port, running_cell
 from tests.leftovers import suite_tag
 
 pytestmark = pytest.mark.cell
@@ -61,7 +60,7 @@ def test_two_cells_on_one_network_are_isolated_and_one_observer_sees_both(
 ) -> None:
     single_arm = repo / "shared" / "cells" / "single-arm.toml"
     with ExitStack() as stack:
-        endpoint = stack.enter_context(zenoh_router(f"tcp/127.0.0.1:{free_port()}"))
+        endpoint = stack.enter_context(router_on_free_port())
         observer = open_session("client", [endpoint])
         stack.callback(observer.close)
         seen: set[str] = set()
@@ -125,7 +124,7 @@ def test_a_groups_interpolator_on_another_host_through_a_router(
     config = str(repo / "shared" / "cells" / "dual-arm-positioner.toml")
     with ExitStack() as stack:
         namespace, ours, _theirs = stack.enter_context(other_host())
-        endpoint = stack.enter_context(zenoh_router(f"tcp/{ours}:{free_port()}"))
+        endpoint = stack.enter_context(router_on_free_port(ours))
         cell = stack.enter_context(running_cell(config, router=endpoint, skip=["interpolator/1"]))
         remote_command = [
             "ip",

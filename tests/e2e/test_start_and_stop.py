@@ -25,9 +25,10 @@ import pytest
 
 from motocell.shared import registry
 from motocell.shared.bus.session import CONNECT_WAIT_S
-from motocell.shared.config import EXIT_CONFIG, load_cell
+from motocell.shared.config import EXIT_CONFIG, PORT_COUNT, load_cell
 from motocell.shared.ports import free_port, free_port_block
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
+from motocell.testing.ports import on_free_port
 from motocell.testing.processes import alive, connectable, wait_until
 from motocell.testing.running_cell import zenoh_router
 
@@ -159,13 +160,44 @@ def run_to_the_end(tmp_path: Path, *args: str) -> tuple[int, str]:
         return run.finish(), run.text()
 
 
-def up_options() -> list[str]:
-    """Free ports for a cell: its TCP ports and its router's."""
-    port_base = free_port_block(3, HOST)
+def up_options(port_base: int | None = None) -> list[str]:
+    """Free ports for a cell: its TCP ports (from ``port_base`` when given) and its router's."""
+    if port_base is None:
+        port_base = free_port_block(PORT_COUNT, HOST)
     zenoh_port = free_port(HOST)
     while port_base <= zenoh_port < port_base + 3:
         zenoh_port = free_port(HOST)
     return ["--port-base", str(port_base), "--zenoh-listen", f"tcp/{HOST}:{zenoh_port}"]
+
+
+@contextlib.contextmanager
+def up_on_free_ports(
+    tmp_path: Path,
+    *args: str,
+    until: str = " ready: ",
+    auto: bool = False,
+    own_router: bool = True,
+) -> Iterator[tuple[Run, list[str]]]:
+    """``motocell up ARGS`` on ports picked free (``up_options``), once its output says
+    ``until``; and the port options it was given. ``auto``: ``--port-base auto`` instead (the
+    launcher picks); ``own_router`` False: no ``--zenoh-listen`` (ARGS join a router). A
+    launcher that refuses a port another program took between the pick and the start is
+    started again on new ones (``testing.ports.on_free_port``)."""
+    with contextlib.ExitStack() as stack:
+
+        def started(port_base: int) -> tuple[Run, list[str]]:
+            options = up_options(port_base)
+            if auto:
+                options[1] = "auto"
+            if not own_router:
+                options = options[:2]
+            with contextlib.ExitStack() as attempt:
+                run = attempt.enter_context(motocell(tmp_path, "up", *args, *options))
+                run.wait_for(until)
+                stack.enter_context(attempt.pop_all())
+            return run, options
+
+        yield on_free_port(started, count=PORT_COUNT, host=HOST)
 
 
 def holding(port: int) -> socket.socket:
@@ -200,10 +232,8 @@ def clean(output: str) -> bool:
 
 
 def test_a_normal_start_and_stop_says_ready_once_and_warns_of_nothing(tmp_path: Path) -> None:
-    options = up_options()
-    port_base, endpoint = int(options[1]), options[3]
-    with motocell(tmp_path, "up", *options) as up:
-        up.wait_for(" ready: ")
+    with up_on_free_ports(tmp_path) as (up, options):
+        port_base, endpoint = int(options[1]), options[3]
         # Ready means a client can connect now.
         assert connectable(HOST, port_base)
         assert connectable(HOST, port_base + 1)
@@ -262,8 +292,7 @@ def test_port_base_auto_takes_free_ports_and_says_which(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setenv(RUNTIME_DIR_ENV, str(tmp_path / "run"))  # the registry motocell() gives
-    with motocell(tmp_path, "up", "--port-base", "auto", *up_options()[2:]) as up:
-        up.wait_for(" ready: ")
+    with up_on_free_ports(tmp_path, auto=True) as (up, _):
         entry = registry.find(CELL)
         assert f"motion {HOST}:{entry.port_base}, state {entry.port_base + 1}" in up.text()
         assert connectable(HOST, entry.port_base)
@@ -275,8 +304,7 @@ def test_port_base_auto_takes_free_ports_and_says_which(
 
 
 def test_an_open_bus_says_so_in_one_warning(tmp_path: Path) -> None:
-    with motocell(tmp_path, "up", "--open-bus", *up_options()) as up:
-        up.wait_for(" ready: ")
+    with up_on_free_ports(tmp_path, "--open-bus") as (up, _):
         up.process.send_signal(signal.SIGTERM)
         assert up.finish() == 0
         output = up.text()
@@ -420,8 +448,7 @@ def test_ctrl_c_during_the_demo_stops_it_and_its_cell_quietly(tmp_path: Path, mo
 @pytest.mark.parametrize("stop", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
 def test_a_cell_stopped_cleanly_leaves_no_credentials(tmp_path: Path, stop: signal.Signals) -> None:
     credentials = registry.credentials_dir(CELL, tmp_path / "run")
-    with motocell(tmp_path, "up", *up_options()) as up:
-        up.wait_for(" ready: ")
+    with up_on_free_ports(tmp_path) as (up, _):
         assert (credentials / "users").is_file()
         up.process.send_signal(stop)
         assert up.finish() == 0
@@ -446,8 +473,7 @@ def test_credentials_a_user_gives_are_left_as_they_are(tmp_path: Path) -> None:
     }
     with zenoh_router(config_file=router):
         joining = ["--zenoh-connect", endpoint, "--credentials", str(given)]
-        with motocell(tmp_path, "up", "--port-base", str(free_port_block(3, HOST)), *joining) as up:
-            up.wait_for(" ready: ")
+        with up_on_free_ports(tmp_path, *joining, own_router=False) as (up, _):
             up.process.send_signal(signal.SIGTERM)
             assert up.finish() == 0
     after = {
@@ -462,10 +488,9 @@ def test_credentials_a_user_gives_are_left_as_they_are(tmp_path: Path) -> None:
 
 
 def test_a_skipped_service_runs_by_hand_and_makes_the_cell_ready(tmp_path: Path) -> None:
-    options = up_options()
-    port_base, endpoint = options[1], options[3]
-    with motocell(tmp_path, "up", *options, "--skip", "gateway/0") as up:
-        up.wait_for("gateway/0 not started here")
+    skipping = up_on_free_ports(tmp_path, "--skip", "gateway/0", until="gateway/0 not started here")
+    with skipping as (up, options):
+        port_base, endpoint = options[1], options[3]
         credentials = registry.credentials_dir(CELL, tmp_path / "run")
         by_hand = [
             *("service", "gateway", "--zenoh-connect", endpoint),

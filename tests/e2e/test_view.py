@@ -62,7 +62,11 @@ class View:
         self.lines: list[str] = []
         self._reader = threading.Thread(target=self._read, daemon=True)
         self._reader.start()
-        wait_until(lambda: self.url is not None, DEADLINE_S, "the view to serve")
+        try:
+            wait_until(lambda: self.url is not None, DEADLINE_S, "the view to serve")
+        except BaseException:
+            self.stop()  # no fixture will: neither the process nor its pipe outlives the test
+            raise
 
     def _read(self) -> None:
         assert self.process.stdout is not None
@@ -159,9 +163,14 @@ def subscribed(
     receive_buffer: int | None = None,
 ) -> FoxgloveClient:
     client = view.client(max_queue, receive_buffer)
-    wanted = {topics(cell)[kind] for kind in kinds}
-    advertised = client.wait_for_topics(wanted, DEADLINE_S)
-    client.subscribe([advertised[topic] for topic in sorted(wanted)])
+    try:
+        wanted = {topics(cell)[kind] for kind in kinds}
+        advertised = client.wait_for_topics(wanted, DEADLINE_S)
+        client.subscribe([advertised[topic] for topic in sorted(wanted)])
+    except BaseException:
+        # Not the caller's yet: left open, its socket would outlive the test.
+        client.close()
+        raise
     return client
 
 

@@ -18,10 +18,9 @@ from pathlib import Path
 
 import msgspec
 
-from motocell.shared.ports import free_port
 from motocell.testing import CellUnderTest, cell
-from motocell.testing.processes import connectable, descendants, wait_until
-from motocell.testing.running_cell import HOST, START_TIMEOUT_S, zenoh_router
+from motocell.testing.processes import descendants
+from motocell.testing.running_cell import router_on_free_port
 
 
 class Started(msgspec.Struct, frozen=True):
@@ -54,9 +53,8 @@ def main() -> None:
     with ExitStack() as stack:
         router_ports = []
         if args.router:
-            router_ports.append(free_port(HOST))
-            stack.enter_context(zenoh_router(f"tcp/{HOST}:{router_ports[0]}"))
-            wait_until(lambda: connectable(HOST, router_ports[0]), START_TIMEOUT_S, "the router")
+            endpoint = stack.enter_context(router_on_free_port())
+            router_ports.append(int(endpoint.rsplit(":", 1)[1]))
         if args.from_thread:
             found: list[CellUnderTest] = []
             starter = threading.Thread(

@@ -29,6 +29,7 @@ from motocell.shared.bus.schemas import CommandReply, ServiceInfo, encode
 from motocell.shared.bus.session import answer, open_session
 from motocell.shared.ports import free_port
 from motocell.shared.registry import CellEntry
+from motocell.testing.ports import listening
 from motocell.testing.processes import wait_until
 from motocell.tools import cells
 from motocell.tools.cells import Target, TargetError
@@ -188,11 +189,14 @@ def bus(tmp_path: Path) -> Iterator[Bus]:
     """A one-group cell's secured router, as its launcher runs it, and the cell registered."""
     credentials = tmp_path / "credentials"
     write_passwords(credentials, CELL, cell_identities(1))
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    settings = router_settings(
-        [endpoint], cell=CELL, identities=cell_identities(1), credentials=credentials
-    )
-    router = zenoh.open(zenoh_config(settings))
+
+    def open_router(endpoint: str) -> zenoh.Session:
+        settings = router_settings(
+            [endpoint], cell=CELL, identities=cell_identities(1), credentials=credentials
+        )
+        return zenoh.open(zenoh_config(settings))
+
+    endpoint, router = listening(open_router)
     register(CELL, endpoint, str(credentials))
     yield Bus(endpoint, credentials)
     router.close()
@@ -319,8 +323,7 @@ def test_an_open_router_without_credentials_is_told_to_bring_them(
 
 @pytest.fixture
 def open_router() -> Iterator[str]:
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    router = zenoh.open(zenoh_config(router_settings([endpoint])))
+    endpoint, router = listening(lambda at: zenoh.open(zenoh_config(router_settings([at]))))
     yield endpoint
     router.close()
 

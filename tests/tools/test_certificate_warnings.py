@@ -16,7 +16,7 @@ import zenoh
 
 from motocell.shared.bus.access import cell_identities
 from motocell.shared.bus.router import router_settings, zenoh_config
-from motocell.shared.ports import free_port
+from motocell.testing.ports import listening
 from motocell.tools.cli import build_parser
 from tests.certificates import expire_in
 
@@ -40,15 +40,18 @@ def secured(tmp_path: Path) -> Iterator[tuple[str, Path]]:
     expire_in(directory, f"{CELL}.observer.pem", 10)
     with contextlib.redirect_stdout(io.StringIO()):
         assert motocell("credentials", str(directory)) == 0  # its bundle too
-    endpoint = f"tls/127.0.0.1:{free_port()}"
-    settings = router_settings(
-        [endpoint],
-        cell=CELL,
-        identities=cell_identities(1),
-        credentials=directory,
-        mutual_tls=True,
-    )
-    router = zenoh.open(zenoh_config(settings))
+
+    def open_router(endpoint: str) -> zenoh.Session:
+        settings = router_settings(
+            [endpoint],
+            cell=CELL,
+            identities=cell_identities(1),
+            credentials=directory,
+            mutual_tls=True,
+        )
+        return zenoh.open(zenoh_config(settings))
+
+    endpoint, router = listening(open_router, "tls")
     try:
         yield endpoint, directory / "bundles" / f"{CELL}.observer"
     finally:
@@ -73,11 +76,18 @@ def test_nothing_is_said_of_certificates_far_from_their_end(
 ) -> None:
     directory = tmp_path / "c"
     assert motocell("credentials", str(directory), "--cell", CELL, "--tls") == 0
-    endpoint = f"tls/127.0.0.1:{free_port()}"
-    settings = router_settings(
-        [endpoint], cell=CELL, identities=cell_identities(1), credentials=directory, mutual_tls=True
-    )
-    router = zenoh.open(zenoh_config(settings))
+
+    def open_router(endpoint: str) -> zenoh.Session:
+        settings = router_settings(
+            [endpoint],
+            cell=CELL,
+            identities=cell_identities(1),
+            credentials=directory,
+            mutual_tls=True,
+        )
+        return zenoh.open(zenoh_config(settings))
+
+    endpoint, router = listening(open_router, "tls")
     capsys.readouterr()
     try:
         argv = ["--zenoh-connect", endpoint, "--cell", CELL, "--credentials", str(directory)]

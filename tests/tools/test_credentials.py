@@ -17,7 +17,7 @@ from motocell.shared.bus.certificates import issue_client_certificate
 from motocell.shared.bus.credentials import load
 from motocell.shared.bus.router import router_settings, zenoh_config
 from motocell.shared.bus.session import open_session
-from motocell.shared.ports import free_port
+from motocell.testing.ports import listening
 from motocell.tools.cli import build_parser
 from tests.certificates import expire_in, verifies
 
@@ -56,11 +56,14 @@ def test_a_password_per_identity_of_the_cell_in_a_private_directory(
 
 def test_the_router_made_from_the_directory_lets_its_observer_in(tmp_path: Path) -> None:
     assert motocell("credentials", str(tmp_path / "c"), "--cell", "lab") == 0
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    settings = router_settings(
-        [endpoint], cell="lab", identities=cell_identities(1), credentials=tmp_path / "c"
-    )
-    router = zenoh.open(zenoh_config(settings))
+
+    def open_router(endpoint: str) -> zenoh.Session:
+        settings = router_settings(
+            [endpoint], cell="lab", identities=cell_identities(1), credentials=tmp_path / "c"
+        )
+        return zenoh.open(zenoh_config(settings))
+
+    endpoint, router = listening(open_router)
     try:
         observer = load(tmp_path / "c", "lab", Identity(Role.OBSERVER))
         assert observer.user == "lab.observer"
@@ -84,17 +87,20 @@ def test_with_tls_a_ca_a_router_certificate_for_the_hosts_and_one_per_identity(
         assert mode(directory / f"{identity.username('lab')}.key") == 0o600
     assert mode(directory / "ca.key") == 0o600
 
-    endpoint = f"tls/127.0.0.1:{free_port()}"
-    settings = router_settings(
-        [endpoint],
-        cell="lab",
-        identities=cell_identities(1),
-        credentials=directory,
-        mutual_tls=True,
-    )
     operator = load(directory, "lab", Identity(Role.OPERATOR))
     assert operator.certificate is not None and operator.ca is not None
-    router_session = zenoh.open(zenoh_config(settings))
+
+    def open_router(endpoint: str) -> zenoh.Session:
+        settings = router_settings(
+            [endpoint],
+            cell="lab",
+            identities=cell_identities(1),
+            credentials=directory,
+            mutual_tls=True,
+        )
+        return zenoh.open(zenoh_config(settings))
+
+    endpoint, router_session = listening(open_router, "tls")
     try:
         capsys.readouterr()
         # As the command's own usage line says, on this test's port.
@@ -182,15 +188,18 @@ def test_a_second_cell_s_identities_join_a_router_of_the_shared_directory(
     directory = tmp_path / "site"
     assert motocell("credentials", str(directory), "--cell", "one", "--tls") == 0
     assert motocell("credentials", str(directory), "--cell", "two") == 0
-    endpoint = f"tls/127.0.0.1:{free_port()}"
-    settings = router_settings(
-        [endpoint],
-        cell="two",
-        identities=cell_identities(1),
-        credentials=directory / "bundles" / "router",
-        mutual_tls=True,
-    )
-    router = zenoh.open(zenoh_config(settings))
+
+    def open_router(endpoint: str) -> zenoh.Session:
+        settings = router_settings(
+            [endpoint],
+            cell="two",
+            identities=cell_identities(1),
+            credentials=directory / "bundles" / "router",
+            mutual_tls=True,
+        )
+        return zenoh.open(zenoh_config(settings))
+
+    endpoint, router = listening(open_router, "tls")
     try:
         bundle = directory / "bundles" / "two.observer"
         observer = load(bundle, "two", Identity(Role.OBSERVER))
@@ -206,15 +215,18 @@ def test_an_identity_added_later_joins_a_router_of_the_first_files(tmp_path: Pat
     assert motocell("credentials", str(directory), "--cell", "lab", "--tls") == 0
     (directory / "lab.observer.pem").unlink()
     issue_client_certificate(directory, "lab.observer")
-    endpoint = f"tls/127.0.0.1:{free_port()}"
-    settings = router_settings(
-        [endpoint],
-        cell="lab",
-        identities=cell_identities(1),
-        credentials=directory,
-        mutual_tls=True,
-    )
-    router = zenoh.open(zenoh_config(settings))
+
+    def open_router(endpoint: str) -> zenoh.Session:
+        settings = router_settings(
+            [endpoint],
+            cell="lab",
+            identities=cell_identities(1),
+            credentials=directory,
+            mutual_tls=True,
+        )
+        return zenoh.open(zenoh_config(settings))
+
+    endpoint, router = listening(open_router, "tls")
     try:
         observer = load(directory, "lab", Identity(Role.OBSERVER))
         open_session("client", [endpoint], wait=False, credentials=observer).close()
@@ -270,15 +282,18 @@ def test_each_bundle_holds_its_party_s_files_and_never_the_ca_key(tmp_path: Path
 def test_a_router_and_an_observer_with_only_their_bundles_meet(tmp_path: Path) -> None:
     directory = tmp_path / "c"
     assert motocell("credentials", str(directory), "--cell", "lab", "--tls") == 0
-    endpoint = f"tls/127.0.0.1:{free_port()}"
-    settings = router_settings(
-        [endpoint],
-        cell="lab",
-        identities=cell_identities(1),
-        credentials=directory / "bundles" / "router",
-        mutual_tls=True,
-    )
-    router = zenoh.open(zenoh_config(settings))
+
+    def open_router(endpoint: str) -> zenoh.Session:
+        settings = router_settings(
+            [endpoint],
+            cell="lab",
+            identities=cell_identities(1),
+            credentials=directory / "bundles" / "router",
+            mutual_tls=True,
+        )
+        return zenoh.open(zenoh_config(settings))
+
+    endpoint, router = listening(open_router, "tls")
     try:
         bundle = directory / "bundles" / "lab.observer"
         observer = load(bundle, "lab", Identity(Role.OBSERVER))
@@ -315,17 +330,20 @@ def test_a_host_added_makes_the_router_reachable_by_that_name(
     argv = ["credentials", str(directory), "--cell", "lab"]
     assert motocell(*argv, "--tls", "--host", "127.0.0.1") == 0
     before = contents(directory)
-    port = free_port()
 
-    def observer_joins_by_name() -> bool:
+    def open_router(endpoint: str) -> zenoh.Session:
         settings = router_settings(
-            [f"tls/127.0.0.1:{port}"],
+            [endpoint],
             cell="lab",
             identities=cell_identities(1),
             credentials=directory,
             mutual_tls=True,
         )
-        router = zenoh.open(zenoh_config(settings))
+        return zenoh.open(zenoh_config(settings))
+
+    def observer_joins_by_name() -> bool:
+        endpoint, router = listening(open_router, "tls")
+        port = endpoint.rsplit(":", 1)[1]
         try:
             observer = load(directory, "lab", Identity(Role.OBSERVER))
             open_session("client", [f"tls/localhost:{port}"], wait=False, credentials=observer)

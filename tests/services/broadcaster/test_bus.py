@@ -30,9 +30,9 @@ from motocell.shared.bus.schemas import (
     encode,
 )
 from motocell.shared.bus.session import open_session, publisher
-from motocell.shared.ports import free_port
 from motocell.shared.protocol.constants import Result
 from motocell.shared.service import StopFlag
+from motocell.testing.ports import listening
 from motocell.testing.processes import wait_until
 from tests.services.broadcaster.scripted import STATUS, tick
 
@@ -45,11 +45,14 @@ SOON_S = 0.05
 def cell_bus(directory: Path, *roles: Role) -> Iterator[list[zenoh.Session]]:
     """A session per role through a router with the cell's access rules."""
     write_passwords(directory, CELL, cell_identities(1))
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    settings = router_settings(
-        [endpoint], cell=CELL, identities=cell_identities(1), credentials=directory
-    )
-    router = zenoh.open(zenoh_config(settings))
+
+    def open_router(endpoint: str) -> zenoh.Session:
+        settings = router_settings(
+            [endpoint], cell=CELL, identities=cell_identities(1), credentials=directory
+        )
+        return zenoh.open(zenoh_config(settings))
+
+    endpoint, router = listening(open_router)
     sessions = [
         open_session("client", [endpoint], credentials=load(directory, CELL, Identity(role)))
         for role in roles

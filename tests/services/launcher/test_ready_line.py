@@ -13,12 +13,21 @@ import pytest
 from motocell.services.launcher.core.tcp_ports import TcpPort
 from motocell.services.launcher.ready_line import ReadyNotice
 from motocell.shared.bus.keys import CellKeys
-from motocell.shared.ports import free_port
 from motocell.testing.statuses import ready_status
 from tests.services.launcher.fake_session import Session
 
 HOST = "127.0.0.1"
 LINE = "cell cell1 ready: motion 127.0.0.1:50240"
+
+
+@pytest.fixture
+def bound() -> Iterator[socket.socket]:
+    """A socket bound to a port the kernel chose, not listening yet: the port is the test's
+    from the start, and free to a service's bind (both with SO_REUSEADDR) until it listens."""
+    with socket.socket() as server:
+        server.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        server.bind((HOST, 0))
+        yield server
 
 
 @pytest.fixture
@@ -69,19 +78,17 @@ def test_nothing_is_said_while_a_service_is_missing(
 
 
 def test_a_cell_that_lost_a_service_again_before_its_ports_listen_is_not_ready(
-    caplog: pytest.LogCaptureFixture,
+    bound: socket.socket, caplog: pytest.LogCaptureFixture
 ) -> None:
     session = Session()
-    port = free_port()
+    port = bound.getsockname()[1]
     ready = notice(session, port)
     with caplog.at_level(logging.INFO, logger="motocell"):
         session.put(ready_status())
         assert not ready.check()
         session.put(ready_status(missing_services=["gateway/0"], motion_ready=False))
-        with socket.socket() as server:
-            server.bind((HOST, port))
-            server.listen()
-            assert not ready.check()
+        bound.listen()
+        assert not ready.check()
     assert said(caplog) == []
     ready.close()
     assert session.subscriber is not None
@@ -89,17 +96,15 @@ def test_a_cell_that_lost_a_service_again_before_its_ports_listen_is_not_ready(
 
 
 def test_the_ports_are_looked_at_again_without_a_new_status(
-    caplog: pytest.LogCaptureFixture,
+    bound: socket.socket, caplog: pytest.LogCaptureFixture
 ) -> None:
     """The controller says the cell is whole once; the ports may listen only later."""
     session = Session()
-    port = free_port()
+    port = bound.getsockname()[1]
     ready = notice(session, port)
     with caplog.at_level(logging.INFO, logger="motocell"):
         session.put(ready_status())
         assert not ready.check()
-        with socket.socket() as server:
-            server.bind((HOST, port))
-            server.listen()
-            assert ready.check()
+        bound.listen()
+        assert ready.check()
     assert said(caplog) == [LINE]

@@ -73,7 +73,11 @@ class Relay:
         if self._mode is Mode.CUT:
             client.close()
             return
-        upstream = socket.create_connection(self._target)
+        try:
+            upstream = socket.create_connection(self._target)
+        except OSError:
+            client.close()
+            raise
         self._peers[client], self._peers[upstream] = upstream, client
 
     def _pass(self, sock: socket.socket) -> None:

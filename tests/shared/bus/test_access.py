@@ -27,7 +27,7 @@ from motocell.shared.bus.access import (
 from motocell.shared.bus.catalog import Role
 from motocell.shared.bus.credentials import load, write_passwords
 from motocell.shared.bus.router import router_settings, zenoh_config
-from motocell.shared.ports import free_port
+from motocell.testing.ports import listening
 from motocell.testing.processes import wait_until
 
 CELL = "c1"
@@ -150,11 +150,14 @@ def test_a_service_declares_only_its_own_token_and_info() -> None:
 def router(tmp_path: Path) -> Iterator[tuple[str, Path]]:
     """A secured router for a one-group cell, as the launcher runs it."""
     write_passwords(tmp_path, CELL, cell_identities(1))
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    settings = router_settings(
-        [endpoint], cell=CELL, identities=cell_identities(1), credentials=tmp_path
-    )
-    session = zenoh.open(zenoh_config(settings))
+
+    def open_router(endpoint: str) -> zenoh.Session:
+        settings = router_settings(
+            [endpoint], cell=CELL, identities=cell_identities(1), credentials=tmp_path
+        )
+        return zenoh.open(zenoh_config(settings))
+
+    endpoint, session = listening(open_router)
     yield endpoint, tmp_path
     session.close()
 

@@ -12,15 +12,14 @@ import zenoh
 from motocell.shared.bus.channels import Doorbell, decoded, is_doorbell, newest
 from motocell.shared.bus.schemas import Decoder, Slot, encode
 from motocell.shared.bus.session import open_session
-from motocell.shared.ports import free_port
+from motocell.testing.ports import listening
 
 KEY = "motocell/test/channels"
 
 
 @pytest.fixture
 def sessions() -> Iterator[tuple[zenoh.Session, zenoh.Session]]:
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    first = open_session("peer", [], listen=[endpoint], wait=False)
+    endpoint, first = listening(lambda at: open_session("peer", [], listen=[at], wait=False))
     second = open_session("peer", [endpoint], wait=False)
     yield first, second
     second.close()

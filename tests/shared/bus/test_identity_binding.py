@@ -26,7 +26,7 @@ from motocell.shared.bus.credentials import Credentials, load, write_passwords
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.router import router_settings, zenoh_config
 from motocell.shared.bus.session import open_session
-from motocell.shared.ports import free_port
+from motocell.testing.ports import listening
 from motocell.testing.processes import wait_until
 
 CELL = "c1"
@@ -43,11 +43,14 @@ def bus(tmp_path: Path) -> Iterator[Bus]:
     identities = cell_identities(1)
     write_passwords(tmp_path, CELL, identities)
     write_certificates(tmp_path, CELL, identities, ["127.0.0.1"])
-    endpoint = f"tls/127.0.0.1:{free_port()}"
-    settings = router_settings(
-        [endpoint], cell=CELL, identities=identities, credentials=tmp_path, mutual_tls=True
-    )
-    router = zenoh.open(zenoh_config(settings))
+
+    def open_router(endpoint: str) -> zenoh.Session:
+        settings = router_settings(
+            [endpoint], cell=CELL, identities=identities, credentials=tmp_path, mutual_tls=True
+        )
+        return zenoh.open(zenoh_config(settings))
+
+    endpoint, router = listening(open_router, "tls")
     controller = join(endpoint, load(tmp_path, CELL, Identity(Role.CONTROLLER)))
     connections = Received()
     subscriber = controller.declare_subscriber(KEYS.controller_cmd("connections"), connections.keep)

@@ -13,7 +13,7 @@ import zenoh
 
 from motocell.shared.bus.liveness import Presence
 from motocell.shared.bus.session import Liveness, open_session
-from motocell.shared.ports import free_port
+from motocell.testing.ports import listening
 from motocell.testing.processes import wait_until
 
 A = "@motocell/c/alive/executor/0"
@@ -70,8 +70,7 @@ def test_a_delete_before_the_query_was_asked_does_not_hide_a_new_token() -> None
 
 @pytest.fixture
 def router() -> Iterator[str]:
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    session = open_session("router", listen=[endpoint], wait=False)
+    endpoint, session = listening(lambda at: open_session("router", listen=[at], wait=False))
     yield endpoint
     session.close()
 

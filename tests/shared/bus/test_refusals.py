@@ -21,6 +21,7 @@ from motocell.shared.bus.refusal import tls_problem
 from motocell.shared.bus.router import router_settings, zenoh_config
 from motocell.shared.bus.session import NoRouterError, open_session
 from motocell.shared.ports import free_port
+from motocell.testing.ports import listening
 from motocell.tools.cli import build_parser
 from tests.certificates import expire_in
 
@@ -36,17 +37,23 @@ def credentials_directory(directory: Path, *options: str) -> Path:
 
 
 @contextlib.contextmanager
-def router(credentials: Path, endpoint: str) -> Iterator[None]:
-    settings = router_settings(
-        [endpoint],
-        cell=CELL,
-        identities=cell_identities(1),
-        credentials=credentials,
-        mutual_tls=endpoint.startswith("tls/"),
-    )
-    session = zenoh.open(zenoh_config(settings))
+def router(credentials: Path, scheme: str = "tls") -> Iterator[str]:
+    """A router with the cell's access rules on a free port (``scheme`` tls: mutual TLS): its
+    endpoint."""
+
+    def open_router(endpoint: str) -> zenoh.Session:
+        settings = router_settings(
+            [endpoint],
+            cell=CELL,
+            identities=cell_identities(1),
+            credentials=credentials,
+            mutual_tls=scheme == "tls",
+        )
+        return zenoh.open(zenoh_config(settings))
+
+    endpoint, session = listening(open_router, scheme)
     try:
-        yield
+        yield endpoint
     finally:
         session.close()
 
@@ -80,15 +87,13 @@ def test_nothing_listening(site: Path) -> None:
 
 
 def test_the_right_credentials_join(site: Path) -> None:
-    endpoint = f"tls/127.0.0.1:{free_port()}"
-    with router(site, endpoint):
+    with router(site) as endpoint:
         open_session("client", [endpoint], wait=False, credentials=observer(site)).close()
 
 
 @pytest.mark.cell  # a refused TLS session waits: tests/lanes.py
 def test_a_router_certificate_of_another_ca(site: Path, elsewhere: Path) -> None:
-    endpoint = f"tls/127.0.0.1:{free_port()}"
-    with router(site, endpoint):
+    with router(site) as endpoint:
         theirs = dataclasses.replace(observer(site), ca=observer(elsewhere).ca)
         assert f"the router's TLS certificate at {endpoint} is not from the CA in" in refusal(
             endpoint, theirs
@@ -97,8 +102,8 @@ def test_a_router_certificate_of_another_ca(site: Path, elsewhere: Path) -> None
 
 @pytest.mark.cell  # a refused TLS session waits: tests/lanes.py
 def test_a_router_certificate_for_another_name(site: Path) -> None:
-    port = free_port()
-    with router(site, f"tls/127.0.0.1:{port}"):
+    with router(site) as endpoint:
+        port = endpoint.rsplit(":", 1)[1]
         message = refusal(f"tls/localhost:{port}", observer(site))
     assert "is not valid for the name localhost" in message
     assert "motocell credentials DIR --host localhost" in message
@@ -107,15 +112,13 @@ def test_a_router_certificate_for_another_name(site: Path) -> None:
 @pytest.mark.cell  # a refused TLS session waits: tests/lanes.py
 def test_an_expired_router_certificate(site: Path) -> None:
     expire_in(site, "router.pem", -0.5)
-    endpoint = f"tls/127.0.0.1:{free_port()}"
-    with router(site, endpoint):
+    with router(site) as endpoint:
         assert "has expired: renew it" in refusal(endpoint, observer(site))
 
 
 @pytest.mark.cell  # a refused TLS session waits: tests/lanes.py
 def test_no_client_certificate(site: Path) -> None:
-    endpoint = f"tls/127.0.0.1:{free_port()}"
-    with router(site, endpoint):
+    with router(site) as endpoint:
         without = dataclasses.replace(observer(site), certificate=None, key=None)
         assert f"refused {CELL}.observer: it requires a client certificate" in refusal(
             endpoint, without
@@ -124,41 +127,37 @@ def test_no_client_certificate(site: Path) -> None:
 
 @pytest.mark.cell  # a refused TLS session waits: tests/lanes.py
 def test_a_client_certificate_of_another_ca(site: Path, elsewhere: Path) -> None:
-    endpoint = f"tls/127.0.0.1:{free_port()}"
     theirs = observer(elsewhere)
     mixed = dataclasses.replace(observer(site), certificate=theirs.certificate, key=theirs.key)
-    with router(site, endpoint):
+    with router(site) as endpoint:
         assert f"refused {CELL}.observer's certificate" in refusal(endpoint, mixed)
 
 
 @pytest.mark.cell  # a refused TLS session waits: tests/lanes.py
 def test_an_expired_client_certificate(site: Path) -> None:
     expire_in(site, f"{CELL}.observer.pem", -0.5)
-    endpoint = f"tls/127.0.0.1:{free_port()}"
-    with router(site, endpoint):
+    with router(site) as endpoint:
         assert "certificate: it has expired" in refusal(endpoint, observer(site))
 
 
 @pytest.mark.cell  # waits PROBE_S for an alert that never comes: tests/lanes.py
 def test_a_wrong_password_over_tls(site: Path) -> None:
-    endpoint = f"tls/127.0.0.1:{free_port()}"
-    with router(site, endpoint):
+    with router(site) as endpoint:
         wrong = dataclasses.replace(observer(site), password="not-it")
         assert f"refused {CELL}.observer: wrong password" in refusal(endpoint, wrong)
 
 
 def test_a_wrong_password_over_tcp(tmp_path: Path) -> None:
     passwords = credentials_directory(tmp_path / "c")
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    with router(passwords, endpoint):
+    with router(passwords, "tcp") as endpoint:
         wrong = dataclasses.replace(observer(passwords), password="not-it")
         assert f"refused {CELL}.observer: wrong password" in refusal(endpoint, wrong)
 
 
 @pytest.mark.cell  # a refused TLS session waits: tests/lanes.py
 def test_tcp_to_a_tls_router(site: Path) -> None:
-    port = free_port()
-    with router(site, f"tls/127.0.0.1:{port}"):
+    with router(site) as endpoint:
+        port = endpoint.rsplit(":", 1)[1]
         message = refusal(f"tcp/127.0.0.1:{port}", observer(site))
     assert f"speaks TLS: connect to tls/127.0.0.1:{port}" in message
 
@@ -167,8 +166,8 @@ def test_tcp_to_a_tls_router(site: Path) -> None:
 def test_tls_to_a_tcp_router(tmp_path: Path, site: Path) -> None:
     """The probe alone: Zenoh itself gives up on that handshake only after 10 s."""
     passwords = credentials_directory(tmp_path / "c")
-    port = free_port()
-    with router(passwords, f"tcp/127.0.0.1:{port}"):
+    with router(passwords, "tcp") as endpoint:
+        port = endpoint.rsplit(":", 1)[1]
         message = tls_problem(f"tls/127.0.0.1:{port}", observer(site))
     assert message == (
         f"the router at tls/127.0.0.1:{port} does not answer a TLS handshake: if it speaks "

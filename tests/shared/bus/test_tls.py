@@ -16,7 +16,7 @@ from motocell.shared.bus.certificates import write_certificates
 from motocell.shared.bus.credentials import CA_FILE, load, write_passwords
 from motocell.shared.bus.router import router_settings, zenoh_config
 from motocell.shared.bus.session import open_session
-from motocell.shared.ports import free_port
+from motocell.testing.ports import listening
 from motocell.testing.processes import wait_until
 
 CELL = "c1"
@@ -27,11 +27,14 @@ def tls_router(tmp_path: Path) -> Iterator[tuple[str, Path]]:
     identities = cell_identities(1)
     write_passwords(tmp_path, CELL, identities)
     write_certificates(tmp_path, CELL, identities, ["127.0.0.1", "localhost"])
-    endpoint = f"tls/127.0.0.1:{free_port()}"
-    settings = router_settings(
-        [endpoint], cell=CELL, identities=identities, credentials=tmp_path, mutual_tls=True
-    )
-    router = zenoh.open(zenoh_config(settings))
+
+    def open_router(endpoint: str) -> zenoh.Session:
+        settings = router_settings(
+            [endpoint], cell=CELL, identities=identities, credentials=tmp_path, mutual_tls=True
+        )
+        return zenoh.open(zenoh_config(settings))
+
+    endpoint, router = listening(open_router, "tls")
     yield endpoint, tmp_path
     router.close()
 
