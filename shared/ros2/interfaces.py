@@ -100,6 +100,12 @@ def ros_wheels() -> list[str]:
     return sorted(found)
 
 
+def python_version() -> str:
+    """This interpreter's version, micro included: the generated extension modules are built
+    against its headers."""
+    return ".".join(str(part) for part in sys.version_info[:3])
+
+
 def digest(definitions: Path, python: str, wheels: Iterable[str]) -> str:
     """What names a build: every definition file (path and bytes), the recipe, the Python
     version and the ROS 2 wheels (their C libraries and CMake files are what the build links and
@@ -151,8 +157,7 @@ def ensure(root: Path | None = None) -> tuple[Interfaces, bool]:
     lets one build at a time, and the install appears under its final name by one rename, when
     complete."""
     root = cache_root() if root is None else root
-    python = f"{sys.version_info.major}.{sys.version_info.minor}.{sys.version_info.micro}"
-    final = root / digest(DEFINITIONS, python, ros_wheels())
+    final = root / digest(DEFINITIONS, python_version(), ros_wheels())
     if final.is_dir():
         return Interfaces(final), False
     problem = missing()

@@ -104,3 +104,46 @@ def test_the_command_refuses_in_one_line_with_status_2(
     assert err.count("\n") == 1
     assert "install" in err
     assert not (tmp_path / "motocell").exists()
+
+
+class FakeBuild:
+    """Stands for CMake: counts the builds and leaves an install, or fails."""
+
+    def __init__(self, fail: bool = False) -> None:
+        self.builds = 0
+        self.fail = fail
+
+    def __call__(self, work: Path, final: Path) -> None:
+        self.builds += 1
+        if self.fail:
+            raise interfaces.BuildError("building industrial_msgs failed")
+        (work / "install" / "lib").mkdir(parents=True)
+
+
+@pytest.fixture
+def fake_build(monkeypatch: pytest.MonkeyPatch) -> FakeBuild:
+    build = FakeBuild()
+    monkeypatch.setattr(interfaces, "_build", build)
+    monkeypatch.setattr(interfaces, "missing", lambda: None)
+    monkeypatch.setattr(interfaces, "ros_wheels", lambda: WHEELS)
+    return build
+
+
+def test_a_digest_is_built_once_and_replaces_a_killed_build(
+    tmp_path: Path, fake_build: FakeBuild
+) -> None:
+    name = interfaces.digest(interfaces.DEFINITIONS, interfaces.python_version(), WHEELS)
+    (tmp_path / f"{name}.building-killed").mkdir()
+    first, built = interfaces.ensure(tmp_path)
+    assert (first.prefix, built) == (tmp_path / name, True)
+    assert (first.prefix / "lib").is_dir()
+    assert interfaces.ensure(tmp_path) == (first, False)
+    assert fake_build.builds == 1
+    assert sorted(path.name for path in tmp_path.iterdir()) == [name, f"{name}.lock"]
+
+
+def test_a_failed_build_leaves_no_install(tmp_path: Path, fake_build: FakeBuild) -> None:
+    fake_build.fail = True
+    with pytest.raises(interfaces.BuildError):
+        interfaces.ensure(tmp_path)
+    assert [path.suffix for path in tmp_path.iterdir()] == [".lock"]
