@@ -82,6 +82,12 @@ def test_the_wheel_holds_one_package_and_the_license(artifacts: dict[str, Path])
     assert any(re.search(r"\.dist-info/licenses/LICENSE$", name) for name in names)
     assert "motocell/shared/cells/four-group.toml" in names
     assert "motocell/tools/layouts/motocell-layout.json" in names  # Foxglove's, for the view
+    # The ROS 2 interface definitions, each package whole (its build files and licence).
+    definitions = "motocell/shared/ros2/definitions"
+    for name in ("industrial_msgs/msg/RobotStatus.msg", "tf2_msgs/LICENSE", "README.md"):
+        assert f"{definitions}/{name}" in names
+    assert f"{definitions}/motoros2_interfaces/LICENSES/Apache-2.0.txt" in names
+    assert f"{definitions}/control_msgs/CMakeLists.txt" in names
 
 
 @pytest.fixture(scope="module", params=["wheel", "sdist"])

@@ -1,1 +1,3 @@
-"""What the ROS 2 face needs besides its service: whether ROS 2 is installed, and its interfaces."""
+"""What the ROS 2 face needs outside its own process: whether the ``ros2`` extra is installed
+(``extra``), and the interface packages PyPI lacks, built with rosidl (``interfaces``). Nothing
+here imports rclpy at module level, so motocell imports and type-checks without it."""
