@@ -8,17 +8,24 @@ node. ROS 2 is an extra: without it the face says in one line what to install.
 from __future__ import annotations
 
 import logging
+import os
 import sys
 from collections.abc import Sequence
 
 from motocell.services.ros2.bus import StateFeed, ZenohBus
 from motocell.services.ros2.core.face import Face
 from motocell.services.ros2.loop import FaceLoop
+from motocell.services.ros2.motion_api import MotionApi
+from motocell.services.ros2.motoros2_services import Motoros2Services
 from motocell.shared.config import EXIT_CONFIG
+from motocell.shared.protocol.codec import ByteOrder
 from motocell.shared.ros2.extra import missing_ros2
+from motocell.shared.ros2.interfaces import BuildError, NotInstalledError, ensure
 from motocell.shared.service import argument_parser, running_service
 
 log = logging.getLogger("ros2")
+
+AMENT_PREFIX_PATH = "AMENT_PREFIX_PATH"
 
 
 def main(argv: Sequence[str] | None = None) -> None:
@@ -28,6 +35,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     if missing is not None:
         print(f"motocell ros2/0: {missing}", file=sys.stderr)
         raise SystemExit(EXIT_CONFIG)
+    with_interfaces()
     # Only now, so that a missing extra is the one line above, not an ImportError.
     from motocell.services.ros2.node import FaceNode  # noqa: PLC0415
 
@@ -36,8 +44,10 @@ def main(argv: Sequence[str] | None = None) -> None:
         face = cell.ros2
         if face is None:  # running_service refuses a service the cell lacks
             raise SystemExit(EXIT_CONFIG)
-        node = FaceNode(cell, face)
-        feed = StateFeed(ZenohBus(ctx.session), ctx.keys, ctx.stop)
+        bus = ZenohBus(ctx.session)
+        motion = MotionApi(bus, ctx.keys, ByteOrder(cell.byte_order))
+        node = FaceNode(cell, face, Motoros2Services(motion))
+        feed = StateFeed(bus, ctx.keys, ctx.stop)
         log.info(
             "node %s%s on ROS domain %d (discovery %s)",
             face.node_namespace.rstrip("/") + "/" if face.node_namespace else "/",
@@ -51,6 +61,7 @@ def main(argv: Sequence[str] | None = None) -> None:
                 "that sees this face can move the robot"
             )
         feed.start()
+        node.start()
         ctx.alive.announce()
         try:
             FaceLoop(Face(cell, face), feed, node).run(ctx.stop)
@@ -58,6 +69,24 @@ def main(argv: Sequence[str] | None = None) -> None:
             ctx.stop.set()  # on an error too: it ends the waker
             feed.close()
             node.close()
+
+
+def with_interfaces() -> None:
+    """Go on in a process that has the interface packages PyPI lacks: built (once, cached) and
+    in its environment from its start, since the loader reads LD_LIBRARY_PATH only then. The
+    first time this process starts itself again, once."""
+    try:
+        interfaces, built = ensure()
+    except (NotInstalledError, BuildError) as error:
+        print(f"motocell ros2/0: the ROS 2 interfaces: {error}", file=sys.stderr)
+        raise SystemExit(EXIT_CONFIG) from None
+    if built:
+        print(
+            f"motocell ros2/0: built the ROS 2 interfaces in {interfaces.prefix}", file=sys.stderr
+        )
+    environment = interfaces.environment()
+    if os.environ.get(AMENT_PREFIX_PATH) != environment[AMENT_PREFIX_PATH]:
+        os.execve(sys.executable, sys.orig_argv, environment)
 
 
 if __name__ == "__main__":

@@ -1,5 +1,6 @@
 """The face's bus, behind Protocols: the feed of the cell's ``state`` its loop reads
-(``StateFeed``), what that feed needs of a session (``Bus``), and ``ZenohBus`` over a real one.
+(``StateFeed``), the queries of its motion API (``motion_api``), what those need of a session
+(``Bus``), and ``ZenohBus`` over a real one.
 
 The loop's thread blocks in a ring channel's ``recv`` (no Python on Zenoh's threads for the
 samples, docs/conventions.md, The bus); a ``Waker`` rings the channel's doorbell at the face's
@@ -12,21 +13,29 @@ from typing import Protocol
 
 import zenoh
 
-from motocell.shared.bus.adapters import Channel, ZenohChannel
+from motocell.shared.bus.adapters import Channel, Latest, ZenohChannel, ZenohLatest
 from motocell.shared.bus.channels import StopSignal, Waker
 from motocell.shared.bus.ignored import decoded_payload
 from motocell.shared.bus.keys import CellKeys
-from motocell.shared.bus.schemas import Decoder, State
+from motocell.shared.bus.schemas import ControllerStatus, Decoder, State
+from motocell.shared.bus.session import ENCODING
 
 CHANNEL_SIZE = 4
 """Samples kept while the loop publishes; only the newest is used."""
 
 _state_decoder = Decoder(State)
+_status_decoder = Decoder(ControllerStatus)
 
 
 class Bus(Protocol):
+    def latest(self, key: str) -> Latest: ...
+
     def channel(self, key: str, size: int) -> Channel:
         """The samples of ``key``, the newest ``size`` kept."""
+        ...
+
+    def ask(self, key: str, payload: bytes, timeout: float) -> bytes | None:
+        """One query's first answer, blocking; None when nobody answered within ``timeout``."""
         ...
 
 
@@ -36,17 +45,29 @@ class ZenohBus:
     def __init__(self, session: zenoh.Session) -> None:
         self._session = session
 
+    def latest(self, key: str) -> Latest:
+        return ZenohLatest(self._session, key)
+
     def channel(self, key: str, size: int) -> Channel:
         return ZenohChannel(self._session, key, size)
+
+    def ask(self, key: str, payload: bytes, timeout: float) -> bytes | None:
+        for reply in self._session.get(key, payload=payload, encoding=ENCODING, timeout=timeout):
+            if reply.ok is not None:
+                return reply.ok.payload.to_bytes()
+        return None
 
 
 class StateFeed:
     """The cell's ``state`` samples for the loop's thread, with the ``Waker`` that ends its
-    waits."""
+    waits, and the controller's newest status (a latest-value channel, read when the loop
+    wakes)."""
 
     def __init__(self, bus: Bus, keys: CellKeys, stop: StopSignal) -> None:
         self._key = keys.state
         self._channel = bus.channel(keys.state, CHANNEL_SIZE)
+        self._status_key = keys.controller_status
+        self._statuses = bus.latest(keys.controller_status)
         self._waker = Waker(self._channel.ring, stop, "state-waker")
 
     def start(self) -> None:
@@ -64,7 +85,11 @@ class StateFeed:
             payload = self._channel.try_recv()
         return newest
 
+    def controller_status(self) -> ControllerStatus | None:
+        return decoded_payload(self._statuses.take(), _status_decoder, self._status_key)
+
     def close(self) -> None:
         """Once the stop flag is set: the waker ends with it."""
         self._waker.close()
         self._channel.close()
+        self._statuses.undeclare()

@@ -11,12 +11,16 @@ from typing import Protocol
 from motocell.services.ros2.core.face import Face
 from motocell.services.ros2.core.topics import TopicValues
 from motocell.shared.bus.channels import StopSignal
-from motocell.shared.bus.schemas import State
+from motocell.shared.bus.schemas import ControllerStatus, State
 
 
 class Samples(Protocol):
     def next(self, deadline_ns: int | None) -> State | None:
         """The newest sample; None when woken at ``deadline_ns`` or at stop without one."""
+        ...
+
+    def controller_status(self) -> ControllerStatus | None:
+        """The controller's newest status since the last call, if one came; never blocks."""
         ...
 
 
@@ -44,6 +48,9 @@ class FaceLoop:
         while not stop.is_set():
             state = self.samples.next(face.wake_ns)
             now_ns = self._monotonic_ns()
+            status = self.samples.controller_status()
+            if status is not None:
+                face.on_status(status, now_ns)
             values = face.on_wake(now_ns) if state is None else face.on_sample(state, now_ns)
             if values is not None:
                 self.topics.publish(values)

@@ -6,6 +6,8 @@ in with the instant (CLOCK_MONOTONIC ns) and publishes what it returns.
 
 from __future__ import annotations
 
+import dataclasses
+
 from motocell.services.ros2.core.states import (
     PACING,
     ImpossibleEventError,
@@ -16,8 +18,9 @@ from motocell.services.ros2.core.states import (
 )
 from motocell.services.ros2.core.topics import TopicValues, ros_order_names, topic_values
 from motocell.shared.bus.liveness import AT_REST_HEARTBEAT_S, STALE_HEARTBEATS
-from motocell.shared.bus.schemas import State
+from motocell.shared.bus.schemas import ControllerStatus, State
 from motocell.shared.config import Cell, Ros2Face
+from motocell.shared.robot_status import robot_status_fields
 from motocell.shared.schedule import Schedule
 
 SILENCE_NS = round(STALE_HEARTBEATS * AT_REST_HEARTBEAT_S * 1e9)
@@ -39,10 +42,18 @@ class Face:
         self.pacing = Pacing.QUIET
         self._newest: State | None = None
         self._heard_ns: int | None = None
+        self._status: ControllerStatus | None = None
+        self._status_ns = 0
         self._stamped_ns = 0
         """The newest stamp published: the next is always later."""
         self.wake_ns: int | None = None
         """When the face must wake without a sample (CLOCK_MONOTONIC ns); None: only for one."""
+
+    def on_status(self, status: ControllerStatus, now_ns: int) -> None:
+        """A controller status, newer than any state sample heard before ``now_ns``: the
+        robot status follows it within a period even while the cell's state comes once a
+        second (a robot at rest)."""
+        self._status, self._status_ns = status, now_ns
 
     def on_sample(self, state: State, now_ns: int) -> TopicValues | None:
         due = self._schedule.due(state.tick_ns)
@@ -72,7 +83,12 @@ class Face:
             # A resting cell's tick sent again is the robot as it is now: stamps never go back.
             sampled_ns = now_ns
         self._stamped_ns = sampled_ns
-        return topic_values(newest, self._groups, self._joint_names, sampled_ns)
+        values = topic_values(newest, self._groups, self._joint_names, sampled_ns)
+        if self._status is not None and self._status_ns > (self._heard_ns or 0):
+            moving = bool(newest.status.in_motion)
+            status = robot_status_fields(self._status, moving, controller_alive=True)
+            values = dataclasses.replace(values, status=status)
+        return values
 
     def _wake(self, wake: Wake, now_ns: int) -> None:
         if wake is Wake.HOLD_AFTER:

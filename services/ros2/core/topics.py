@@ -40,6 +40,12 @@ class TopicValues:
     status: RobotStatusFields
 
 
+def error_codes(status: RobotStatusFields) -> tuple[int, ...]:
+    """``robot_status.error_codes``: the active alarm or error, none when there is none (the
+    state's status carries the first one, as ROBOT_STATUS does)."""
+    return (status.error_code,) if status.error_code else ()
+
+
 def ctrl_group_topic(group: Group) -> str:
     return f"ctrl_groups/{group.name.lower()}/joint_states"
 

@@ -6,10 +6,11 @@ from __future__ import annotations
 import time
 
 from motocell.services.ros2.bus import CHANNEL_SIZE, StateFeed
-from motocell.shared.bus.adapters import Channel
+from motocell.shared.bus.adapters import Channel, Latest
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import encode
 from motocell.shared.service import StopFlag
+from tests.services.broadcaster.fake_bus import FakeLatest
 from tests.services.fakes import FakeChannel
 from tests.services.ros2.scripted import MS, face_cell, sample
 
@@ -20,10 +21,18 @@ CELL = face_cell()
 class OneChannelBus:
     def __init__(self) -> None:
         self.opened: FakeChannel | None = None
+        self.latests: list[FakeLatest] = []
 
     def channel(self, key: str, size: int) -> Channel:
         self.opened = FakeChannel(key, size)
         return self.opened
+
+    def latest(self, key: str) -> Latest:
+        self.latests.append(FakeLatest(key))
+        return self.latests[-1]
+
+    def ask(self, key: str, payload: bytes, timeout: float) -> bytes | None:
+        raise AssertionError("the state feed asks nothing")
 
 
 def feed() -> tuple[StateFeed, FakeChannel, StopFlag]:

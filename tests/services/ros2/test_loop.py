@@ -9,7 +9,8 @@ from collections import deque
 from motocell.services.ros2.core.face import Face
 from motocell.services.ros2.core.topics import TopicValues
 from motocell.services.ros2.loop import FaceLoop
-from motocell.shared.bus.schemas import State
+from motocell.shared.bus.schemas import ControllerStatus, State
+from motocell.testing.statuses import ready_status
 from tests.services.ros2.scripted import MS, PERIOD_NS, face_cell, sample
 
 T0 = 50_000 * MS
@@ -25,11 +26,16 @@ class Script:
         self.steps = deque(steps)
         self.now_ns = T0
         self.deadlines: list[int | None] = []
+        self.statuses: list[ControllerStatus | None] = []
+        """What the loop reads at each wake-up, in turn."""
 
     def next(self, deadline_ns: int | None) -> State | None:
         self.deadlines.append(deadline_ns)
         self.now_ns, state = self.steps.popleft()
         return state
+
+    def controller_status(self) -> ControllerStatus | None:
+        return self.statuses.pop(0) if self.statuses else None
 
     def is_set(self) -> bool:
         return not self.steps
@@ -46,9 +52,12 @@ class Published:
         self.values.append(values)
 
 
-def run(steps: list[tuple[int, State | None]]) -> tuple[Script, Published]:
+def run(
+    steps: list[tuple[int, State | None]], statuses: list[ControllerStatus | None] | None = None
+) -> tuple[Script, Published]:
     assert CELL.ros2 is not None
     script, published = Script(steps), Published()
+    script.statuses = statuses or []
     FaceLoop(Face(CELL, CELL.ros2), script, published, lambda: script.now_ns).run(script)
     return script, published
 
@@ -76,3 +85,14 @@ def test_samples_go_out_as_they_come_and_a_rest_is_held_at_the_period() -> None:
 def test_a_wake_up_before_the_deadline_publishes_nothing() -> None:
     _, published = run([(T0, sample(CELL, T0)), (T0 + MS, None)])
     assert len(published.values) == 1
+
+
+def test_a_resting_robots_status_follows_the_controller_within_a_period() -> None:
+    """At rest the cell's state comes once a second; the controller's status, read at every
+    wake-up, goes out with the next held publication."""
+    hold_at = T0 + PERIOD_NS * 3 // 2
+    estop = ready_status(estop=True, motion_ready=False)
+    _, published = run([(T0, sample(CELL, T0 - MS)), (hold_at, None)], [None, estop])
+    first, held = published.values
+    assert (first.status.e_stopped, first.status.motion_possible) == (0, 1)
+    assert (held.status.e_stopped, held.status.motion_possible) == (1, 0)
