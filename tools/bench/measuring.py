@@ -405,9 +405,12 @@ def write_cell_file(
     state_period_ms: float = 10.0,
     models: Sequence[str] = GROUP_MODELS,
     extensions: Extensions = (),
+    *,
+    tables: str = "",
 ) -> Path:
     """``extensions``: motocell's opt-in cell-file settings (``pending_points``,
-    ``start_buffer_periods``), written only when a figure asks for them."""
+    ``start_buffer_periods``), written only when a figure asks for them; ``tables``: TOML
+    tables written after the groups (figure 12's ``[ros2]``)."""
     lines = [
         f'name = "{name}"',
         'controller = "YRC1000"',
@@ -420,6 +423,8 @@ def write_cell_file(
     for index, model in enumerate(models):
         lines += ["[[groups]]", f'name = "{names.get(model, "G")}{index + 1}"']
         lines += [f'model = "{model}"', ""]
+    if tables:
+        lines.append(tables)
     path = directory / f"{name}.toml"
     path.write_text("\n".join(lines))
     return path
@@ -525,10 +530,11 @@ def bench_cell(
     name: str = "bench",
     state_period_ms: float = 10.0,
     extensions: Extensions = (),
+    tables: str = "",
 ) -> Iterator[RunningCell]:
     """A whole 4-group cell (``write_cell_file``), its output in ``directory/<name>.log``;
     stopped (every process reaped) on exit. A failed start is tried once more."""
-    config = write_cell_file(directory, name, state_period_ms, extensions=extensions)
+    config = write_cell_file(directory, name, state_period_ms, extensions=extensions, tables=tables)
     log = directory / f"{name}.log"
     with running_cell(config, log=log, timeout=START_TIMEOUT_S, attempts=2) as cell:
         wait_for_every_slot(cell)

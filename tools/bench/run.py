@@ -18,6 +18,8 @@ Figures (goals are for a 2-core machine running the whole cell):
 10. cost: CPU and wake-ups per process, idle and moving       (bench.bench_cost)
 11. headroom: figures 4 and 6 alone and beside a streaming
     neighbour cell, alternating                               (bench.bench_headroom)
+12. ROS 2 face: its CPU idle and moving, joint_states rate
+    and age at an rclpy subscriber                            (bench.bench_ros2)
 
 Every figure is the median and [min-max] of at least 3 runs. Benchmarks report; they never fail
 on a time. The clients that measure are processes of their own (``tools.bench.clients``: the state
@@ -56,6 +58,7 @@ from motocell.tools.bench import (
     bench_executor,
     bench_headroom,
     bench_interpolation,
+    bench_ros2,
     bench_roundtrip,
     bench_scale,
     bench_startup,
@@ -81,6 +84,7 @@ FIGURES: dict[int, tuple[str, Callable[[bool], Results]]] = {
     9: ("start-up", bench_startup.run),
     10: ("cost", bench_cost.run),
     11: ("headroom beside a neighbour", bench_headroom.run),
+    12: ("ROS 2 face", bench_ros2.run),
 }
 
 

@@ -46,8 +46,10 @@ class SwingingCell:
         state_period_ms: float = 10.0,
         state_clients: int = 1,
         observe: bool = True,
+        tables: str = "",
     ) -> None:
-        """``seconds``: the longest it may stream (its trajectory's length)."""
+        """``seconds``: the longest it may stream (its trajectory's length); ``tables``: TOML
+        tables for its cell file (``bench_cell``)."""
         self.stack = contextlib.ExitStack()
         self.record: StreamRecord | None = None
         self.observer: Observer | None = None
@@ -59,6 +61,7 @@ class SwingingCell:
                 state_period_ms=state_period_ms,
                 state_clients=state_clients,
                 observe=observe,
+                tables=tables,
             )
         except BaseException:
             self.stack.close()
@@ -73,10 +76,11 @@ class SwingingCell:
         state_period_ms: float,
         state_clients: int,
         observe: bool,
+        tables: str,
     ) -> None:
         stack = self.stack
         self.cell: RunningCell = stack.enter_context(
-            bench_cell(directory, name, state_period_ms=state_period_ms)
+            bench_cell(directory, name, state_period_ms=state_period_ms, tables=tables)
         )
         observer = Observer(self.cell)
         try:
