@@ -1,0 +1,139 @@
+"""MotoROS2's mode and error services and its robot_status, seen by a real ROS 2 client of the
+face (rclpy over FastDDS in a process of its own, this test's domain and namespace, this host
+only); one motion source with the motion port's client; an E-stop no service clears."""
+
+from __future__ import annotations
+
+import json
+import os
+import random
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+import zenoh
+
+from motocell.shared.bus.catalog import Role
+from motocell.shared.bus.schemas import CommandRequest
+from motocell.shared.bus.session import call
+from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
+from motocell.shared.ros2.interfaces import ensure
+from motocell.testing.running_cell import RunningCell, running_cell
+
+pytestmark = pytest.mark.cell
+
+DOMAIN = random.randrange(1, 101)
+NAMESPACE = f"/s{os.getpid()}"
+CALLER = Path(__file__).with_name("ros2_call.py")
+ANSWER_TIMEOUT_S = 90.0
+"""For the caller's start and each answer (its own deadlines are 30 s): a bound for a hang."""
+READY = [1, "Ready"]
+
+
+@pytest.fixture(scope="module")
+def cell(tmp_path_factory: pytest.TempPathFactory) -> Iterator[RunningCell]:
+    cell_file = tmp_path_factory.mktemp("services") / "cell.toml"
+    cell_file.write_text(
+        f'name = "rosservices"\n[ros2]\nros_domain_id = {DOMAIN}\nnode_namespace = "{NAMESPACE}"\n'
+    )
+    with running_cell(cell_file, attempts=2) as running:
+        yield running
+
+
+class Caller:
+    """``ros2_call.py``, asked one line at a time."""
+
+    def __init__(self) -> None:
+        interfaces, _ = ensure()
+        env = interfaces.environment({**os.environ, "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"})
+        self.process = subprocess.Popen(
+            [sys.executable, str(CALLER), str(DOMAIN), NAMESPACE],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
+            env=env,
+        )
+        assert self._line() == "ready"
+
+    def _line(self) -> str:
+        assert self.process.stdout is not None
+        line = self.process.stdout.readline()
+        assert line, "the caller ended"
+        return line.strip()
+
+    def ask(self, *words: str) -> Any:
+        assert self.process.stdin is not None
+        self.process.stdin.write(" ".join(words) + "\n")
+        self.process.stdin.flush()
+        return json.loads(self._line())
+
+    def close(self) -> None:
+        if self.process.stdin is not None:
+            self.process.stdin.close()
+        try:
+            self.process.wait(timeout=ANSWER_TIMEOUT_S)
+        finally:
+            if self.process.poll() is None:
+                self.process.kill()
+                self.process.wait()
+            if self.process.stdout is not None:
+                self.process.stdout.close()
+
+
+@pytest.fixture
+def caller(cell: RunningCell) -> Iterator[Caller]:
+    ros = Caller()
+    yield ros
+    ros.ask("call", "stop_traj_mode")
+    ros.close()
+
+
+def fault(bus: zenoh.Session, cell: RunningCell, kind: str, value: int) -> None:
+    reply = call(bus, cell.keys.controller_fault(kind), CommandRequest(value=value))
+    assert reply is not None and reply.result == Result.SUCCESS
+
+
+def test_start_traj_mode_readies_the_robot_and_stop_traj_mode_ends_it(caller: Caller) -> None:
+    assert caller.ask("call", "start_traj_mode") == READY
+    assert caller.ask("status", "drives_powered", "1") is True
+    assert caller.ask("status", "motion_possible", "1") is True
+    assert caller.ask("call", "stop_traj_mode") == [True, ""]
+    assert caller.ask("call", "reset_error") == READY
+
+
+def test_while_the_motion_port_holds_trajectory_mode_the_face_is_refused(
+    cell: RunningCell, caller: Caller
+) -> None:
+    with cell.motion() as motion:
+        assert motion.command(Command.START_TRAJ_MODE).result == Result.SUCCESS
+        code, words = caller.ask("call", "start_traj_mode")
+        assert (code, words) == (
+            114,
+            "Another trajectory mode is already active. Please call stop_traj_mode service",
+        )
+        assert caller.ask("call", "stop_traj_mode")[0] is False
+        assert motion.command(Command.STOP_TRAJ_MODE).result == Result.SUCCESS
+    assert caller.ask("call", "start_traj_mode") == READY
+
+
+def test_reset_error_cannot_clear_an_e_stop(cell: RunningCell, caller: Caller) -> None:
+    bus = cell.session(Role.OPERATOR)
+    try:
+        fault(bus, cell, "estop", 1)
+        assert caller.ask("status", "e_stopped", "1") is True
+        caller.ask("call", "reset_error")
+        assert caller.ask("call", "start_traj_mode") == [
+            NotReadySubcode.ESTOP - 4900,
+            "The controller is in E-Stop",
+        ]
+        assert caller.ask("status", "e_stopped", "1") is True
+        fault(bus, cell, "estop", 0)
+        assert caller.ask("status", "e_stopped", "0") is True
+        assert caller.ask("call", "reset_error") == READY
+        assert caller.ask("call", "start_traj_mode") == READY
+    finally:
+        fault(bus, cell, "estop", 0)
+        bus.close()
