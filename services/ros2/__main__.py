@@ -14,6 +14,7 @@ from collections.abc import Sequence
 
 from motocell.services.ros2.bus import StateFeed, ZenohBus
 from motocell.services.ros2.core.face import Face
+from motocell.services.ros2.goal_runner import GoalRunner
 from motocell.services.ros2.loop import FaceLoop
 from motocell.services.ros2.motion_api import MotionApi
 from motocell.services.ros2.motoros2_services import Motoros2Services
@@ -46,7 +47,10 @@ def main(argv: Sequence[str] | None = None) -> None:
             raise SystemExit(EXIT_CONFIG)
         bus = ZenohBus(ctx.session)
         motion = MotionApi(bus, ctx.keys, ByteOrder(cell.byte_order))
-        node = FaceNode(cell, face, Motoros2Services(motion))
+        decisions = Face(cell, face)
+        feedback_ns = face.update_periods.action_feedback_publisher_period * 1_000_000
+        runner = GoalRunner(motion, decisions.newest, cell.groups, feedback_ns)
+        node = FaceNode(cell, face, Motoros2Services(motion), runner, decisions.newest)
         feed = StateFeed(bus, ctx.keys, ctx.stop)
         log.info(
             "node %s%s on ROS domain %d (discovery %s)",
@@ -64,7 +68,7 @@ def main(argv: Sequence[str] | None = None) -> None:
         node.start()
         ctx.alive.announce()
         try:
-            FaceLoop(Face(cell, face), feed, node).run(ctx.stop)
+            FaceLoop(decisions, feed, node).run(ctx.stop)
         finally:
             ctx.stop.set()  # on an error too: it ends the waker
             feed.close()

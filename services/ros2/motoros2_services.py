@@ -36,6 +36,13 @@ class Motoros2Services:
             return motion_ready_code(Result.FAILURE, 0)
         return motion_ready_code(reply.result, reply.subcode)
 
+    def motion_ready(self) -> int:
+        """CHECK_MOTION_READY in MotoROS2's codes: whether a goal may run now."""
+        reply = self._command(Command.CHECK_MOTION_READY)
+        if reply is None:
+            return motion_ready_code(Result.FAILURE, 0)
+        return motion_ready_code(reply.result, reply.subcode)
+
     def stop_traj_mode(self) -> tuple[bool, str]:
         """``stop_traj_mode`` (std_srvs/Trigger): refused while anything moves."""
         reply = self._command(Command.STOP_TRAJ_MODE)

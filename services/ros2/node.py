@@ -13,15 +13,20 @@ from __future__ import annotations
 import os
 import threading
 import time
+from collections.abc import Callable
 from typing import TypeVar
 
 import rclpy
+from builtin_interfaces.msg import Duration
 from builtin_interfaces.msg import Time as TimeMsg
+from control_msgs.action import FollowJointTrajectory
 from industrial_msgs.msg import RobotMode, RobotStatus, TriState
-from motoros2_interfaces.msg import MotionReadyEnum
+from motoros2_interfaces.msg import InitTrajEnum, MotionReadyEnum
 from motoros2_interfaces.srv import ResetError, StartTrajMode
+from rclpy.action.server import ActionServer, CancelResponse, GoalResponse, ServerGoalHandle
+from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.context import Context
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
 from rclpy.signals import SignalHandlerOptions
@@ -29,14 +34,27 @@ from rclpy.time import Time
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
+from motocell.services.ros2.core.codes import READY
+from motocell.services.ros2.core.goal import (
+    INVALID_GOAL,
+    MAX_POINTS,
+    Goal,
+    GoalPoint,
+    InitTraj,
+    ending_words,
+    error_code,
+    plan,
+)
 from motocell.services.ros2.core.topics import (
     JointValues,
     TopicValues,
     ctrl_group_topic,
     error_codes,
+    ros_order_names,
 )
+from motocell.services.ros2.goal_runner import GoalRunner, positions_of
 from motocell.services.ros2.motoros2_services import Motoros2Services
-from motocell.shared.bus.schemas import RobotStatusFields
+from motocell.shared.bus.schemas import RobotStatusFields, State
 from motocell.shared.config import Cell, Ros2Face
 
 _Answered = TypeVar("_Answered", StartTrajMode.Response, ResetError.Response)
@@ -53,19 +71,26 @@ SPIN_S = 0.1
 """How long the executor waits for work before it looks at the stop flag again."""
 
 
-def _motion_ready_words() -> dict[int, str]:
-    """MotoROS2's words for each ``MotionReadyEnum`` value, from the interface itself."""
+def _words(enum: type) -> dict[int, str]:
+    """MotoROS2's words for each value of one of its enum messages, from the interface itself."""
     return {
-        getattr(MotionReadyEnum, name): getattr(MotionReadyEnum, f"{name}_STR")
-        for name in dir(MotionReadyEnum)
-        if name.isupper() and hasattr(MotionReadyEnum, f"{name}_STR")
+        getattr(enum, name): getattr(enum, f"{name}_STR")
+        for name in dir(enum)
+        if name.isupper() and hasattr(enum, f"{name}_STR")
     }
 
 
 class FaceNode:
     """``loop.Topics`` over an rclpy node in a context of its own, with MotoROS2's services."""
 
-    def __init__(self, cell: Cell, face: Ros2Face, services: Motoros2Services) -> None:
+    def __init__(
+        self,
+        cell: Cell,
+        face: Ros2Face,
+        services: Motoros2Services,
+        runner: GoalRunner,
+        newest: Callable[[], State | None],
+    ) -> None:
         os.environ[DISCOVERY_RANGE_ENV] = discovery_range(face)
         self._context = Context()
         rclpy.init(
@@ -88,11 +113,31 @@ class FaceNode:
         ]
         self._robot_status = self.node.create_publisher(RobotStatus, "robot_status", qos)
         self._services = services
-        self._words = _motion_ready_words()
+        self._words = _words(MotionReadyEnum)
+        self._init_words = _words(InitTrajEnum)
         self.node.create_service(StartTrajMode, "start_traj_mode", self._start_traj_mode)
         self.node.create_service(Trigger, "stop_traj_mode", self._stop_traj_mode)
         self.node.create_service(ResetError, "reset_error", self._reset_error)
-        self._executor = SingleThreadedExecutor(context=self._context)
+        self._groups_of_cell = cell.groups
+        self._names = [
+            list(ros_order_names(group, names))
+            for group, names in zip(cell.groups, face.joint_names or [], strict=True)
+        ]
+        self._runner = runner
+        self._newest = newest
+        self._running = threading.Lock()
+        """One goal at a time, as MotoROS2 runs them."""
+        # The goal runs on one of the executor's threads while the other takes its cancel.
+        ActionServer(
+            self.node,
+            FollowJointTrajectory,
+            "follow_joint_trajectory",
+            execute_callback=self._follow,
+            goal_callback=lambda request: GoalResponse.ACCEPT,
+            cancel_callback=lambda handle: CancelResponse.ACCEPT,
+            callback_group=ReentrantCallbackGroup(),
+        )
+        self._executor = MultiThreadedExecutor(num_threads=2, context=self._context)
         self._executor.add_node(self.node)
         self._serving = threading.Thread(target=self._serve, name="ros2-services")
 
@@ -126,6 +171,66 @@ class FaceNode:
     ) -> Trigger.Response:
         response.success, response.message = self._services.stop_traj_mode()
         return response
+
+    # -- follow_joint_trajectory ----------------------------------------------------------
+    def _follow(self, handle: ServerGoalHandle) -> FollowJointTrajectory.Result:
+        """Every goal is accepted; one MotoROS2 refuses is aborted at once with its reason
+        (``core.goal``)."""
+        if not self._running.acquire(blocking=False):
+            return self._refuse(handle, 203, "Already running a trajectory.")
+        try:
+            return self._run(handle, _goal(handle.request))
+        finally:
+            self._running.release()
+
+    def _run(self, handle: ServerGoalHandle, goal: Goal) -> FollowJointTrajectory.Result:
+        if len(goal.points) > MAX_POINTS:
+            return self._refuse(handle, InitTraj.TOO_BIG, self._init_words[InitTraj.TOO_BIG])
+        ready = self._services.motion_ready()
+        if ready != READY:
+            return self._refuse(handle, ready, self._words.get(ready, ""))
+        planned = plan(goal, self._names)
+        if isinstance(planned, InitTraj):
+            return self._refuse(handle, planned, self._init_words.get(planned, ""))
+        ending = self._runner.run(
+            planned,
+            cancelled=lambda: handle.is_cancel_requested,
+            feedback=lambda state: handle.publish_feedback(self._feedback(state)),
+        )
+        result = FollowJointTrajectory.Result()
+        result.error_code = ending.error_code
+        result.error_string = ending_words(ending, planned, _flat(self._names))
+        if handle.is_cancel_requested:
+            handle.canceled()
+        elif ending.error_code == 0:
+            handle.succeed()
+        else:
+            handle.abort()
+        return result
+
+    def _refuse(
+        self, handle: ServerGoalHandle, code: int, words: str
+    ) -> FollowJointTrajectory.Result:
+        result = FollowJointTrajectory.Result()
+        result.error_code = error_code(INVALID_GOAL, code)
+        result.error_string = words
+        handle.abort()
+        return result
+
+    def _feedback(self, state: State) -> FollowJointTrajectory.Feedback:
+        feedback = FollowJointTrajectory.Feedback()
+        feedback.header.stamp = self.node.get_clock().now().to_msg()
+        feedback.joint_names = _flat(self._names)
+        actual = positions_of(state, self._groups_of_cell)
+        desired = [
+            value
+            for group in self._groups_of_cell
+            for value in state.groups[group.index].command_positions[: group.axes]
+        ]
+        feedback.actual.positions = actual
+        feedback.desired.positions = desired
+        feedback.error.positions = [want - have for want, have in zip(desired, actual, strict=True)]
+        return feedback
 
     def publish(self, values: TopicValues) -> None:
         # The values carry CLOCK_MONOTONIC; ROS stamps are the system clock's.
@@ -162,3 +267,30 @@ def _joint_state(values: JointValues, stamp: TimeMsg) -> JointState:
     message.position = list(values.positions)
     message.velocity = list(values.velocities)
     return message
+
+
+def _nanoseconds(duration: Duration) -> int:
+    return int(duration.sec) * 1_000_000_000 + int(duration.nanosec)
+
+
+def _goal(request: FollowJointTrajectory.Goal) -> Goal:
+    trajectory = request.trajectory
+    return Goal(
+        joint_names=tuple(trajectory.joint_names),
+        points=tuple(
+            GoalPoint(
+                _nanoseconds(point.time_from_start),
+                tuple(point.positions),
+                tuple(point.velocities),
+            )
+            for point in trajectory.points
+        ),
+        position_tolerances={
+            tolerance.name: tolerance.position for tolerance in request.goal_tolerance
+        },
+        time_tolerance_ns=_nanoseconds(request.goal_time_tolerance),
+    )
+
+
+def _flat(names: list[list[str]]) -> list[str]:
+    return [name for group in names for name in group]

@@ -4,7 +4,11 @@ each with one line of JSON:
 
 - ``call start_traj_mode`` / ``call stop_traj_mode`` / ``call reset_error``: the response;
 - ``status FIELD VALUE``: the first ``robot_status`` whose FIELD (a TriState or RobotMode) has
-  VALUE, received from now on, or ``null`` at its deadline.
+  VALUE, received from now on, or ``null`` at its deadline;
+- ``follow SECONDS OFFSET POINTS [CANCEL_AFTER]``: a FollowJointTrajectory goal from where every
+  joint is (``joint_states``) to OFFSET further, in SECONDS, POINTS points on a smooth profile,
+  cancelled after CANCEL_AFTER seconds if given: [status, error_code, error_string, feedback
+  messages, final joint_states positions, the goal's positions].
 
     python tests/e2e/ros2_call.py DOMAIN NAMESPACE
 
@@ -21,14 +25,20 @@ from collections.abc import Callable
 from typing import Any
 
 import rclpy
+from action_msgs.msg import GoalStatus
+from builtin_interfaces.msg import Duration
+from control_msgs.action import FollowJointTrajectory
 from industrial_msgs.msg import RobotStatus
 from motoros2_interfaces.srv import ResetError, StartTrajMode
+from rclpy.action.client import ActionClient
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
 from rclpy.signals import SignalHandlerOptions
+from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
+from trajectory_msgs.msg import JointTrajectoryPoint
 
 DEADLINE_S = 30.0
 """For what takes well under a second: a bound for a hang, not a speed."""
@@ -49,6 +59,9 @@ def main() -> None:
     statuses: list[Any] = []
     node.create_subscription(RobotStatus, "robot_status", statuses.append, qos_profile_sensor_data)
     clients = {name: node.create_client(kind, name) for name, kind in SERVICES.items()}
+    joints: list[Any] = []
+    node.create_subscription(JointState, "joint_states", joints.append, qos_profile_sensor_data)
+    action = ActionClient(node, FollowJointTrajectory, "follow_joint_trajectory")
 
     def spin_until(done: Callable[[], bool]) -> bool:
         deadline = time.monotonic() + DEADLINE_S
@@ -70,6 +83,8 @@ def main() -> None:
                 answer: Any = [response.result_code.value, response.message]
             else:
                 answer = [response.success, response.message]
+        elif words[0] == "follow":
+            answer = follow(action, joints, spin_until, words[1:])
         else:
             field, value = words[1], int(words[2])
             seen = len(statuses)
@@ -81,6 +96,55 @@ def main() -> None:
     executor.shutdown()
     node.destroy_node()
     rclpy.shutdown(context=context)
+
+
+def follow(
+    action: Any,
+    joints: list[Any],
+    spin_until: Callable[[Callable[[], bool]], bool],
+    words: list[str],
+) -> Any:
+    seconds, offset, count = float(words[0]), float(words[1]), int(words[2])
+    cancel_after = float(words[3]) if len(words) > 3 else None
+    here = joints[-1]
+    goal = FollowJointTrajectory.Goal()
+    goal.trajectory.joint_names = list(here.name)
+    for index in range(count):
+        share = index / (count - 1)
+        # Smooth start and stop: position 3s^2 - 2s^3 of the way, its velocity zero at both ends.
+        along = 3 * share**2 - 2 * share**3
+        speed = 6 * share * (1 - share) / seconds
+        point = JointTrajectoryPoint()
+        point.positions = [p + offset * along for p in here.position]
+        point.velocities = [offset * speed for _ in here.position]
+        at = int(seconds * share * 1e9)
+        point.time_from_start = Duration(sec=at // 1_000_000_000, nanosec=at % 1_000_000_000)
+        goal.trajectory.points.append(point)
+    feedback: list[Any] = []
+    sent = action.send_goal_async(goal, feedback_callback=feedback.append)
+    spin_until(sent.done)
+    handle = sent.result()
+    if cancel_after is not None:
+        started = time.monotonic()
+        spin_until(lambda: time.monotonic() - started > cancel_after)
+        spin_until(handle.cancel_goal_async().done)
+    result = handle.get_result_async()
+    spin_until(result.done)
+    outcome = result.result()
+    seen = len(joints)
+    spin_until(lambda: len(joints) > seen + 10)
+    status = {GoalStatus.STATUS_SUCCEEDED: "SUCCEEDED", GoalStatus.STATUS_ABORTED: "ABORTED"}
+    return [
+        status.get(
+            outcome.status,
+            "CANCELED" if outcome.status == GoalStatus.STATUS_CANCELED else str(outcome.status),
+        ),
+        outcome.result.error_code,
+        outcome.result.error_string,
+        len(feedback),
+        list(joints[-1].position),
+        list(goal.trajectory.points[-1].positions),
+    ]
 
 
 if __name__ == "__main__":

@@ -9,6 +9,7 @@ import os
 import random
 import subprocess
 import sys
+import threading
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -137,3 +138,67 @@ def test_reset_error_cannot_clear_an_e_stop(cell: RunningCell, caller: Caller) -
     finally:
         fault(bus, cell, "estop", 0)
         bus.close()
+
+
+# -- follow_joint_trajectory ----------------------------------------------------------------
+
+
+def test_a_goal_is_followed_to_its_end(caller: Caller) -> None:
+    assert caller.ask("call", "start_traj_mode") == READY
+    status, code, words, feedback, reached, goal = caller.ask("follow", "1.5", "0.2", "8")
+    assert (status, code, words) == ("SUCCEEDED", 0, "Trajectory completed successfully!")
+    assert feedback > 10, "feedback every 20 ms while it ran"
+    assert max(abs(r - g) for r, g in zip(reached, goal, strict=True)) <= 1e-4
+
+
+def test_a_cancelled_goal_stops_and_says_so(cell: RunningCell, caller: Caller) -> None:
+    assert caller.ask("call", "start_traj_mode") == READY
+    status, code, words, _, _, _ = caller.ask("follow", "3.0", "-0.2", "12", "0.8")
+    assert (status, code, words) == ("CANCELED", -500300, "Goal was cancelled by the user.")
+    with cell.state() as state:
+        still = state.wait_still()
+    # Nothing travels after the cancel: the robot is at rest, short of the goal.
+    assert still.status is not None and still.status.in_motion == 0
+
+
+def test_a_goal_without_trajectory_mode_is_aborted_with_motoros2s_code(caller: Caller) -> None:
+    assert caller.ask("call", "stop_traj_mode")[0] is True
+    status, code, words, feedback, _, _ = caller.ask("follow", "1.0", "0.1", "4")
+    # Not motion-ready: the INIT_ROS job is not running (MotionReadyEnum 108).
+    assert (status, code, feedback) == ("ABORTED", -100108, 0)
+    assert words.startswith("The INIT_ROS job has not started")
+
+
+def test_a_goal_of_more_than_200_points_is_aborted(caller: Caller) -> None:
+    assert caller.ask("call", "start_traj_mode") == READY
+    status, code, words, _, _, _ = caller.ask("follow", "4.0", "0.1", "201")
+    assert (status, code) == ("ABORTED", -100202)
+    assert words == "Trajectory contains too many points (Not enough memory)."
+
+
+def test_an_e_stop_mid_goal_aborts_it_with_the_alarm_code(
+    cell: RunningCell, caller: Caller
+) -> None:
+    assert caller.ask("call", "start_traj_mode") == READY
+    bus = cell.session(Role.OPERATOR)
+    stopper = threading.Timer(0.8, fault, args=(bus, cell, "estop", 1))
+    stopper.start()
+    try:
+        status, code, _, _, _, _ = caller.ask("follow", "3.0", "0.2", "12")
+        assert (status, code) == ("ABORTED", -100303)
+    finally:
+        stopper.join()
+        fault(bus, cell, "estop", 0)
+        bus.close()
+    assert caller.ask("call", "reset_error") == READY
+
+
+def test_a_goal_while_the_motion_port_holds_trajectory_mode_is_aborted(
+    cell: RunningCell, caller: Caller
+) -> None:
+    assert caller.ask("call", "stop_traj_mode")[0] is True
+    with cell.motion() as motion:
+        assert motion.command(Command.START_TRAJ_MODE).result == Result.SUCCESS
+        status, code, _, _, _, _ = caller.ask("follow", "1.0", "0.1", "4")
+        assert (status, code) == ("ABORTED", -100114), "NOT_READY_OTHER_TRAJ_MODE_ACTIVE"
+        assert motion.command(Command.STOP_TRAJ_MODE).result == Result.SUCCESS

@@ -49,6 +49,11 @@ class Face:
         self.wake_ns: int | None = None
         """When the face must wake without a sample (CLOCK_MONOTONIC ns); None: only for one."""
 
+    def newest(self) -> State | None:
+        """The newest state sample: the robot as a running goal sees it (read from the goal's
+        thread: the reference is replaced whole, never changed)."""
+        return self._newest
+
     def on_status(self, status: ControllerStatus, now_ns: int) -> None:
         """A controller status, newer than any state sample heard before ``now_ns``: the
         robot status follows it within a period even while the cell's state comes once a
