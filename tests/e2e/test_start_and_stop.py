@@ -360,10 +360,14 @@ START_MOMENTS = ["loading", "handlers in place", "router up", "services starting
 """The stages of a start, in order, that ``wait_for_stage`` can tell from outside."""
 
 
-@pytest.mark.parametrize("moment", ["at once", *START_MOMENTS])
+@pytest.mark.parametrize("moment", START_MOMENTS)
 def test_ctrl_c_at_any_moment_of_a_start_stops_everything_quietly(
     tmp_path: Path, moment: str
 ) -> None:
+    """From motocell's first line ("loading") on. Before it, in Python's own start-up (twice
+    where the ROS 2 wheels' bootstrapper starts Python again), a Ctrl-C is Python's to report
+    (docs/topology.md, Stopping a cell): on a loaded machine that window is long enough to
+    hit."""
     options = up_options()
     with motocell(tmp_path, "up", *options) as up:
         wait_for_stage(up, moment, int(options[3].rsplit(":", 1)[1]))
@@ -390,7 +394,7 @@ def test_sigint_stops_a_cell_a_script_started_in_the_background(
     assert clean(output), output
 
 
-@pytest.mark.parametrize("moment", ["at once", "running"])
+@pytest.mark.parametrize("moment", ["loading", "running"])
 @pytest.mark.parametrize("command", ["router", "watch"])
 def test_ctrl_c_stops_the_router_and_watch_quietly(
     tmp_path: Path, command: str, moment: str
@@ -398,7 +402,10 @@ def test_ctrl_c_stops_the_router_and_watch_quietly(
     endpoint = f"tcp/{HOST}:{free_port(HOST)}"
     args = ["router", "--listen", endpoint] if command == "router" else ["watch"]
     with motocell(tmp_path, *args) as run:
-        if moment == "running":
+        if moment == "loading":  # the earliest motocell answers for, as above
+            pid = run.process.pid
+            wait_until(lambda: stop_signals_held(pid), DEADLINE_S, "motocell loading")
+        else:
             run.wait_for("Zenoh router running" if command == "router" else "waiting for a cell")
         run.ctrl_c()
         status = run.finish()
