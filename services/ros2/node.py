@@ -14,15 +14,30 @@ import os
 import threading
 import time
 from collections.abc import Callable
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import rclpy
 from builtin_interfaces.msg import Duration
 from builtin_interfaces.msg import Time as TimeMsg
 from control_msgs.action import FollowJointTrajectory
 from industrial_msgs.msg import RobotMode, RobotStatus, TriState
-from motoros2_interfaces.msg import InitTrajEnum, MotionReadyEnum
-from motoros2_interfaces.srv import ResetError, StartTrajMode
+from motoros2_interfaces.msg import (
+    InitTrajEnum,
+    IoResultCodes,
+    MotionReadyEnum,
+    SelectionResultCodes,
+)
+from motoros2_interfaces.srv import (
+    ReadGroupIO,
+    ReadMRegister,
+    ReadSingleIO,
+    ResetError,
+    SelectMotionTool,
+    StartTrajMode,
+    WriteGroupIO,
+    WriteMRegister,
+    WriteSingleIO,
+)
 from rclpy.action.server import ActionServer, CancelResponse, GoalResponse, ServerGoalHandle
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.context import Context
@@ -118,6 +133,21 @@ class FaceNode:
         self.node.create_service(StartTrajMode, "start_traj_mode", self._start_traj_mode)
         self.node.create_service(Trigger, "stop_traj_mode", self._stop_traj_mode)
         self.node.create_service(ResetError, "reset_error", self._reset_error)
+        self._io_words = _words(IoResultCodes)
+        self._selection_words = _words(SelectionResultCodes)
+        for kind, name, read in (
+            (ReadSingleIO, "read_single_io", services.read_single_io),
+            (ReadGroupIO, "read_group_io", services.read_group_io),
+            (ReadMRegister, "read_mregister", services.read_mregister),
+        ):
+            self.node.create_service(kind, name, self._reading(read))
+        for kind, name, write in (
+            (WriteSingleIO, "write_single_io", services.write_single_io),
+            (WriteGroupIO, "write_group_io", services.write_group_io),
+            (WriteMRegister, "write_mregister", services.write_mregister),
+        ):
+            self.node.create_service(kind, name, self._writing(write))
+        self.node.create_service(SelectMotionTool, "select_motion_tool", self._select_motion_tool)
         self._groups_of_cell = cell.groups
         self._names = [
             list(ros_order_names(group, names))
@@ -164,6 +194,35 @@ class FaceNode:
     def _answer(self, response: _Answered, code: int) -> _Answered:
         response.result_code.value = code
         response.message = self._words.get(code, "")
+        return response
+
+    def _reading(self, read: Callable[[int], tuple[int, int]]) -> Callable[[Any, Any], Any]:
+        def serve(request: Any, response: Any) -> Any:
+            code, value = read(request.address)
+            response.value = value if code == 0 else 0
+            return self._io_answer(response, code)
+
+        return serve
+
+    def _writing(self, write: Callable[[int, int], int]) -> Callable[[Any, Any], Any]:
+        def serve(request: Any, response: Any) -> Any:
+            return self._io_answer(response, write(request.address, request.value))
+
+        return serve
+
+    def _io_answer(self, response: Any, code: int) -> Any:
+        response.result_code = code
+        response.message = self._io_words.get(code, "")
+        response.success = code == 0
+        return response
+
+    def _select_motion_tool(
+        self, request: SelectMotionTool.Request, response: SelectMotionTool.Response
+    ) -> SelectMotionTool.Response:
+        code = self._services.select_motion_tool(request.group_number, request.tool_number)
+        response.result_code.value = code
+        response.message = self._selection_words.get(code, "")
+        response.success = code == 0
         return response
 
     def _stop_traj_mode(

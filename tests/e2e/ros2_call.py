@@ -2,7 +2,8 @@
 (rclpy and DDS stay out of pytest's). It reads commands from stdin, one per line, and answers
 each with one line of JSON:
 
-- ``call start_traj_mode`` / ``call stop_traj_mode`` / ``call reset_error``: the response;
+- ``call SERVICE [ARGUMENT...]``: the response (the request's fields in ``FIELDS`` order), as
+  [result code, message, success, value] where the response has them;
 - ``status FIELD VALUE``: the first ``robot_status`` whose FIELD (a TriState or RobotMode) has
   VALUE, received from now on, or ``null`` at its deadline;
 - ``follow SECONDS OFFSET POINTS [CANCEL_AFTER]``: a FollowJointTrajectory goal from where every
@@ -29,7 +30,17 @@ from action_msgs.msg import GoalStatus
 from builtin_interfaces.msg import Duration
 from control_msgs.action import FollowJointTrajectory
 from industrial_msgs.msg import RobotStatus
-from motoros2_interfaces.srv import ResetError, StartTrajMode
+from motoros2_interfaces.srv import (
+    ReadGroupIO,
+    ReadMRegister,
+    ReadSingleIO,
+    ResetError,
+    SelectMotionTool,
+    StartTrajMode,
+    WriteGroupIO,
+    WriteMRegister,
+    WriteSingleIO,
+)
 from rclpy.action.client import ActionClient
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
@@ -46,7 +57,24 @@ SERVICES: dict[str, Any] = {
     "start_traj_mode": StartTrajMode,
     "stop_traj_mode": Trigger,
     "reset_error": ResetError,
+    "read_single_io": ReadSingleIO,
+    "write_single_io": WriteSingleIO,
+    "read_group_io": ReadGroupIO,
+    "write_group_io": WriteGroupIO,
+    "read_mregister": ReadMRegister,
+    "write_mregister": WriteMRegister,
+    "select_motion_tool": SelectMotionTool,
 }
+FIELDS = {
+    "read_single_io": ("address",),
+    "read_group_io": ("address",),
+    "read_mregister": ("address",),
+    "write_single_io": ("address", "value"),
+    "write_group_io": ("address", "value"),
+    "write_mregister": ("address", "value"),
+    "select_motion_tool": ("group_number", "tool_number"),
+}
+"""The request fields of the services that take any, in the order a command line gives them."""
 
 
 def main() -> None:
@@ -76,13 +104,12 @@ def main() -> None:
     for line in sys.stdin:
         words = line.split()
         if words[0] == "call":
-            future = clients[words[1]].call_async(SERVICES[words[1]].Request())
+            request = SERVICES[words[1]].Request()
+            for field, value in zip(FIELDS.get(words[1], ()), words[2:], strict=True):
+                setattr(request, field, int(value))
+            future = clients[words[1]].call_async(request)
             spin_until(future.done)
-            response = future.result()
-            if hasattr(response, "result_code"):
-                answer: Any = [response.result_code.value, response.message]
-            else:
-                answer = [response.success, response.message]
+            answer: Any = described(future.result())
         elif words[0] == "follow":
             answer = follow(action, joints, spin_until, words[1:])
         else:
@@ -96,6 +123,18 @@ def main() -> None:
     executor.shutdown()
     node.destroy_node()
     rclpy.shutdown(context=context)
+
+
+def described(response: Any) -> list[Any]:
+    if not hasattr(response, "result_code"):
+        return [response.success, response.message]
+    code = response.result_code
+    answer = [getattr(code, "value", code), response.message]
+    if hasattr(response, "success"):
+        answer.append(response.success)
+    if hasattr(response, "value"):
+        answer.append(response.value)
+    return answer
 
 
 def follow(

@@ -202,3 +202,37 @@ def test_a_goal_while_the_motion_port_holds_trajectory_mode_is_aborted(
         status, code, _, _, _, _ = caller.ask("follow", "1.0", "0.1", "4")
         assert (status, code) == ("ABORTED", -100114), "NOT_READY_OTHER_TRAJ_MODE_ACTIVE"
         assert motion.command(Command.STOP_TRAJ_MODE).result == Result.SUCCESS
+
+
+# -- I/O, M-registers, tools ------------------------------------------------------------------
+
+
+def test_io_written_is_read_back_and_a_bad_address_says_so(caller: Caller) -> None:
+    assert caller.ask("call", "write_single_io", "10010", "1") == [0, "Success", True]
+    assert caller.ask("call", "read_single_io", "10010") == [0, "Success", True, 1]
+    assert caller.ask("call", "write_group_io", "1001", "165") == [0, "Success", True]
+    assert caller.ask("call", "read_group_io", "1001") == [0, "Success", True, 165]
+    assert caller.ask("call", "write_mregister", "1000010", "4321")[:3] == [0, "Success", True]
+    assert caller.ask("call", "read_mregister", "1000010") == [0, "Success", True, 4321]
+    code, words, success, _ = caller.ask("call", "read_single_io", "4294967295")
+    assert (code, success) == (1001, False)
+    assert words == "Address cannot be read from (out of readable range)"
+    assert caller.ask("call", "write_single_io", "9", "1")[:3] == [
+        1002,
+        "Address cannot be written to (out of writable range)",
+        False,
+    ]
+
+
+def test_a_motion_tool_is_selected_by_group_and_number(caller: Caller) -> None:
+    assert caller.ask("call", "select_motion_tool", "0", "3") == [0, "", True]
+    assert caller.ask("call", "select_motion_tool", "5", "3") == [
+        401,
+        "Invalid control group",
+        False,
+    ]
+    assert caller.ask("call", "select_motion_tool", "0", "64") == [
+        402,
+        "Invalid tool selection",
+        False,
+    ]

@@ -7,8 +7,21 @@ import pytest
 
 from motocell.services.ros2.core.codes import READY, UNSPECIFIED, motion_ready_code
 from motocell.services.ros2.motoros2_services import NOT_STOPPED, Motoros2Services
-from motocell.shared.protocol.constants import Command, MsgType, NotReadySubcode, Result
-from motocell.shared.protocol.messages import Message, MotoMotionCtrl, MotoMotionReply
+from motocell.shared.protocol.constants import (
+    Command,
+    InvalidSubcode,
+    IoResult,
+    MsgType,
+    NotReadySubcode,
+    Result,
+)
+from motocell.shared.protocol.messages import (
+    Message,
+    MotoMotionCtrl,
+    MotoMotionReply,
+    ReadIOBitReply,
+    WriteMRegisterReply,
+)
 
 
 class Answers:
@@ -56,3 +69,49 @@ def test_reset_error_that_fails_is_an_alarm_and_no_answer_unspecified() -> None:
     assert Motoros2Services(Answers(Result.FAILURE)).reset_error() == 101
     assert Motoros2Services(Answers(None)).reset_error() == UNSPECIFIED
     assert Motoros2Services(Answers(Result.SUCCESS)).motion_ready() == READY
+
+
+class IoAnswers:
+    """Answers every I/O request with ``reply`` (its type's reply), counting the requests."""
+
+    def __init__(
+        self, reply: ReadIOBitReply | WriteMRegisterReply | MotoMotionReply | None
+    ) -> None:
+        self.reply = reply
+        self.asked = 0
+
+    def request(self, message: Message) -> Message | None:
+        self.asked += 1
+        if self.reply is None:
+            return None
+        return Message(int(MsgType.MOTO_READ_IO_BIT_REPLY), 3, 1, self.reply)
+
+
+def test_a_read_gives_the_code_and_the_value_and_no_answer_an_api_error() -> None:
+    assert Motoros2Services(IoAnswers(ReadIOBitReply(1, 0))).read_single_io(10010) == (0, 1)
+    assert Motoros2Services(IoAnswers(None)).read_group_io(1001) == (IoResult.READ_API_ERROR, 0)
+    assert Motoros2Services(IoAnswers(WriteMRegisterReply(0))).write_mregister(1_000_010, 3) == 0
+    assert Motoros2Services(IoAnswers(None)).write_single_io(10010, 1) == IoResult.WRITE_API_ERROR
+
+
+def test_an_address_beyond_simple_messages_int32_is_refused_without_asking() -> None:
+    answers = IoAnswers(ReadIOBitReply(1, 0))
+    services = Motoros2Services(answers)
+    assert services.read_single_io(2**31) == (IoResult.READ_ADDRESS_INVALID, 0)
+    assert services.write_group_io(2**32 - 1, 1) == IoResult.WRITE_ADDRESS_INVALID
+    assert services.select_motion_tool(2**31, 0) == 401
+    assert answers.asked == 0
+
+
+@pytest.mark.parametrize(
+    ("result", "subcode", "code"),
+    [
+        (Result.SUCCESS, 0, 0),
+        (Result.INVALID, InvalidSubcode.GROUPNO, 401),
+        (Result.INVALID, InvalidSubcode.DATA_TOOLNO, 402),
+        (Result.NOT_READY, 5005, 400),
+    ],
+)
+def test_a_tool_selection_in_motoros2s_codes(result: Result, subcode: int, code: int) -> None:
+    reply = MotoMotionReply(0, 0, 0, int(result), int(subcode))
+    assert Motoros2Services(IoAnswers(reply)).select_motion_tool(0, 1) == code
