@@ -161,7 +161,7 @@ def _cell(args: argparse.Namespace) -> Cell:
 
 def _create(directory: Path, args: argparse.Namespace) -> list[str]:
     cell = _cell(args)
-    identities = cell_identities(len(cell.groups))
+    identities = cell_identities(len(cell.groups), face=cell.ros2 is not None)
     write_passwords(directory, cell.name, identities)
     extra = add_passwords(directory, args.identity)  # an --identity of the cell's is no extra
     hosts = args.host or list(DEFAULT_HOSTS)
@@ -192,7 +192,7 @@ def _add(directory: Path, args: argparse.Namespace) -> list[str]:
     users = list(args.identity)
     if args.config or args.cell:
         cell = _cell(args)
-        users = [i.username(cell.name) for i in cell_identities(len(cell.groups))] + users
+        users = [i.username(cell.name) for i in cell_identities(len(cell.groups), face=cell.ros2 is not None)] + users
     if not has_ca:
         return _added(directory, add_passwords(directory, users), [], signed=False)
     from motocell.shared.bus.certificates import (  # noqa: PLC0415

@@ -33,7 +33,7 @@ def secured_router_settings(cell: Cell, listen: str, credentials: Path) -> dict[
     return router_settings(
         [listen],
         cell=cell.name,
-        identities=cell_identities(len(cell.groups)),
+        identities=cell_identities(len(cell.groups), face=cell.ros2 is not None),
         credentials=credentials,
         mutual_tls=True,
     )

@@ -94,13 +94,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 class SiteCell:
     name: str
     groups: int
+    face: bool = False
+    """The cell file has ``[ros2]``: the cell has the ROS 2 face's identity too."""
 
 
 def parse_cell(text: str) -> SiteCell:
     """``NAME=FILE`` or ``FILE``; ConfigError for a file that cannot be read."""
     name, separator, config = text.rpartition("=")
     cell: Cell = load_cell(config, name if separator else None)
-    return SiteCell(cell.name, len(cell.groups))
+    return SiteCell(cell.name, len(cell.groups), face=cell.ros2 is not None)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -148,7 +150,7 @@ def site_router_settings(
     _add_site_identities(directory, [SITE_OBSERVER, *([SITE_ROUTER] if tls else [])], tls)
     parties: list[Party] = [site_observer(SITE_OBSERVER)]
     for cell in cells:
-        parties += cell_parties(cell.name, cell_identities(cell.groups))
+        parties += cell_parties(cell.name, cell_identities(cell.groups, face=cell.face))
     if tls:
         # Any TLS router of the site may be one a mesh's other routers connect to; only one
         # that dials others knows a router by its certificate alone.
@@ -205,7 +207,7 @@ def _check_cells(directory: Path, cells: Sequence[SiteCell]) -> None:
                 f"site's own; run it under another name (--config OTHER=FILE, motocell up --name)"
             )
     for cell in cells:
-        for identity in cell_identities(cell.groups):
+        for identity in cell_identities(cell.groups, face=cell.face):
             user = identity.username(cell.name)
             if not password_path(directory, user).is_file():
                 raise ValueError(

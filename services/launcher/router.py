@@ -42,7 +42,7 @@ def open_cell_router(
         listen,
         connect,
         cell=cell.name if credentials else None,
-        identities=cell_identities(len(cell.groups)),
+        identities=cell_identities(len(cell.groups), face=cell.ros2 is not None),
         credentials=credentials,
     )
     try:

@@ -85,16 +85,16 @@ class Identity:
         return f"{cell}.{self.name}"
 
 
-def cell_identities(groups: int) -> list[Identity]:
-    """Every identity a cell with ``groups`` control groups has."""
+def cell_identities(groups: int, *, face: bool = False) -> list[Identity]:
+    """Every identity a cell with ``groups`` control groups has, the ROS 2 face's with
+    ``face`` (a cell file with ``[ros2]``)."""
     services = [
         Identity(Role.CONTROLLER),
         Identity(Role.EXECUTOR),
         Identity(Role.BROADCASTER),
         Identity(Role.GATEWAY),
         *(Identity(Role.INTERPOLATOR, str(group)) for group in range(groups)),
-        # Every cell has the face's identity, so turning the face on needs no new credentials.
-        Identity(Role.ROS2),
+        *([Identity(Role.ROS2)] if face else []),
     ]
     return [*services, Identity(Role.OPERATOR), Identity(Role.OBSERVER)]
 

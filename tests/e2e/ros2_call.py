@@ -6,6 +6,8 @@ each with one line of JSON:
   [result code, message, success, value] where the response has them;
 - ``status FIELD VALUE``: the first ``robot_status`` whose FIELD (a TriState or RobotMode) has
   VALUE, received from now on, or ``null`` at its deadline;
+- ``graph NODE``: the topics NODE publishes, the services it serves, and the action servers, each
+  with its types;
 - ``follow SECONDS OFFSET POINTS [CANCEL_AFTER]``: a FollowJointTrajectory goal from where every
   joint is (``joint_states``) to OFFSET further, in SECONDS, POINTS points on a smooth profile,
   cancelled after CANCEL_AFTER seconds if given: [status, error_code, error_string, feedback
@@ -42,6 +44,7 @@ from motoros2_interfaces.srv import (
     WriteSingleIO,
 )
 from rclpy.action.client import ActionClient
+from rclpy.action.graph import get_action_server_names_and_types_by_node
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
@@ -110,6 +113,8 @@ def main() -> None:
             future = clients[words[1]].call_async(request)
             spin_until(future.done)
             answer: Any = described(future.result())
+        elif words[0] == "graph":
+            answer = graph(node, words[1], namespace)
         elif words[0] == "follow":
             answer = follow(action, joints, spin_until, words[1:])
         else:
@@ -123,6 +128,14 @@ def main() -> None:
     executor.shutdown()
     node.destroy_node()
     rclpy.shutdown(context=context)
+
+
+def graph(node: Node, name: str, namespace: str) -> dict[str, Any]:
+    return {
+        "topics": node.get_publisher_names_and_types_by_node(name, namespace),
+        "services": node.get_service_names_and_types_by_node(name, namespace),
+        "actions": get_action_server_names_and_types_by_node(node, name, namespace),
+    }
 
 
 def described(response: Any) -> list[Any]:

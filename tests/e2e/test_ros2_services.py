@@ -84,12 +84,19 @@ class Caller:
                 self.process.stdout.close()
 
 
+@pytest.fixture(scope="module")
+def ros(cell: RunningCell) -> Iterator[Caller]:
+    """One caller for the module's tests: a ROS 2 process starts in seconds."""
+    started = Caller()
+    yield started
+    started.close()
+
+
 @pytest.fixture
-def caller(cell: RunningCell) -> Iterator[Caller]:
-    ros = Caller()
+def caller(ros: Caller) -> Iterator[Caller]:
+    """The module's caller, trajectory mode stopped after each test."""
     yield ros
     ros.ask("call", "stop_traj_mode")
-    ros.close()
 
 
 def fault(bus: zenoh.Session, cell: RunningCell, kind: str, value: int) -> None:
@@ -236,3 +243,41 @@ def test_a_motion_tool_is_selected_by_group_and_number(caller: Caller) -> None:
         "Invalid tool selection",
         False,
     ]
+
+
+# -- the graph ----------------------------------------------------------------------------------
+
+MOTOROS2_GRAPH = {
+    "topics": {
+        "joint_states": "sensor_msgs/msg/JointState",
+        "ctrl_groups/r1/joint_states": "sensor_msgs/msg/JointState",
+        "robot_status": "industrial_msgs/msg/RobotStatus",
+    },
+    "services": {
+        "start_traj_mode": "motoros2_interfaces/srv/StartTrajMode",
+        "stop_traj_mode": "std_srvs/srv/Trigger",
+        "reset_error": "motoros2_interfaces/srv/ResetError",
+        "read_single_io": "motoros2_interfaces/srv/ReadSingleIO",
+        "write_single_io": "motoros2_interfaces/srv/WriteSingleIO",
+        "read_group_io": "motoros2_interfaces/srv/ReadGroupIO",
+        "write_group_io": "motoros2_interfaces/srv/WriteGroupIO",
+        "read_mregister": "motoros2_interfaces/srv/ReadMRegister",
+        "write_mregister": "motoros2_interfaces/srv/WriteMRegister",
+        "select_motion_tool": "motoros2_interfaces/srv/SelectMotionTool",
+    },
+    "actions": {"follow_joint_trajectory": "control_msgs/action/FollowJointTrajectory"},
+}
+"""What this face has of MotoROS2's API, names relative to the node's namespace."""
+
+
+def test_the_graph_has_motoros2s_names_and_types(caller: Caller) -> None:
+    seen = caller.ask("graph", "motoman_rosservices")
+    prefix = NAMESPACE + "/"
+    for kind, expected in MOTOROS2_GRAPH.items():
+        found = {
+            name.removeprefix(prefix): types
+            for name, types in seen[kind]
+            if name.startswith(prefix) and "/_action/" not in name
+        }
+        for name, type_name in expected.items():
+            assert found.get(name) == [type_name], (kind, name, found.get(name))

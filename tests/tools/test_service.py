@@ -64,7 +64,7 @@ def test_an_unknown_service_is_one_line_and_status_2() -> None:
     assert result.returncode == EXIT_CONFIG
     assert result.stderr == (
         "motocell service: no service bogus (services: controller, executor, broadcaster, "
-        "interpolator, gateway)\n"
+        "interpolator, gateway, ros2)\n"
     )
 
 

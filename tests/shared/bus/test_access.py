@@ -47,19 +47,19 @@ def allowed(config: dict[str, Any], identity: Identity | str, flow: str, message
     }
 
 
-CONFIG = access_control(cell_parties(CELL, cell_identities(2)), certificates=False)
+CONFIG = access_control(cell_parties(CELL, cell_identities(2, face=False)), certificates=False)
 
 
 def test_default_deny_and_one_subject_per_identity() -> None:
     assert CONFIG["default_permission"] == "deny"
     names = [subject["usernames"] for subject in CONFIG["subjects"]]
     assert ["c1.interpolator-1"] in names and ["c1.observer"] in names
-    assert len(names) == len(cell_identities(2))
+    assert len(names) == len(cell_identities(2, face=False))
     assert not any("cert_common_names" in subject for subject in CONFIG["subjects"])
 
 
 def test_with_certificates_a_subject_is_its_username_and_its_certificate_together() -> None:
-    config = access_control(cell_parties(CELL, cell_identities(1)), certificates=True)
+    config = access_control(cell_parties(CELL, cell_identities(1, face=False)), certificates=True)
     for subject in config["subjects"]:
         assert subject["usernames"] == subject["cert_common_names"] == [subject["id"]]
 
@@ -117,7 +117,7 @@ def test_an_interpolator_sends_only_on_its_own_group() -> None:
 
 
 def test_only_the_gateway_sends_points() -> None:
-    for identity in cell_identities(2):
+    for identity in cell_identities(2, face=False):
         puts = allowed(CONFIG, identity, "ingress", "put")
         sends_points = any(key.endswith("/point") for key in puts)
         assert sends_points == (identity.role is Role.GATEWAY), identity
@@ -149,11 +149,11 @@ def test_a_service_declares_only_its_own_token_and_info() -> None:
 @pytest.fixture
 def router(tmp_path: Path) -> Iterator[tuple[str, Path]]:
     """A secured router for a one-group cell, as the launcher runs it."""
-    write_passwords(tmp_path, CELL, cell_identities(1))
+    write_passwords(tmp_path, CELL, cell_identities(1, face=False))
 
     def open_router(endpoint: str) -> zenoh.Session:
         settings = router_settings(
-            [endpoint], cell=CELL, identities=cell_identities(1), credentials=tmp_path
+            [endpoint], cell=CELL, identities=cell_identities(1, face=False), credentials=tmp_path
         )
         return zenoh.open(zenoh_config(settings))
 

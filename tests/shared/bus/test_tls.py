@@ -24,7 +24,7 @@ CELL = "c1"
 
 @pytest.fixture
 def tls_router(tmp_path: Path) -> Iterator[tuple[str, Path]]:
-    identities = cell_identities(1)
+    identities = cell_identities(1, face=False)
     write_passwords(tmp_path, CELL, identities)
     write_certificates(tmp_path, CELL, identities, ["127.0.0.1", "localhost"])
 
