@@ -195,7 +195,11 @@ def _cell_bus(
         else:
             check_router_endpoints(listen)
             if credentials is not None:
-                write_passwords(credentials, cell.name, cell_identities(len(cell.groups), face=cell.ros2 is not None))
+                write_passwords(
+                    credentials,
+                    cell.name,
+                    cell_identities(len(cell.groups), face=cell.ros2 is not None),
+                )
             session = open_cell_router(cell, listen, connect, credentials)
         try:
             yield CellBus(listen, credentials, session)

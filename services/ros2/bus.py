@@ -2,13 +2,18 @@
 (``StateFeed``), the queries of its motion API (``motion_api``), what those need of a session
 (``Bus``), and ``ZenohBus`` over a real one.
 
-The loop's thread blocks in a ring channel's ``recv`` (no Python on Zenoh's threads for the
-samples, docs/conventions.md, The bus); a ``Waker`` rings the channel's doorbell at the face's
-next deadline and at stop, since zenoh-python has no ``recv`` with a timeout.
+While the cell's clock runs the loop's thread blocks in a ring channel's ``recv`` (no Python on
+Zenoh's threads for the samples, docs/conventions.md, The bus); a ``Waker`` rings the channel's
+doorbell at the face's next deadline and at stop, since zenoh-python has no ``recv`` with a
+timeout. While the cell rests the thread sleeps until its deadline and takes what came: one
+wake-up a period, no doorbell.
 """
 
 from __future__ import annotations
 
+import math
+import select
+import time
 from typing import Protocol
 
 import zenoh
@@ -69,15 +74,29 @@ class StateFeed:
         self._status_key = keys.controller_status
         self._statuses = bus.latest(keys.controller_status)
         self._waker = Waker(self._channel.ring, stop, "state-waker")
+        self._stop_poller = select.poll()
+        self._stop_poller.register(stop.fileno(), select.POLLIN)
 
     def start(self) -> None:
         self._waker.start()
 
-    def next(self, deadline_ns: int | None) -> State | None:
-        """The newest sample, blocking until one comes; None when woken without one, at
-        ``deadline_ns`` (CLOCK_MONOTONIC ns; None: no deadline) or at stop."""
-        self._waker.wake_at(None if deadline_ns is None else deadline_ns / 1e9)
-        payload: bytes | None = self._channel.recv()
+    def next(self, deadline_ns: int | None, samples_expected: bool) -> State | None:
+        """The newest sample; None when woken without one, at ``deadline_ns`` (CLOCK_MONOTONIC
+        ns; None: no deadline) or at stop. ``samples_expected``: block for a sample (the cell's
+        clock runs), woken at the deadline by the waker; else sleep until the deadline and take
+        what came, with no wake-up but that one (the cell rests: its state comes once a
+        second, the face publishes every period)."""
+        if samples_expected or deadline_ns is None:
+            self._waker.wake_at(None if deadline_ns is None else deadline_ns / 1e9)
+            return self._newest(self._channel.recv())
+        self._sleep_until(deadline_ns)
+        return self._newest(self._channel.try_recv())
+
+    def _sleep_until(self, deadline_ns: int) -> None:
+        wait_ms = math.ceil(max(0, deadline_ns - time.monotonic_ns()) / 1e6)
+        self._stop_poller.poll(wait_ms)
+
+    def _newest(self, payload: bytes | None) -> State | None:
         newest: State | None = None
         while payload is not None:
             # A doorbell (empty) or garbage decodes to None and leaves the newest good one.

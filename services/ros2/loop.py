@@ -15,8 +15,9 @@ from motocell.shared.bus.schemas import ControllerStatus, State
 
 
 class Samples(Protocol):
-    def next(self, deadline_ns: int | None) -> State | None:
-        """The newest sample; None when woken at ``deadline_ns`` or at stop without one."""
+    def next(self, deadline_ns: int | None, samples_expected: bool) -> State | None:
+        """The newest sample; None when woken at ``deadline_ns`` or at stop without one.
+        ``samples_expected``: wake for a sample as it comes; else only at the deadline."""
         ...
 
     def controller_status(self) -> ControllerStatus | None:
@@ -46,7 +47,7 @@ class FaceLoop:
     def run(self, stop: StopSignal) -> None:
         face = self.face
         while not stop.is_set():
-            state = self.samples.next(face.wake_ns)
+            state = self.samples.next(face.wake_ns, face.samples_expected)
             now_ns = self._monotonic_ns()
             status = self.samples.controller_status()
             if status is not None:

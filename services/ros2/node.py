@@ -10,6 +10,7 @@ its own, one request at a time, as MotoROS2 serves them.
 
 from __future__ import annotations
 
+import array
 import os
 import threading
 import time
@@ -18,7 +19,6 @@ from typing import Any, TypeVar
 
 import rclpy
 from builtin_interfaces.msg import Duration
-from builtin_interfaces.msg import Time as TimeMsg
 from control_msgs.action import FollowJointTrajectory
 from industrial_msgs.msg import RobotMode, RobotStatus, TriState
 from motoros2_interfaces.msg import (
@@ -126,7 +126,12 @@ class FaceNode:
             self.node.create_publisher(JointState, ctrl_group_topic(group), qos)
             for group in cell.groups
         ]
+        self._joint_publishers = [self._joint_states, *self._groups]
+        self._built: list[JointState] = []
+        self._built_for: JointValues | None = None
         self._robot_status = self.node.create_publisher(RobotStatus, "robot_status", qos)
+        self._status_message = RobotStatus()
+        self._status_for: RobotStatusFields | None = None
         self._services = services
         self._words = _words(MotionReadyEnum)
         self._init_words = _words(InitTrajEnum)
@@ -294,10 +299,18 @@ class FaceNode:
     def publish(self, values: TopicValues) -> None:
         # The values carry CLOCK_MONOTONIC; ROS stamps are the system clock's.
         stamp = Time(nanoseconds=values.sampled_ns + time.time_ns() - time.monotonic_ns()).to_msg()
-        self._joint_states.publish(_joint_state(values.joint_states, stamp))
-        for publisher, group in zip(self._groups, values.groups, strict=True):
-            publisher.publish(_joint_state(group, stamp))
-        self._robot_status.publish(_robot_status(values.status, stamp))
+        if values.joint_states is not self._built_for:
+            # New joint values; a resting robot's are the same object, its messages sent again.
+            self._built = [_joint_state(values.joint_states), *map(_joint_state, values.groups)]
+            self._built_for = values.joint_states
+        for publisher, message in zip(self._joint_publishers, self._built, strict=True):
+            message.header.stamp = stamp
+            publisher.publish(message)
+        if values.status != self._status_for:
+            self._status_message = _robot_status(values.status)
+            self._status_for = values.status
+        self._status_message.header.stamp = stamp
+        self._robot_status.publish(self._status_message)
 
     def close(self) -> None:
         rclpy.shutdown(context=self._context)  # ends the executor's wait
@@ -307,11 +320,10 @@ class FaceNode:
         self.node.destroy_node()
 
 
-def _robot_status(status: RobotStatusFields, stamp: TimeMsg) -> RobotStatus:
+def _robot_status(status: RobotStatusFields) -> RobotStatus:
     """industrial_msgs' RobotStatus takes the state port's ROBOT_STATUS fields as they are: the
     same TriState and RobotMode values."""
     message = RobotStatus()
-    message.header.stamp = stamp
     message.mode = RobotMode(val=status.mode)
     for field in ("e_stopped", "drives_powered", "motion_possible", "in_motion", "in_error"):
         setattr(message, field, TriState(val=getattr(status, field)))
@@ -319,12 +331,11 @@ def _robot_status(status: RobotStatusFields, stamp: TimeMsg) -> RobotStatus:
     return message
 
 
-def _joint_state(values: JointValues, stamp: TimeMsg) -> JointState:
+def _joint_state(values: JointValues) -> JointState:
     message = JointState()
-    message.header.stamp = stamp
     message.name = list(values.names)
-    message.position = list(values.positions)
-    message.velocity = list(values.velocities)
+    message.position = array.array("d", values.positions)
+    message.velocity = array.array("d", values.velocities)
     return message
 
 

@@ -46,8 +46,16 @@ class Face:
         self._status_ns = 0
         self._stamped_ns = 0
         """The newest stamp published: the next is always later."""
+        self._published: tuple[State, TopicValues] | None = None
+        """The sample last published, and what was published for it."""
         self.wake_ns: int | None = None
         """When the face must wake without a sample (CLOCK_MONOTONIC ns); None: only for one."""
+
+    @property
+    def samples_expected(self) -> bool:
+        """Whether a sample is due any moment (the cell's clock runs, or the face waits for its
+        first): wait for it, rather than only for the next deadline."""
+        return self.pacing is not Pacing.HOLDING
 
     def newest(self) -> State | None:
         """The newest state sample: the robot as a running goal sees it (read from the goal's
@@ -88,11 +96,19 @@ class Face:
             # A resting cell's tick sent again is the robot as it is now: stamps never go back.
             sampled_ns = now_ns
         self._stamped_ns = sampled_ns
-        values = topic_values(newest, self._groups, self._joint_names, sampled_ns)
+        status = newest.status
         if self._status is not None and self._status_ns > (self._heard_ns or 0):
             moving = bool(newest.status.in_motion)
             status = robot_status_fields(self._status, moving, controller_alive=True)
+        last = self._published
+        if last is not None and last[0] is newest:
+            # The same sample again (a resting robot): the same joint values, so the node can
+            # send the messages it built for them again, stamped anew.
+            values = dataclasses.replace(last[1], sampled_ns=sampled_ns, status=status)
+        else:
+            values = topic_values(newest, self._groups, self._joint_names, sampled_ns)
             values = dataclasses.replace(values, status=status)
+        self._published = (newest, values)
         return values
 
     def _wake(self, wake: Wake, now_ns: int) -> None:

@@ -53,7 +53,7 @@ def test_the_newest_sample_waiting_is_taken_garbage_and_doorbells_skipped() -> N
         channel.put(encode(sample(CELL, 8 * MS)))
         channel.put(b"\xc1 not a state")
         channel.put(b"")
-        state = state_feed.next(None)
+        state = state_feed.next(None, samples_expected=True)
         assert state is not None and state.tick_ns == 8 * MS
     finally:
         stop.set()
@@ -63,9 +63,21 @@ def test_the_newest_sample_waiting_is_taken_garbage_and_doorbells_skipped() -> N
 def test_a_deadline_wakes_the_feed_without_a_sample() -> None:
     state_feed, channel, stop = feed()
     try:
-        assert state_feed.next(time.monotonic_ns() + 20 * MS) is None
+        assert state_feed.next(time.monotonic_ns() + 20 * MS, samples_expected=True) is None
         assert channel.rung == 1
     finally:
         stop.set()
         state_feed.close()
     assert channel.closed
+
+
+def test_while_the_cell_rests_the_feed_sleeps_to_its_deadline_without_a_doorbell() -> None:
+    state_feed, channel, stop = feed()
+    try:
+        channel.put(encode(sample(CELL, 4 * MS)))
+        state = state_feed.next(time.monotonic_ns() + 20 * MS, samples_expected=False)
+        assert state is not None and state.tick_ns == 4 * MS
+        assert channel.rung == 0
+    finally:
+        stop.set()
+        state_feed.close()

@@ -26,11 +26,13 @@ class Script:
         self.steps = deque(steps)
         self.now_ns = T0
         self.deadlines: list[int | None] = []
+        self.expected: list[bool] = []
         self.statuses: list[ControllerStatus | None] = []
         """What the loop reads at each wake-up, in turn."""
 
-    def next(self, deadline_ns: int | None) -> State | None:
+    def next(self, deadline_ns: int | None, samples_expected: bool) -> State | None:
         self.deadlines.append(deadline_ns)
+        self.expected.append(samples_expected)
         self.now_ns, state = self.steps.popleft()
         return state
 
@@ -73,6 +75,11 @@ def test_samples_go_out_as_they_come_and_a_rest_is_held_at_the_period() -> None:
         ]
     )
     assert script.deadlines == [None, hold_at, hold_at + PERIOD_NS, hold_at + 2 * PERIOD_NS]
+    # Holding, the loop wakes at its deadlines only; following, for every sample.
+    assert script.expected == [True, True, False, False]
+    # A held sample's joint values are those already published: the node sends them again.
+    first, held, held_again, _ = published.values
+    assert first.joint_states is held.joint_states is held_again.joint_states
     assert [values.sampled_ns for values in published.values] == [
         T0 - MS,
         hold_at,
