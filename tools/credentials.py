@@ -192,7 +192,10 @@ def _add(directory: Path, args: argparse.Namespace) -> list[str]:
     users = list(args.identity)
     if args.config or args.cell:
         cell = _cell(args)
-        users = [i.username(cell.name) for i in cell_identities(len(cell.groups), face=cell.ros2 is not None)] + users
+        users = [
+            i.username(cell.name)
+            for i in cell_identities(len(cell.groups), face=cell.ros2 is not None)
+        ] + users
     if not has_ca:
         return _added(directory, add_passwords(directory, users), [], signed=False)
     from motocell.shared.bus.certificates import (  # noqa: PLC0415
