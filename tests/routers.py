@@ -5,10 +5,12 @@ client sessions of it, in the test's own process (no process started)."""
 from __future__ import annotations
 
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 import zenoh
 
+from motocell.shared.bus.access import cell_identities
 from motocell.shared.bus.router import router_settings, zenoh_config
 from motocell.shared.bus.session import open_session
 from motocell.testing.ports import listening
@@ -31,3 +33,20 @@ def sessions(endpoint: str) -> Iterator[tuple[zenoh.Session, zenoh.Session]]:
     yield opened[0], opened[1]
     for session in opened:
         session.close()
+
+
+def mutual_tls_router(directory: Path, cell: str) -> tuple[str, zenoh.Session]:
+    """A router of ``cell`` (one group) with mutual TLS from the credentials in ``directory``,
+    on a free loopback port: its endpoint, and the router, for the caller to close."""
+
+    def open_router(endpoint: str) -> zenoh.Session:
+        settings = router_settings(
+            [endpoint],
+            cell=cell,
+            identities=cell_identities(1),
+            credentials=directory,
+            mutual_tls=True,
+        )
+        return zenoh.open(zenoh_config(settings))
+
+    return listening(open_router, "tls")

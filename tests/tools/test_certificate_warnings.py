@@ -12,13 +12,10 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-import zenoh
 
-from motocell.shared.bus.access import cell_identities
-from motocell.shared.bus.router import router_settings, zenoh_config
-from motocell.testing.ports import listening
 from motocell.tools.cli import build_parser
 from tests.certificates import expire_in
+from tests.routers import mutual_tls_router
 
 CELL = "lab"
 TLS_LIBRARIES = {"cryptography", "ssl"}
@@ -41,17 +38,7 @@ def secured(tmp_path: Path) -> Iterator[tuple[str, Path]]:
     with contextlib.redirect_stdout(io.StringIO()):
         assert motocell("credentials", str(directory)) == 0  # its bundle too
 
-    def open_router(endpoint: str) -> zenoh.Session:
-        settings = router_settings(
-            [endpoint],
-            cell=CELL,
-            identities=cell_identities(1),
-            credentials=directory,
-            mutual_tls=True,
-        )
-        return zenoh.open(zenoh_config(settings))
-
-    endpoint, router = listening(open_router, "tls")
+    endpoint, router = mutual_tls_router(directory, CELL)
     try:
         yield endpoint, directory / "bundles" / f"{CELL}.observer"
     finally:
@@ -77,17 +64,7 @@ def test_nothing_is_said_of_certificates_far_from_their_end(
     directory = tmp_path / "c"
     assert motocell("credentials", str(directory), "--cell", CELL, "--tls") == 0
 
-    def open_router(endpoint: str) -> zenoh.Session:
-        settings = router_settings(
-            [endpoint],
-            cell=CELL,
-            identities=cell_identities(1),
-            credentials=directory,
-            mutual_tls=True,
-        )
-        return zenoh.open(zenoh_config(settings))
-
-    endpoint, router = listening(open_router, "tls")
+    endpoint, router = mutual_tls_router(directory, CELL)
     capsys.readouterr()
     try:
         argv = ["--zenoh-connect", endpoint, "--cell", CELL, "--credentials", str(directory)]

@@ -20,6 +20,7 @@ from motocell.shared.bus.session import open_session
 from motocell.testing.ports import listening
 from motocell.tools.cli import build_parser
 from tests.certificates import expire_in, verifies
+from tests.routers import mutual_tls_router
 
 DUAL_ARM = Path(__file__).resolve().parents[2] / "shared" / "cells" / "dual-arm-positioner.toml"
 
@@ -90,17 +91,7 @@ def test_with_tls_a_ca_a_router_certificate_for_the_hosts_and_one_per_identity(
     operator = load(directory, "lab", Identity(Role.OPERATOR))
     assert operator.certificate is not None and operator.ca is not None
 
-    def open_router(endpoint: str) -> zenoh.Session:
-        settings = router_settings(
-            [endpoint],
-            cell="lab",
-            identities=cell_identities(1),
-            credentials=directory,
-            mutual_tls=True,
-        )
-        return zenoh.open(zenoh_config(settings))
-
-    endpoint, router_session = listening(open_router, "tls")
+    endpoint, router_session = mutual_tls_router(directory, "lab")
     try:
         capsys.readouterr()
         # As the command's own usage line says, on this test's port.
@@ -216,17 +207,7 @@ def test_an_identity_added_later_joins_a_router_of_the_first_files(tmp_path: Pat
     (directory / "lab.observer.pem").unlink()
     issue_client_certificate(directory, "lab.observer")
 
-    def open_router(endpoint: str) -> zenoh.Session:
-        settings = router_settings(
-            [endpoint],
-            cell="lab",
-            identities=cell_identities(1),
-            credentials=directory,
-            mutual_tls=True,
-        )
-        return zenoh.open(zenoh_config(settings))
-
-    endpoint, router = listening(open_router, "tls")
+    endpoint, router = mutual_tls_router(directory, "lab")
     try:
         observer = load(directory, "lab", Identity(Role.OBSERVER))
         open_session("client", [endpoint], wait=False, credentials=observer).close()
