@@ -75,6 +75,10 @@ class ControllerBus(Protocol):
         """The cell's liveliness tokens present now."""
         ...
 
+    def tokens_departed(self) -> frozenset[str]:
+        """The tokens deleted since the last call, back since or not."""
+        ...
+
 
 def others_alive_keys(cell: Cell, keys: CellKeys) -> list[str]:
     """The liveliness tokens of the services the controller waits for: all the cell's but
@@ -188,6 +192,9 @@ class ZenohControllerBus:
 
     def tokens_present(self) -> frozenset[str]:
         return self._tokens.present()
+
+    def tokens_departed(self) -> frozenset[str]:
+        return self._tokens.take_departed()
 
     # -- Zenoh's callbacks: decode and queue, nothing else ---------------------------------
     def _on_command(self, verb: Verb, key: str) -> Callable[[zenoh.Query], None]:

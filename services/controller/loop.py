@@ -75,7 +75,7 @@ class ControllerLoop:
 
     def serve(self) -> None:
         """Pass after pass, until the stop flag is raised or ``Stop`` arrives."""
-        self.dispatcher.services_present(self.bus.tokens_present())
+        self.dispatcher.services_present(self.bus.tokens_present(), self.bus.tokens_departed())
         while not self._stop.is_set() and not self._stopping:
             self.one_pass()
 
@@ -116,7 +116,7 @@ class ControllerLoop:
                 ignored.note(f"controller/{source}", f"bad payload ({reason})")
                 dispatcher.bad_payload(source, reply_to, reason)
             case TokensChanged():
-                dispatcher.services_present(self.bus.tokens_present())
+                dispatcher.services_present(self.bus.tokens_present(), self.bus.tokens_departed())
             case TokensAnswered():
                 dispatcher.tokens_answered(self._clock())
             case Stop():

@@ -45,9 +45,10 @@ class Query(Protocol):
 
 
 class ControllerPresence(Protocol):
-    def present(self, now_ns: int) -> bool:
-        """Whether the controller's liveliness token is present, from everything that arrived
-        by ``now_ns`` (CLOCK_MONOTONIC)."""
+    def looks(self, now_ns: int) -> tuple[bool, ...]:
+        """The controller's liveliness token since the last look, from everything that arrived
+        by ``now_ns`` (CLOCK_MONOTONIC): False for a departure, even one it came back from,
+        then whether it is present now."""
         ...
 
 

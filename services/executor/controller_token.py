@@ -47,14 +47,19 @@ class ControllerToken:
             self._answers = None
             self._asking.finished(now_ns / 1e9)
 
-    def present(self, now_ns: int) -> bool:
-        """Whether the controller's token is present, from everything that arrived so far.
-        ``Asking`` counts in seconds, the clock in nanoseconds: converted only while the
-        controller is absent or a query is open, never on a moving tick's path."""
+    def looks(self, now_ns: int) -> tuple[bool, ...]:
+        """What the controller's token did, from everything that arrived since the last look,
+        in order: False for a DELETE, even one its PUT followed before this look (the link
+        broke and came back within a period: statuses sent meanwhile, a not-ready one among
+        them, are lost), then whether it is present now. ``Asking`` counts in seconds, the
+        clock in nanoseconds: converted only while the controller is absent or a query is
+        open, never on a moving tick's path."""
         while (event := self._events.try_recv()) is not None:
             self._presence.on_event(str(event.key_expr), put=self._bus.declared(event))
         self._take_answers(now_ns)
         alive = self._key in self._presence.present
         if not alive and self._asking.due(now_ns / 1e9):
             self._ask(now_ns / 1e9)
-        return alive
+        if self._presence.take_departed():
+            return (False, alive)
+        return (alive,)

@@ -143,7 +143,8 @@ class Clock:
         not-ready status clears the rings before any batch is queued), then what is owed and
         what came, then STOP_MOTION (cleared before this tick applies anything)."""
         core, inputs = self.core, self.inputs
-        core.on_controller(inputs.controller.present(now), now)
+        for present in inputs.controller.looks(now):
+            core.on_controller(present, now)
         for arrived, status in inputs.statuses():
             core.on_status(status, arrived)
         for group, point in inputs.points():

@@ -20,6 +20,7 @@ from typing import Any, TypeVar
 import rclpy
 from builtin_interfaces.msg import Duration
 from control_msgs.action import FollowJointTrajectory
+from geometry_msgs.msg import TransformStamped
 from industrial_msgs.msg import RobotMode, RobotStatus, TriState
 from motoros2_interfaces.msg import (
     InitTrajEnum,
@@ -48,6 +49,7 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.time import Time
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
+from tf2_msgs.msg import TFMessage
 
 from motocell.services.ros2.core.codes import READY
 from motocell.services.ros2.core.goal import (
@@ -60,6 +62,7 @@ from motocell.services.ros2.core.goal import (
     error_code,
     plan,
 )
+from motocell.services.ros2.core.tf import FrameTransform
 from motocell.services.ros2.core.topics import (
     JointValues,
     TopicValues,
@@ -132,6 +135,11 @@ class FaceNode:
         self._robot_status = self.node.create_publisher(RobotStatus, "robot_status", qos)
         self._status_message = RobotStatus()
         self._status_for: RobotStatusFields | None = None
+        # MotoROS2 makes the publisher whatever publish_tf says; tf's QoS is the default one
+        # (reliable), which RViz needs.
+        self._tf = self.node.create_publisher(TFMessage, "tf" if face.namespace_tf else "/tf", 10)
+        self._tf_message = TFMessage()
+        self._tf_for: tuple[FrameTransform, ...] = ()
         self._services = services
         self._words = _words(MotionReadyEnum)
         self._init_words = _words(InitTrajEnum)
@@ -311,6 +319,13 @@ class FaceNode:
             self._status_for = values.status
         self._status_message.header.stamp = stamp
         self._robot_status.publish(self._status_message)
+        if values.tf:
+            if values.tf is not self._tf_for:
+                self._tf_message = TFMessage(transforms=[_transform(one) for one in values.tf])
+                self._tf_for = values.tf
+            for transform in self._tf_message.transforms:
+                transform.header.stamp = stamp
+            self._tf.publish(self._tf_message)
 
     def close(self) -> None:
         rclpy.shutdown(context=self._context)  # ends the executor's wait
@@ -328,6 +343,16 @@ def _robot_status(status: RobotStatusFields) -> RobotStatus:
     for field in ("e_stopped", "drives_powered", "motion_possible", "in_motion", "in_error"):
         setattr(message, field, TriState(val=getattr(status, field)))
     message.error_codes = list(error_codes(status))
+    return message
+
+
+def _transform(frames: FrameTransform) -> TransformStamped:
+    message = TransformStamped()
+    message.header.frame_id = frames.parent
+    message.child_frame_id = frames.child
+    translation, rotation = message.transform.translation, message.transform.rotation
+    translation.x, translation.y, translation.z = frames.translation
+    rotation.x, rotation.y, rotation.z, rotation.w = frames.rotation
     return message
 
 

@@ -51,10 +51,14 @@ class Presence:
     holding it undeclared it or closed: its process exited or was killed (the socket closed),
     or it went unheard for the lease (``shared.bus.session.LEASE_MS``). An answer that lacks a
     token, comes late or never comes proves nothing, so it removes nothing.
+
+    A token that went and came back between two looks still went: its holder's samples in
+    flight meanwhile may be lost, so ``take_departed`` tells of every departure once.
     """
 
     def __init__(self) -> None:
         self._present: set[str] = set()
+        self._departed: set[str] = set()
         self._events = 0
         self._last_event: dict[str, int] = {}
         """Per token, the number of its newest event (events are numbered from 1)."""
@@ -69,7 +73,14 @@ class Presence:
             self._present.add(key)
         else:
             self._present.discard(key)
+            self._departed.add(key)
         return True
+
+    def take_departed(self) -> frozenset[str]:
+        """The tokens deleted since the last call, present again or not."""
+        departed = frozenset(self._departed)
+        self._departed.clear()
+        return departed
 
     def asking(self) -> int:
         """Call as a query is asked; give the result to ``on_answer`` with the query's tokens."""

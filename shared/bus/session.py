@@ -380,5 +380,10 @@ class Liveness:
         with self._lock:
             return self._presence.present
 
+    def take_departed(self) -> frozenset[str]:
+        """``Presence.take_departed``: the tokens deleted since the last call."""
+        with self._lock:
+            return self._presence.take_departed()
+
     def close(self) -> None:
         self._subscriber.undeclare()

@@ -4,6 +4,9 @@ then prints what it saw as one JSON document.
 
     python tests/e2e/ros2_probe.py DOMAIN NAMESPACE TOPIC... --count N --timeout S
 
+Every topic is a JointState with MotoROS2's QoS for it (sensor data), but ``tf``: a TFMessage
+with the default QoS (reliable), as RViz subscribes to it.
+
 Discovery stays on this host (``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``, set by the test).
 """
 
@@ -22,6 +25,9 @@ from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
 from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
+from tf2_msgs.msg import TFMessage
+
+TF = "tf"
 
 
 def main() -> None:
@@ -55,8 +61,28 @@ def main() -> None:
 
         return received
 
+    def keep_tf(message: Any) -> None:
+        seen[TF].append(
+            {
+                "received_ns": time.monotonic_ns(),
+                "transforms": [
+                    {
+                        "parent": one.header.frame_id,
+                        "child": one.child_frame_id,
+                        "stamp_ns": one.header.stamp.sec * 1_000_000_000 + one.header.stamp.nanosec,
+                        "translation": [getattr(one.transform.translation, a) for a in "xyz"],
+                        "rotation": [getattr(one.transform.rotation, a) for a in "xyzw"],
+                    }
+                    for one in message.transforms
+                ],
+            }
+        )
+
     for topic in args.topics:
-        node.create_subscription(JointState, topic, keep(topic), qos_profile_sensor_data)
+        if topic == TF:
+            node.create_subscription(TFMessage, topic, keep_tf, 10)
+        else:
+            node.create_subscription(JointState, topic, keep(topic), qos_profile_sensor_data)
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
     deadline = time.monotonic() + args.timeout

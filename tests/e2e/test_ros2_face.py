@@ -18,7 +18,9 @@ import numpy as np
 import pytest
 
 from motocell.shared.bus.catalog import Role
+from motocell.shared.motion.forward_kinematics import Chain
 from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.ros2.interfaces import ensure
 from motocell.testing.running_cell import RunningCell, TickLog, moving, running_cell
 
 pytestmark = pytest.mark.cell
@@ -28,7 +30,8 @@ DOMAIN = random.randrange(1, 101)
 """A domain of this run's: a ROS 2 test elsewhere on the machine is unlikely to share it, and
 the namespace below keeps the names apart if one does."""
 NAMESPACE = f"/t{os.getpid()}"
-TOPICS = ["joint_states", "ctrl_groups/r1/joint_states", "ctrl_groups/s1/joint_states"]
+JOINT_TOPICS = ["joint_states", "ctrl_groups/r1/joint_states", "ctrl_groups/s1/joint_states"]
+TOPICS = [*JOINT_TOPICS, "tf"]
 PROBE = Path(__file__).with_name("ros2_probe.py")
 PROBE_TIMEOUT_S = 60.0
 """For what takes a second on an idle machine: a bound for a hang, not a speed."""
@@ -58,7 +61,8 @@ def cell(tmp_path_factory: pytest.TempPathFactory) -> Iterator[RunningCell]:
 def probing(count: int) -> Iterator[dict[str, Any]]:
     """A probe that has seen a message of every topic; on exit, once it has ``count`` of each,
     what it saw (filled in)."""
-    env = {**os.environ, "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}
+    interfaces, _ = ensure()  # tf2_msgs is one of the interface packages motocell builds
+    env = interfaces.environment({**os.environ, "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"})
     options = ["--count", str(count), "--timeout", str(PROBE_TIMEOUT_S)]
     seen: dict[str, Any] = {}
     with subprocess.Popen(
@@ -101,12 +105,33 @@ def wheel_hash(type_name: str) -> str:
 def test_the_graph_is_motoros2s_names_types_and_qos(cell: RunningCell) -> None:
     seen = probe(count=3)
     assert ["motoman_rosface", NAMESPACE] in seen["graph"]["nodes"]
-    for topic in TOPICS:
+    for topic in JOINT_TOPICS:
         [publisher] = seen["graph"]["publishers"][topic]
         assert (publisher["node"], publisher["namespace"]) == ("motoman_rosface", NAMESPACE)
         assert publisher["type"] == "sensor_msgs/msg/JointState"
         assert publisher["hash"] == wheel_hash("sensor_msgs/msg/JointState")
         assert publisher["reliability"] == "BEST_EFFORT", "MotoROS2's sensor_data default"
+    [tf] = seen["graph"]["publishers"]["tf"]
+    assert (tf["node"], tf["type"]) == ("motoman_rosface", "tf2_msgs/msg/TFMessage")
+    assert tf["reliability"] == "RELIABLE", "MotoROS2's default for tf, which RViz needs"
+
+
+def test_tf_holds_the_robots_frames_at_the_state_ports_positions(cell: RunningCell) -> None:
+    """The arm's four frames (the positioner has none), its flange where the kinematics put
+    it for the positions the state port reports, every transform of a message stamped alike."""
+    with cell.state() as state:
+        port = state.wait_still()
+    message = probe(count=3)["seen"]["tf"][-1]
+    by_child = {one["child"]: one for one in message["transforms"]}
+    assert [(one["parent"], one["child"]) for one in message["transforms"]] == [
+        ("world", "r1/base"),
+        ("r1/base", "r1/flange"),
+        ("r1/flange", "r1/tool0"),
+        ("r1/flange", "r1/tcp_0"),
+    ]
+    flange = Chain(cell.cell.groups[0].model).flange(port.groups[0].positions[:6])
+    assert np.allclose(by_child["r1/flange"]["translation"], flange[:3, 3], atol=1e-5)
+    assert len({one["stamp_ns"] for one in message["transforms"]}) == 1
 
 
 def test_at_rest_joint_states_are_the_state_ports_positions_under_motoros2s_names(

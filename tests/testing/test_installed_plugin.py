@@ -72,7 +72,14 @@ def project(tmp_path: Path) -> Path:
 
 
 def user_env(project: Path) -> dict[str, str]:
-    return {**clean_env(), "TMPDIR": str(project / "tmp"), "READY_FILE": str(project / "ready")}
+    """Faulthandler on: a run that outlives its deadline is aborted with every thread's stack
+    in its output (``exit_of``)."""
+    return {
+        **clean_env(),
+        "TMPDIR": str(project / "tmp"),
+        "READY_FILE": str(project / "ready"),
+        "PYTHONFAULTHANDLER": "1",
+    }
 
 
 def pytest_command(venv: Path, test_file: str) -> list[str]:
@@ -146,10 +153,25 @@ def output_of(project: Path) -> str:
     return (project / "pytest.log").read_text()
 
 
+def exit_of(user: subprocess.Popen[bytes], project: Path) -> int:
+    """The user's pytest's exit status within EXIT_TIMEOUT_S. AssertionError with its output
+    otherwise, where faulthandler wrote each thread's stack when it was aborted (SIGABRT)."""
+    try:
+        return user.wait(EXIT_TIMEOUT_S)
+    except subprocess.TimeoutExpired:
+        user.send_signal(signal.SIGABRT)
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            user.wait(EXIT_TIMEOUT_S)
+        raise AssertionError(
+            f"still running {EXIT_TIMEOUT_S:.0f} s later; its stacks when aborted:\n"
+            + output_of(project)
+        ) from None
+
+
 def test_ctrl_c_stops_the_cell_of_the_test_it_interrupts(venv: Path, project: Path) -> None:
     with interrupted_run(venv, project) as user:
         os.killpg(user.pid, signal.SIGINT)  # what Ctrl-C at a terminal sends
-        assert user.wait(EXIT_TIMEOUT_S) == pytest.ExitCode.INTERRUPTED, output_of(project)
+        assert exit_of(user, project) == pytest.ExitCode.INTERRUPTED, output_of(project)
     output = output_of(project)
     assert "KeyboardInterrupt" in output, output
     assert_nothing_left(venv, project, output)
@@ -163,7 +185,7 @@ def test_a_run_killed_outright_leaves_no_cell_behind(
     nothing down, and the cell goes by itself."""
     with interrupted_run(venv, project) as user:
         user.send_signal(how)
-        assert user.wait(EXIT_TIMEOUT_S) == -how
+        assert exit_of(user, project) == -how
     with contextlib.suppress(TimeoutError):  # the assertion below says what is left
         wait_until(
             lambda: not processes_of(venv) and not any((project / "tmp").iterdir()),

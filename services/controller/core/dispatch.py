@@ -113,21 +113,39 @@ class Dispatcher(Generic[ReplyHandle]):
         self._tokens_asked = False
 
     # -- which services are there ----------------------------------------------------------
-    def services_present(self, present: Collection[str]) -> None:
-        """The liveliness tokens present now: a missing service makes the cell not ready. A
-        token is missing only on evidence that its service is gone (``Presence``): it exited,
-        was killed, or went unheard for the lease."""
+    def services_present(
+        self, present: Collection[str], departed: Collection[str] = frozenset()
+    ) -> None:
+        """The liveliness tokens present now, and those deleted since the last call: a missing
+        service makes the cell not ready. A token is missing only on evidence that its service
+        is gone (``Presence``): it exited, was killed, or went unheard for the lease. One that
+        went and is back already (a link that broke and came back at once) is an IncMove error
+        until START_TRAJ_MODE: what passed between it and the others meanwhile may be lost,
+        and a not-ready status it missed among it (the executor stops on its own side too,
+        docs/motion-safety.md)."""
+        if self._whole_once:
+            self._note_came_back(
+                [key for key in self.required_alive if key in departed and key in present]
+            )
         missing = sorted(service_of_alive(key) for key in self.required_alive if key not in present)
         if missing != self.model.missing_services:
             if not missing:
-                self._whole_once = True
                 log.info("all services present")
             elif self._whole_once:
                 log.warning("not ready: services missing: %s", ", ".join(missing))
             else:
                 # Starting up: services join one after another; nothing is wrong yet.
                 log.info("waiting for services: %s", ", ".join(missing))
+        self._whole_once = self._whole_once or not missing
         self.model.set_missing_services(missing)
+
+    def _note_came_back(self, departed: list[str]) -> None:
+        if departed:
+            log.warning(
+                "not ready: %s left and came back: IncMove error until START_TRAJ_MODE",
+                ", ".join(service_of_alive(key) for key in departed),
+            )
+            self.model.set_incmove_error()
 
     def next_token_question(self) -> float:
         """When to ask which liveliness tokens are there: at start, then as ``Asking`` says

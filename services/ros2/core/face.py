@@ -16,6 +16,7 @@ from motocell.services.ros2.core.states import (
     Publish,
     Wake,
 )
+from motocell.services.ros2.core.tf import Frames
 from motocell.services.ros2.core.topics import TopicValues, ros_order_names, topic_values
 from motocell.shared.bus.liveness import AT_REST_HEARTBEAT_S, STALE_HEARTBEATS
 from motocell.shared.bus.schemas import ControllerStatus, State
@@ -37,6 +38,7 @@ class Face:
             ros_order_names(group, names)
             for group, names in zip(cell.groups, face.joint_names or [], strict=True)
         ]
+        self._frames = Frames(cell, face) if face.publish_tf else None
         self.period_ns = face.update_periods.controller_status_monitor_period * 1_000_000
         self._schedule = Schedule(self.period_ns)
         self.pacing = Pacing.QUIET
@@ -106,7 +108,8 @@ class Face:
             # send the messages it built for them again, stamped anew.
             values = dataclasses.replace(last[1], sampled_ns=sampled_ns, status=status)
         else:
-            values = topic_values(newest, self._groups, self._joint_names, sampled_ns)
+            tf = () if self._frames is None else self._frames.transforms(newest)
+            values = topic_values(newest, self._groups, self._joint_names, sampled_ns, tf)
             values = dataclasses.replace(values, status=status)
         self._published = (newest, values)
         return values

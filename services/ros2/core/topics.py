@@ -15,6 +15,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from motocell.services.ros2.core.tf import FrameTransform
 from motocell.shared.bus.schemas import RobotStatusFields, State
 from motocell.shared.config import Group
 from motocell.shared.motion.kinematics import AxisMap
@@ -38,6 +39,8 @@ class TopicValues:
     groups: tuple[JointValues, ...]
     """One per group, in group order."""
     status: RobotStatusFields
+    tf: tuple[FrameTransform, ...] = ()
+    """The robots' transforms (``core.tf``); none with ``publish_tf`` off."""
 
 
 def error_codes(status: RobotStatusFields) -> tuple[int, ...]:
@@ -56,7 +59,11 @@ def ros_order_names(group: Group, names: Sequence[str]) -> tuple[str, ...]:
 
 
 def topic_values(
-    state: State, groups: Sequence[Group], joint_names: Sequence[Sequence[str]], sampled_ns: int
+    state: State,
+    groups: Sequence[Group],
+    joint_names: Sequence[Sequence[str]],
+    sampled_ns: int,
+    tf: tuple[FrameTransform, ...] = (),
 ) -> TopicValues:
     """``joint_names``: per group, in ROS order (``ros_order_names``)."""
     per_group = []
@@ -74,4 +81,4 @@ def topic_values(
         tuple(value for values in per_group for value in values.positions),
         tuple(value for values in per_group for value in values.velocities),
     )
-    return TopicValues(sampled_ns, everything, tuple(per_group), state.status)
+    return TopicValues(sampled_ns, everything, tuple(per_group), state.status, tf)

@@ -54,6 +54,8 @@ class FakeControllerBus:
         """What arrived with the last wait's arrival, for ``poll``."""
         self._from_threads: queue.Queue[Arrival] = queue.Queue()
         self.tokens: set[str] = set()
+        self.departed: set[str] = set()
+        """Tokens deleted since ``tokens_departed`` last looked."""
         self.log: list[str] = []
         self.waits: list[float] = []
         """Each wait's time-out, in seconds."""
@@ -117,3 +119,7 @@ class FakeControllerBus:
 
     def tokens_present(self) -> frozenset[str]:
         return frozenset(self.tokens)
+
+    def tokens_departed(self) -> frozenset[str]:
+        departed, self.departed = frozenset(self.departed), set()
+        return departed

@@ -181,7 +181,7 @@ class Looks:
 
     def present(self) -> bool:
         self.now_ns += round((ASK_AGAIN_S + QUERY_TIMEOUT_S) * 1e9)
-        return self.watch.present(self.now_ns)
+        return self.watch.looks(self.now_ns)[-1]
 
 
 def test_the_controller_token_over_a_router(endpoint: str) -> None:

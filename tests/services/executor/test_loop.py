@@ -86,11 +86,15 @@ class Controller:
     log: list[str]
     changes: list[tuple[int, bool]] = field(default_factory=lambda: [(0, True)])
     """When the controller's token is present from (True) or gone from (False)."""
+    looked_ns: int = -1
 
-    def present(self, now_ns: int) -> bool:
+    def looks(self, now_ns: int) -> tuple[bool, ...]:
         self.log.append("controller")
         assert now_ns == self.time.now_ns
-        return [present for at, present in self.changes if at <= now_ns][-1]
+        since = [present for at, present in self.changes if self.looked_ns < at <= now_ns]
+        self.looked_ns = now_ns
+        present = [present for at, present in self.changes if at <= now_ns][-1]
+        return (False, present) if False in since else (present,)
 
 
 class ScriptedInputs:
@@ -308,6 +312,19 @@ def test_the_controllers_token_counts_before_the_status_that_came_with_it() -> N
     assert run.core.ready is False
     run.until(FIRST_DEADLINE + PERIOD_NS)
     assert all(tick.motion_ready for _, tick in run.outputs.ticks)
+
+
+def test_a_controller_gone_and_back_between_two_ticks_clears_the_rings() -> None:
+    """Its DELETE and PUT in one drain (the executor's link broke and came back within a
+    period): a not-ready status sent meanwhile is lost, so nothing queued before moves."""
+    run = Run()
+    run.inputs.batch(FIRST_DEADLINE, 0, batch(FIRST_EPOCH, 0, [unit(3)] * 5))
+    run.inputs.controller.changes += [
+        (FIRST_DEADLINE + PERIOD_NS // 3, False),
+        (FIRST_DEADLINE + 2 * PERIOD_NS // 3, True),
+    ]
+    run.until(FIRST_DEADLINE + 3 * PERIOD_NS)
+    assert run.applied() == [3, 0, 0, 0]
 
 
 def test_a_ready_status_counts_before_the_batch_that_came_with_it() -> None:

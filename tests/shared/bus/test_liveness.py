@@ -30,6 +30,18 @@ def test_put_and_delete_events_say_what_is_present() -> None:
     assert not presence.on_event(A, put=False)
 
 
+def test_a_token_that_went_and_came_back_between_looks_still_departed() -> None:
+    """Its holder's link broke and came back: what it sent meanwhile may be lost."""
+    presence = Presence()
+    presence.on_event(A, put=True)
+    assert presence.take_departed() == frozenset()
+    presence.on_event(A, put=False)
+    presence.on_event(A, put=True)
+    assert presence.present == {A}
+    assert presence.take_departed() == {A}
+    assert presence.take_departed() == frozenset(), "told once"
+
+
 def test_an_answer_finds_what_the_events_missed() -> None:
     presence = Presence()
     asked = presence.asking()

@@ -323,6 +323,26 @@ def test_all_services_back_make_it_ready_again() -> None:
     assert d.model.motion_ready()
 
 
+def test_a_service_that_left_and_came_back_between_looks_is_an_incmove_error() -> None:
+    """Its DELETE and PUT came together: the cell is whole again, but a not-ready status (or
+    increments) may have been lost meanwhile; START_TRAJ_MODE ends it, as for any IncMove
+    error."""
+    d = dispatcher()
+    whole(d)
+    ready(d)
+    d.services_present(REQUIRED, departed={REQUIRED[0]})
+    assert d.model.missing_services == []
+    assert not d.model.motion_ready()
+    assert d.model.not_ready_subcode() == NotReadySubcode.INC_MOVE_ERROR
+    assert d.model.begin_start_traj_mode(0.0) == (Result.SUCCESS, 0)
+
+
+def test_a_service_that_left_and_came_back_while_starting_is_no_error() -> None:
+    d = dispatcher()
+    d.services_present(REQUIRED, departed={REQUIRED[0]})
+    assert not d.model.incmove_error
+
+
 def test_a_start_is_quiet_and_a_loss_after_it_is_a_warning(
     caplog: pytest.LogCaptureFixture,
 ) -> None:
