@@ -14,6 +14,8 @@ from collections.abc import Sequence
 
 from motocell.services.ros2.bus import StateFeed, ZenohBus
 from motocell.services.ros2.core.face import Face
+from motocell.services.ros2.core.point_queue import Modes
+from motocell.services.ros2.core.topics import names_by_group
 from motocell.services.ros2.goal_runner import GoalRunner
 from motocell.services.ros2.loop import FaceLoop
 from motocell.services.ros2.motion_api import MotionApi
@@ -50,7 +52,9 @@ def main(argv: Sequence[str] | None = None) -> None:
         decisions = Face(cell, face)
         feedback_ns = face.update_periods.action_feedback_publisher_period * 1_000_000
         runner = GoalRunner(motion, decisions.newest, cell.groups, feedback_ns)
-        node = FaceNode(cell, face, Motoros2Services(motion), runner, decisions.newest)
+        modes = Modes(names_by_group(cell, face))
+        services = Motoros2Services(motion, cell.groups, modes)
+        node = FaceNode(cell, face, services, runner, decisions.newest)
         feed = StateFeed(bus, ctx.keys, ctx.stop)
         log.info(
             "node %s%s on ROS domain %d (discovery %s)",

@@ -1,14 +1,17 @@
-"""MotoROS2's mode, error, I/O and tool services over the cell's one motion API
+"""MotoROS2's mode, point-queue, error, I/O and tool services over the cell's one motion API
 (``motion_api``): each is one Simple Message request, answered in MotoROS2's codes
-(``core.codes``; MotoROS2's I/O result codes are MotoROS1's). No ROS 2 here: the node
-(``node``) serves them, and tests call them directly."""
+(``core.codes``, ``core.point_queue``; MotoROS2's I/O result codes are MotoROS1's). No ROS 2
+here: the node (``node``) serves them, and tests call them directly."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Protocol
 
 from motocell.services.ros2.core.codes import NOT_READY_ALARM, motion_ready_code
+from motocell.services.ros2.core.point_queue import Modes, MotionMode, QueuedPoint
+from motocell.services.ros2.goal_runner import point_message
+from motocell.shared.config import Group
 from motocell.shared.protocol.constants import Command, InvalidSubcode, IoResult, Result
 from motocell.shared.protocol.messages import (
     Message,
@@ -54,8 +57,10 @@ class Requests(Protocol):
 
 
 class Motoros2Services:
-    def __init__(self, motion: Requests) -> None:
+    def __init__(self, motion: Requests, groups: Sequence[Group], modes: Modes) -> None:
         self._motion = motion
+        self._groups = groups
+        self.modes = modes
 
     def _command(self, command: Command) -> MotoMotionReply | None:
         reply = self._motion.request(motion_ctrl(command))
@@ -64,10 +69,34 @@ class Motoros2Services:
 
     def start_traj_mode(self) -> int:
         """``start_traj_mode``: MotoROS2's ``MotionReadyEnum``."""
+        return self._start(MotionMode.TRAJECTORY)
+
+    def start_point_queue_mode(self) -> int:
+        """``start_point_queue_mode``: as ``start_traj_mode``, for ``queue_traj_point``."""
+        return self._start(MotionMode.POINT_QUEUE)
+
+    def _start(self, mode: MotionMode) -> int:
+        refusal = self.modes.refusal(mode)
+        if refusal is not None:
+            return refusal
         reply = self._command(Command.START_TRAJ_MODE)
         if reply is None:
             return motion_ready_code(Result.FAILURE, 0)
-        return motion_ready_code(reply.result, reply.subcode)
+        code = motion_ready_code(reply.result, reply.subcode)
+        self.modes.started(mode, code)
+        return code
+
+    def queue_traj_point(self, queued: QueuedPoint) -> int:
+        """``queue_traj_point``: MotoROS2's ``QueueResultEnum``, or an ``InitTraj`` code for
+        a first point it refuses."""
+        numbered = self.modes.to_send(queued)
+        if isinstance(numbered, int):
+            return numbered
+        reply = self._motion.request(point_message(self._groups, numbered.sequence, numbered.point))
+        body = None if reply is None else reply.body
+        if not isinstance(body, MotoMotionReply):
+            return self.modes.answered(queued, int(Result.FAILURE), 0)
+        return self.modes.answered(queued, body.result, body.subcode)
 
     def motion_ready(self) -> int:
         """CHECK_MOTION_READY in MotoROS2's codes: whether a goal may run now."""
@@ -80,6 +109,7 @@ class Motoros2Services:
         """``stop_traj_mode`` (std_srvs/Trigger): refused while anything moves."""
         reply = self._command(Command.STOP_TRAJ_MODE)
         if reply is not None and reply.result == Result.SUCCESS:
+            self.modes.stopped()
             return True, ""
         return False, NOT_STOPPED
 

@@ -26,14 +26,17 @@ from motoros2_interfaces.msg import (
     InitTrajEnum,
     IoResultCodes,
     MotionReadyEnum,
+    QueueResultEnum,
     SelectionResultCodes,
 )
 from motoros2_interfaces.srv import (
+    QueueTrajPoint,
     ReadGroupIO,
     ReadMRegister,
     ReadSingleIO,
     ResetError,
     SelectMotionTool,
+    StartPointQueueMode,
     StartTrajMode,
     WriteGroupIO,
     WriteMRegister,
@@ -62,20 +65,23 @@ from motocell.services.ros2.core.goal import (
     error_code,
     plan,
 )
+from motocell.services.ros2.core.point_queue import MotionMode, QueuedPoint
 from motocell.services.ros2.core.tf import FrameTransform
 from motocell.services.ros2.core.topics import (
     JointValues,
     TopicValues,
     ctrl_group_topic,
     error_codes,
-    ros_order_names,
+    names_by_group,
 )
 from motocell.services.ros2.goal_runner import GoalRunner, positions_of
 from motocell.services.ros2.motoros2_services import Motoros2Services
 from motocell.shared.bus.schemas import RobotStatusFields, State
 from motocell.shared.config import Cell, Ros2Face
 
-_Answered = TypeVar("_Answered", StartTrajMode.Response, ResetError.Response)
+_Answered = TypeVar(
+    "_Answered", StartTrajMode.Response, StartPointQueueMode.Response, ResetError.Response
+)
 
 DISCOVERY_RANGE_ENV = "ROS_AUTOMATIC_DISCOVERY_RANGE"
 """Read by the RMW when rclpy starts: LOCALHOST keeps the face on this host."""
@@ -84,6 +90,9 @@ DISCOVERY_RANGE_ENV = "ROS_AUTOMATIC_DISCOVERY_RANGE"
 def discovery_range(face: Ros2Face) -> str:
     return "SUBNET" if face.open_discovery else "LOCALHOST"
 
+
+UNSPECIFIED = "Unspecified error occurred while adding the trajectory point to the queue."
+"""MotoROS2's words for a queued point refused for a reason it has no words for."""
 
 SPIN_S = 0.1
 """How long the executor waits for work before it looks at the stop flag again."""
@@ -144,6 +153,11 @@ class FaceNode:
         self._words = _words(MotionReadyEnum)
         self._init_words = _words(InitTrajEnum)
         self.node.create_service(StartTrajMode, "start_traj_mode", self._start_traj_mode)
+        self.node.create_service(
+            StartPointQueueMode, "start_point_queue_mode", self._start_point_queue_mode
+        )
+        self._queue_words = _words(QueueResultEnum)
+        self.node.create_service(QueueTrajPoint, "queue_traj_point", self._queue_traj_point)
         self.node.create_service(Trigger, "stop_traj_mode", self._stop_traj_mode)
         self.node.create_service(ResetError, "reset_error", self._reset_error)
         self._io_words = _words(IoResultCodes)
@@ -162,10 +176,7 @@ class FaceNode:
             self.node.create_service(kind, name, self._writing(write))
         self.node.create_service(SelectMotionTool, "select_motion_tool", self._select_motion_tool)
         self._groups_of_cell = cell.groups
-        self._names = [
-            list(ros_order_names(group, names))
-            for group, names in zip(cell.groups, face.joint_names or [], strict=True)
-        ]
+        self._names = [list(names) for names in names_by_group(cell, face)]
         self._runner = runner
         self._newest = newest
         self._running = threading.Lock()
@@ -198,6 +209,36 @@ class FaceNode:
         self, request: StartTrajMode.Request, response: StartTrajMode.Response
     ) -> StartTrajMode.Response:
         return self._answer(response, self._services.start_traj_mode())
+
+    def _start_point_queue_mode(
+        self, request: StartPointQueueMode.Request, response: StartPointQueueMode.Response
+    ) -> StartPointQueueMode.Response:
+        return self._answer(response, self._services.start_point_queue_mode())
+
+    def _queue_traj_point(
+        self, request: QueueTrajPoint.Request, response: QueueTrajPoint.Response
+    ) -> QueueTrajPoint.Response:
+        point = request.point
+        code = self._services.queue_traj_point(
+            QueuedPoint(
+                tuple(request.joint_names),
+                _nanoseconds(point.time_from_start),
+                tuple(point.positions),
+                tuple(point.velocities),
+            )
+        )
+        response.result_code.value = code
+        response.message = self._queue_message(code)
+        return response
+
+    def _queue_message(self, code: int) -> str:
+        """MotoROS2's words for a ``queue_traj_point`` answer: a first point's refusal is an
+        InitTraj code, worded as InitTraj words it, but for UNSPECIFIED."""
+        if code in self._queue_words:
+            return self._queue_words[code]
+        if code == InitTraj.UNSPECIFIED:
+            return UNSPECIFIED
+        return self._init_words.get(code, UNSPECIFIED)
 
     def _reset_error(
         self, request: ResetError.Request, response: ResetError.Response
@@ -261,6 +302,9 @@ class FaceNode:
         ready = self._services.motion_ready()
         if ready != READY:
             return self._refuse(handle, ready, self._words.get(ready, ""))
+        if self._services.modes.mode is not MotionMode.TRAJECTORY:
+            wrong = InitTraj.WRONG_MODE
+            return self._refuse(handle, wrong, self._init_words[wrong])
         planned = plan(goal, self._names)
         if isinstance(planned, InitTraj):
             return self._refuse(handle, planned, self._init_words.get(planned, ""))

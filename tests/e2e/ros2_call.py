@@ -11,7 +11,11 @@ each with one line of JSON:
 - ``follow SECONDS OFFSET POINTS [CANCEL_AFTER]``: a FollowJointTrajectory goal from where every
   joint is (``joint_states``) to OFFSET further, in SECONDS, POINTS points on a smooth profile,
   cancelled after CANCEL_AFTER seconds if given: [status, error_code, error_string, feedback
-  messages, final joint_states positions, the goal's positions].
+  messages, final joint_states positions, the goal's positions];
+- ``queue SECONDS OFFSET POINTS [FIRST_OFF]``: the same path sent point by point with
+  ``queue_traj_point`` (a BUSY point sent again after 5 ms), its first point FIRST_OFF away
+  from where the joints are: [each point's last code, BUSY answers, final joint_states
+  positions, the last point's positions]; it stops at the first code that is not SUCCESS.
 
     python tests/e2e/ros2_call.py DOMAIN NAMESPACE
 
@@ -33,11 +37,13 @@ from builtin_interfaces.msg import Duration
 from control_msgs.action import FollowJointTrajectory
 from industrial_msgs.msg import RobotStatus
 from motoros2_interfaces.srv import (
+    QueueTrajPoint,
     ReadGroupIO,
     ReadMRegister,
     ReadSingleIO,
     ResetError,
     SelectMotionTool,
+    StartPointQueueMode,
     StartTrajMode,
     WriteGroupIO,
     WriteMRegister,
@@ -58,6 +64,7 @@ DEADLINE_S = 30.0
 """For what takes well under a second: a bound for a hang, not a speed."""
 SERVICES: dict[str, Any] = {
     "start_traj_mode": StartTrajMode,
+    "start_point_queue_mode": StartPointQueueMode,
     "stop_traj_mode": Trigger,
     "reset_error": ResetError,
     "read_single_io": ReadSingleIO,
@@ -93,6 +100,7 @@ def main() -> None:
     joints: list[Any] = []
     node.create_subscription(JointState, "joint_states", joints.append, qos_profile_sensor_data)
     action = ActionClient(node, FollowJointTrajectory, "follow_joint_trajectory")
+    queue = node.create_client(QueueTrajPoint, "queue_traj_point")
 
     def spin_until(done: Callable[[], bool]) -> bool:
         deadline = time.monotonic() + DEADLINE_S
@@ -117,6 +125,8 @@ def main() -> None:
             answer = graph(node, words[1], namespace)
         elif words[0] == "follow":
             answer = follow(action, joints, spin_until, words[1:])
+        elif words[0] == "queue":
+            answer = queue_points(queue, joints, spin_until, words[1:])
         else:
             field, value = words[1], int(words[2])
             seen = len(statuses)
@@ -150,6 +160,64 @@ def described(response: Any) -> list[Any]:
     return answer
 
 
+def path(names: list[str], start: list[float], seconds: float, offset: float, count: int) -> Any:
+    """A trajectory from ``start`` to ``offset`` further in ``seconds``, ``count`` points."""
+    trajectory = FollowJointTrajectory.Goal().trajectory
+    trajectory.joint_names = names
+    for index in range(count):
+        share = index / (count - 1)
+        # Smooth start and stop: position 3s^2 - 2s^3 of the way, its velocity zero at both ends.
+        along = 3 * share**2 - 2 * share**3
+        speed = 6 * share * (1 - share) / seconds
+        point = JointTrajectoryPoint()
+        point.positions = [p + offset * along for p in start]
+        point.velocities = [offset * speed for _ in start]
+        at = int(seconds * share * 1e9)
+        point.time_from_start = Duration(sec=at // 1_000_000_000, nanosec=at % 1_000_000_000)
+        trajectory.points.append(point)
+    return trajectory
+
+
+def queue_points(
+    client: Any,
+    joints: list[Any],
+    spin_until: Callable[[Callable[[], bool]], bool],
+    words: list[str],
+) -> Any:
+    seconds, offset, count = float(words[0]), float(words[1]), int(words[2])
+    first_off = float(words[3]) if len(words) > 3 else 0.0
+    here = joints[-1]
+    trajectory = path(list(here.name), list(here.position), seconds, offset, count)
+    trajectory.points[0].positions = [p + first_off for p in trajectory.points[0].positions]
+    codes: list[int] = []
+    busy = 0
+    for point in trajectory.points:
+        request = QueueTrajPoint.Request(joint_names=trajectory.joint_names, point=point)
+        while True:
+            future = client.call_async(request)
+            spin_until(future.done)
+            code = future.result().result_code.value
+            if code != 4:  # BUSY
+                break
+            busy += 1
+            time.sleep(0.005)
+        codes.append(code)
+        if code != 1:  # SUCCESS
+            break
+    seen = len(joints)
+    spin_until(lambda: len(joints) > seen + 10)
+    if codes[-1] == 1:
+        resting = [0]
+
+        def arrived() -> bool:
+            still = all(abs(v) < 1e-6 for v in joints[-1].velocity)
+            resting[0] = resting[0] + 1 if still else 0
+            return resting[0] > 20
+
+        spin_until(lambda: len(joints) > seen + 10 and arrived())
+    return [codes, busy, list(joints[-1].position), list(trajectory.points[-1].positions)]
+
+
 def follow(
     action: Any,
     joints: list[Any],
@@ -160,18 +228,7 @@ def follow(
     cancel_after = float(words[3]) if len(words) > 3 else None
     here = joints[-1]
     goal = FollowJointTrajectory.Goal()
-    goal.trajectory.joint_names = list(here.name)
-    for index in range(count):
-        share = index / (count - 1)
-        # Smooth start and stop: position 3s^2 - 2s^3 of the way, its velocity zero at both ends.
-        along = 3 * share**2 - 2 * share**3
-        speed = 6 * share * (1 - share) / seconds
-        point = JointTrajectoryPoint()
-        point.positions = [p + offset * along for p in here.position]
-        point.velocities = [offset * speed for _ in here.position]
-        at = int(seconds * share * 1e9)
-        point.time_from_start = Duration(sec=at // 1_000_000_000, nanosec=at % 1_000_000_000)
-        goal.trajectory.points.append(point)
+    goal.trajectory = path(list(here.name), list(here.position), seconds, offset, count)
     feedback: list[Any] = []
     sent = action.send_goal_async(goal, feedback_callback=feedback.append)
     spin_until(sent.done)

@@ -211,6 +211,40 @@ def test_a_goal_while_the_motion_port_holds_trajectory_mode_is_aborted(
         assert motion.command(Command.STOP_TRAJ_MODE).result == Result.SUCCESS
 
 
+# -- point-queue mode ---------------------------------------------------------------------
+QUEUED, WRONG_MODE = 1, 2
+"""QueueResultEnum's SUCCESS and WRONG_MODE."""
+
+
+def test_points_queued_one_by_one_move_the_robot_to_the_last(caller: Caller) -> None:
+    assert caller.ask("call", "start_point_queue_mode") == READY
+    try:
+        codes, busy, reached, last = caller.ask("queue", "1.5", "0.2", "8")
+        assert codes == [QUEUED] * 8, busy
+        assert max(abs(r - g) for r, g in zip(reached, last, strict=True)) <= 1e-4
+        # One mode at a time: trajectory mode and its goals are refused meanwhile.
+        assert caller.ask("call", "start_traj_mode")[0] == 114
+        status, code, _, _, _, _ = caller.ask("follow", "1.0", "0.1", "4")
+        assert (status, code) == ("ABORTED", -100209), "INIT_TRAJ_WRONG_MODE"
+    finally:
+        assert caller.ask("call", "stop_traj_mode")[0] is True
+
+
+def test_a_first_queued_point_away_from_the_robot_is_a_bad_start(caller: Caller) -> None:
+    assert caller.ask("call", "start_point_queue_mode") == READY
+    try:
+        codes, _, _, _ = caller.ask("queue", "1.0", "0.1", "4", "0.05")
+        assert codes == [204], "INIT_TRAJ_INVALID_STARTING_POS"
+    finally:
+        assert caller.ask("call", "stop_traj_mode")[0] is True
+
+
+def test_a_queued_point_in_trajectory_mode_is_the_wrong_mode(caller: Caller) -> None:
+    assert caller.ask("call", "start_traj_mode") == READY
+    codes, _, _, _ = caller.ask("queue", "1.0", "0.1", "4")
+    assert codes == [WRONG_MODE]
+
+
 # -- I/O, M-registers, tools ------------------------------------------------------------------
 
 
@@ -252,9 +286,12 @@ MOTOROS2_GRAPH = {
         "joint_states": "sensor_msgs/msg/JointState",
         "ctrl_groups/r1/joint_states": "sensor_msgs/msg/JointState",
         "robot_status": "industrial_msgs/msg/RobotStatus",
+        "tf": "tf2_msgs/msg/TFMessage",
     },
     "services": {
         "start_traj_mode": "motoros2_interfaces/srv/StartTrajMode",
+        "start_point_queue_mode": "motoros2_interfaces/srv/StartPointQueueMode",
+        "queue_traj_point": "motoros2_interfaces/srv/QueueTrajPoint",
         "stop_traj_mode": "std_srvs/srv/Trigger",
         "reset_error": "motoros2_interfaces/srv/ResetError",
         "read_single_io": "motoros2_interfaces/srv/ReadSingleIO",

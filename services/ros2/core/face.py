@@ -17,7 +17,7 @@ from motocell.services.ros2.core.states import (
     Wake,
 )
 from motocell.services.ros2.core.tf import Frames
-from motocell.services.ros2.core.topics import TopicValues, ros_order_names, topic_values
+from motocell.services.ros2.core.topics import TopicValues, names_by_group, topic_values
 from motocell.shared.bus.liveness import AT_REST_HEARTBEAT_S, STALE_HEARTBEATS
 from motocell.shared.bus.schemas import ControllerStatus, State
 from motocell.shared.config import Cell, Ros2Face
@@ -34,10 +34,7 @@ class Face:
 
     def __init__(self, cell: Cell, face: Ros2Face) -> None:
         self._groups = cell.groups
-        self._joint_names = [
-            ros_order_names(group, names)
-            for group, names in zip(cell.groups, face.joint_names or [], strict=True)
-        ]
+        self._joint_names = names_by_group(cell, face)
         self._frames = Frames(cell, face) if face.publish_tf else None
         self.period_ns = face.update_periods.controller_status_monitor_period * 1_000_000
         self._schedule = Schedule(self.period_ns)

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 from motocell.services.ros2.core.tf import FrameTransform
 from motocell.shared.bus.schemas import RobotStatusFields, State
-from motocell.shared.config import Group
+from motocell.shared.config import Cell, Group, Ros2Face
 from motocell.shared.motion.kinematics import AxisMap
 
 
@@ -56,6 +56,14 @@ def ctrl_group_topic(group: Group) -> str:
 def ros_order_names(group: Group, names: Sequence[str]) -> tuple[str, ...]:
     """``names``, given in the controller's axis order, in the order the face publishes."""
     return tuple(names[int(moto)] for moto in AxisMap(group).moto_index_of_ros)
+
+
+def names_by_group(cell: Cell, face: Ros2Face) -> list[tuple[str, ...]]:
+    """Every group's joint names as the face publishes and reads them (``ros_order_names``)."""
+    return [
+        ros_order_names(group, names)
+        for group, names in zip(cell.groups, face.joint_names or [], strict=True)
+    ]
 
 
 def topic_values(

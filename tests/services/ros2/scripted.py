@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from motocell.shared.bus.schemas import GroupState, RobotStatusFields, State
-from motocell.shared.config import Cell, parse_cell
+from motocell.shared.config import Cell, Ros2Face, parse_cell
 
 MS = 1_000_000
 PERIOD_NS = 10 * MS
@@ -24,6 +24,11 @@ def face_cell(groups: int = 1) -> Cell:
             "ros2": {"ros_domain_id": 7},
         }
     )
+
+
+def face_of(cell: Cell) -> Ros2Face:
+    assert cell.ros2 is not None
+    return cell.ros2
 
 
 def sample(cell: Cell, tick_ns: int, position: float = 0.25) -> State:

@@ -6,7 +6,9 @@ from __future__ import annotations
 import pytest
 
 from motocell.services.ros2.core.codes import READY, UNSPECIFIED, motion_ready_code
-from motocell.services.ros2.motoros2_services import NOT_STOPPED, Motoros2Services
+from motocell.services.ros2.core.point_queue import Modes
+from motocell.services.ros2.core.topics import names_by_group
+from motocell.services.ros2.motoros2_services import NOT_STOPPED, Motoros2Services, Requests
 from motocell.shared.protocol.constants import (
     Command,
     InvalidSubcode,
@@ -22,6 +24,13 @@ from motocell.shared.protocol.messages import (
     ReadIOBitReply,
     WriteMRegisterReply,
 )
+from tests.services.ros2.scripted import face_cell, face_of
+
+
+def serving(motion: Requests) -> Motoros2Services:
+    """The services of a one-arm cell's face over ``motion``."""
+    cell = face_cell()
+    return Motoros2Services(motion, cell.groups, Modes(names_by_group(cell, face_of(cell))))
 
 
 class Answers:
@@ -56,19 +65,19 @@ def test_replies_are_motoros2s_motion_ready_codes(result: Result, subcode: int, 
 
 def test_start_traj_mode_is_one_command() -> None:
     answers = Answers(Result.NOT_READY, int(NotReadySubcode.HOLD))
-    assert Motoros2Services(answers).start_traj_mode() == 107
+    assert serving(answers).start_traj_mode() == 107
     assert answers.commands == [Command.START_TRAJ_MODE]
 
 
 def test_stop_traj_mode_refused_says_why() -> None:
-    assert Motoros2Services(Answers(Result.FAILURE)).stop_traj_mode() == (False, NOT_STOPPED)
-    assert Motoros2Services(Answers(Result.SUCCESS)).stop_traj_mode() == (True, "")
+    assert serving(Answers(Result.FAILURE)).stop_traj_mode() == (False, NOT_STOPPED)
+    assert serving(Answers(Result.SUCCESS)).stop_traj_mode() == (True, "")
 
 
 def test_reset_error_that_fails_is_an_alarm_and_no_answer_unspecified() -> None:
-    assert Motoros2Services(Answers(Result.FAILURE)).reset_error() == 101
-    assert Motoros2Services(Answers(None)).reset_error() == UNSPECIFIED
-    assert Motoros2Services(Answers(Result.SUCCESS)).motion_ready() == READY
+    assert serving(Answers(Result.FAILURE)).reset_error() == 101
+    assert serving(Answers(None)).reset_error() == UNSPECIFIED
+    assert serving(Answers(Result.SUCCESS)).motion_ready() == READY
 
 
 class IoAnswers:
@@ -88,15 +97,15 @@ class IoAnswers:
 
 
 def test_a_read_gives_the_code_and_the_value_and_no_answer_an_api_error() -> None:
-    assert Motoros2Services(IoAnswers(ReadIOBitReply(1, 0))).read_single_io(10010) == (0, 1)
-    assert Motoros2Services(IoAnswers(None)).read_group_io(1001) == (IoResult.READ_API_ERROR, 0)
-    assert Motoros2Services(IoAnswers(WriteMRegisterReply(0))).write_mregister(1_000_010, 3) == 0
-    assert Motoros2Services(IoAnswers(None)).write_single_io(10010, 1) == IoResult.WRITE_API_ERROR
+    assert serving(IoAnswers(ReadIOBitReply(1, 0))).read_single_io(10010) == (0, 1)
+    assert serving(IoAnswers(None)).read_group_io(1001) == (IoResult.READ_API_ERROR, 0)
+    assert serving(IoAnswers(WriteMRegisterReply(0))).write_mregister(1_000_010, 3) == 0
+    assert serving(IoAnswers(None)).write_single_io(10010, 1) == IoResult.WRITE_API_ERROR
 
 
 def test_an_address_beyond_simple_messages_int32_is_refused_without_asking() -> None:
     answers = IoAnswers(ReadIOBitReply(1, 0))
-    services = Motoros2Services(answers)
+    services = serving(answers)
     assert services.read_single_io(2**31) == (IoResult.READ_ADDRESS_INVALID, 0)
     assert services.write_group_io(2**32 - 1, 1) == IoResult.WRITE_ADDRESS_INVALID
     assert services.select_motion_tool(2**31, 0) == 401
@@ -114,4 +123,4 @@ def test_an_address_beyond_simple_messages_int32_is_refused_without_asking() -> 
 )
 def test_a_tool_selection_in_motoros2s_codes(result: Result, subcode: int, code: int) -> None:
     reply = MotoMotionReply(0, 0, 0, int(result), int(subcode))
-    assert Motoros2Services(IoAnswers(reply)).select_motion_tool(0, 1) == code
+    assert serving(IoAnswers(reply)).select_motion_tool(0, 1) == code
