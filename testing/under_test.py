@@ -25,7 +25,7 @@ import zenoh
 
 from motocell.shared import faults
 from motocell.shared.bus.catalog import Role
-from motocell.shared.config import Cell
+from motocell.shared.config import Cell, Ros2Face
 from motocell.shared.protocol.constants import Result, describe_reply
 from motocell.testing.cell_file import write_cell_file
 from motocell.testing.following import FollowingError, following_errors
@@ -91,6 +91,14 @@ class CellUnderTest:
     def byte_order(self) -> str:
         """``little``, or ``big`` (an FS100, or asked for)."""
         return self.config.byte_order
+
+    @property
+    def ros2(self) -> Ros2Face | None:
+        """The ROS 2 face's settings; None for a cell without ``[ros2]``. What a ROS 2 client
+        needs to reach it: ``ros_domain_id`` (``rclpy.init(domain_id=...)``) and
+        ``node_namespace``, under which its topics, services and action are; ``node_name`` is
+        the face's node (``motoman_<cell name>`` unless the cell file names it)."""
+        return self.config.ros2
 
     @property
     def zenoh_endpoint(self) -> str:

@@ -6,8 +6,10 @@ each with one line of JSON:
   [result code, message, success, value] where the response has them;
 - ``status FIELD VALUE``: the first ``robot_status`` whose FIELD (a TriState or RobotMode) has
   VALUE, received from now on, or ``null`` at its deadline;
-- ``graph NODE``: the topics NODE publishes, the services it serves, and the action servers, each
-  with its types;
+- ``graph NODE [NAMESPACE]``: the topics NODE (in this caller's namespace, or in NAMESPACE)
+  publishes, the services it serves, and the action servers, each with its types;
+- ``publishers TOPIC``: every publisher of TOPIC (relative to this caller's namespace) as
+  [node, type, type hash];
 - ``follow SECONDS OFFSET POINTS [CANCEL_AFTER]``: a FollowJointTrajectory goal from where every
   joint is (``joint_states``) to OFFSET further, in SECONDS, POINTS points on a smooth profile,
   cancelled after CANCEL_AFTER seconds if given: [status, error_code, error_string, feedback
@@ -122,7 +124,12 @@ def main() -> None:
             spin_until(future.done)
             answer: Any = described(future.result())
         elif words[0] == "graph":
-            answer = graph(node, words[1], namespace)
+            answer = graph(node, words[1], words[2] if len(words) > 2 else namespace)
+        elif words[0] == "publishers":
+            answer = [
+                [info.node_name, info.topic_type, str(info.topic_type_hash)]
+                for info in node.get_publishers_info_by_topic(node.resolve_topic_name(words[1]))
+            ]
         elif words[0] == "follow":
             answer = follow(action, joints, spin_until, words[1:])
         elif words[0] == "queue":

@@ -7,12 +7,10 @@ from __future__ import annotations
 import json
 import os
 import random
-import subprocess
 import sys
 import threading
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
 
 import pytest
 import zenoh
@@ -23,14 +21,12 @@ from motocell.shared.bus.session import call
 from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
 from motocell.shared.ros2.interfaces import ensure
 from motocell.testing.running_cell import RunningCell, running_cell
+from tests.e2e.ros2_caller import Caller
 
 pytestmark = pytest.mark.cell
 
 DOMAIN = random.randrange(1, 101)
 NAMESPACE = f"/s{os.getpid()}"
-CALLER = Path(__file__).with_name("ros2_call.py")
-ANSWER_TIMEOUT_S = 90.0
-"""For the caller's start and each answer (its own deadlines are 30 s): a bound for a hang."""
 READY = [1, "Ready"]
 
 
@@ -44,50 +40,10 @@ def cell(tmp_path_factory: pytest.TempPathFactory) -> Iterator[RunningCell]:
         yield running
 
 
-class Caller:
-    """``ros2_call.py``, asked one line at a time."""
-
-    def __init__(self) -> None:
-        interfaces, _ = ensure()
-        env = interfaces.environment({**os.environ, "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"})
-        self.process = subprocess.Popen(
-            [sys.executable, str(CALLER), str(DOMAIN), NAMESPACE],
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
-            text=True,
-            env=env,
-        )
-        assert self._line() == "ready"
-
-    def _line(self) -> str:
-        assert self.process.stdout is not None
-        line = self.process.stdout.readline()
-        assert line, "the caller ended"
-        return line.strip()
-
-    def ask(self, *words: str) -> Any:
-        assert self.process.stdin is not None
-        self.process.stdin.write(" ".join(words) + "\n")
-        self.process.stdin.flush()
-        return json.loads(self._line())
-
-    def close(self) -> None:
-        if self.process.stdin is not None:
-            self.process.stdin.close()
-        try:
-            self.process.wait(timeout=ANSWER_TIMEOUT_S)
-        finally:
-            if self.process.poll() is None:
-                self.process.kill()
-                self.process.wait()
-            if self.process.stdout is not None:
-                self.process.stdout.close()
-
-
 @pytest.fixture(scope="module")
 def ros(cell: RunningCell) -> Iterator[Caller]:
     """One caller for the module's tests: a ROS 2 process starts in seconds."""
-    started = Caller()
+    started = Caller(DOMAIN, NAMESPACE)
     yield started
     started.close()
 
@@ -305,6 +261,37 @@ MOTOROS2_GRAPH = {
     "actions": {"follow_joint_trajectory": "control_msgs/action/FollowJointTrajectory"},
 }
 """What this face has of MotoROS2's API, names relative to the node's namespace."""
+
+
+ACTION_TOPICS = {
+    "follow_joint_trajectory/_action/feedback": (
+        "control_msgs/action/FollowJointTrajectory_FeedbackMessage"
+    ),
+    "follow_joint_trajectory/_action/status": "action_msgs/msg/GoalStatusArray",
+}
+
+
+def rosidl_hash(type_name: str) -> str:
+    """The type hash ROS 2 Jazzy's rosidl wrote for ``type_name`` where its package was built:
+    the wheels' prefix, or the interface packages motocell builds."""
+    package, kind, _ = type_name.split("/")
+    interfaces, _ = ensure()
+    for share in (interfaces.prefix / "share", Path(sys.prefix) / "share"):
+        for described in sorted((share / package / kind).glob("*.json")):
+            for entry in json.loads(described.read_text())["type_hashes"]:
+                if entry["type_name"] == type_name:
+                    return str(entry["hash_string"])
+    raise LookupError(type_name)
+
+
+def test_every_topic_has_the_type_hash_rosidl_computes(caller: Caller) -> None:
+    """rclpy reports a hash for each publisher (ROS 2 Jazzy has none for service endpoints):
+    the face's topics and its action's, each as rosidl computes it for the definitions."""
+    topics = {**MOTOROS2_GRAPH["topics"], **ACTION_TOPICS}
+    for topic, type_name in topics.items():
+        [(node, found_type, found_hash)] = caller.ask("publishers", topic)
+        assert (node, found_type) == ("motoman_rosservices", type_name)
+        assert found_hash == rosidl_hash(type_name), topic
 
 
 def test_the_graph_has_motoros2s_names_and_types(caller: Caller) -> None:
