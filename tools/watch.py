@@ -47,6 +47,7 @@ from motocell.shared.bus.schemas import (
     ExecutorMetrics,
     GatewayMetrics,
     LateTicks,
+    MotionHolder,
     QueueState,
     State,
 )
@@ -71,6 +72,11 @@ RETRY_S = 0.5
 """How often a router not reachable yet is tried again."""
 PORTS = ("motion", "state", "io")
 """The order of the counts in a ``controller/cmd/connections`` notice."""
+HOLDER_WORDS = {
+    MotionHolder.NOBODY: "free",
+    MotionHolder.MOTION_PORT: "held by the motion port's client",
+    MotionHolder.ROS2_FACE: "held by the ROS 2 face",
+}
 SUBSCRIBED = (
     "controller/status",
     "state",
@@ -104,6 +110,8 @@ class CellView:
     queues: dict[int, Seen[QueueState]] = field(default_factory=dict)
     clients: dict[str, Seen[int]] = field(default_factory=dict)
     """Per port (``PORTS``), from the notices of the service that serves it."""
+    holder: Seen[MotionHolder] | None = None
+    """Which face holds trajectory mode, from the gateway's notices."""
     executor: Seen[ExecutorMetrics] | None = None
     late: Seen[LateTicks] | None = None
     """The executor's newest word on periods its clock missed."""
@@ -277,9 +285,13 @@ def _store(view: CellView, key: str, payload: object, now: float) -> None:
         view.queues[int(key.split("/")[3])] = Seen(payload, now)
     elif isinstance(payload, CommandRequest):
         # The gateway counts motion and I/O, the broadcaster state; -1 for a port not theirs.
+        # The gateway's also say which face holds trajectory mode.
         for port, count in zip(PORTS, payload.args, strict=False):
             if count >= 0:
                 view.clients[port] = Seen(count, now)
+        holder = payload.args[len(PORTS) : len(PORTS) + 1]
+        if holder and holder[0] in HOLDER_WORDS:
+            view.holder = Seen(MotionHolder(holder[0]), now)
     elif isinstance(payload, ExecutorMetrics):
         view.executor = Seen(payload, now)
     elif isinstance(payload, LateTicks):
@@ -402,6 +414,8 @@ def _ports(view: CellView, now: float) -> list[str]:
         f"{port} {view.clients[port].value if port in view.clients else '?'}" for port in PORTS
     )
     line = f"  clients: {counts}"
+    if view.holder is not None:
+        line += f"   trajectory mode: {HOLDER_WORDS[view.holder.value]}"
     if view.gateway is not None:
         gateway = view.gateway.value
         line += (

@@ -79,7 +79,14 @@ def main(argv: Sequence[str] | None = None) -> None:
             moving=moving,
             observe=stats.observe,
         )
-        reporter = Reporter(bus, ctx.keys, stats=stats, motion=motion_server, io=io_server)
+        reporter = Reporter(
+            bus,
+            ctx.keys,
+            stats=stats,
+            motion=motion_server,
+            io=io_server,
+            holder=cell_port.motion_holder,
+        )
         motion_server.on_change = io_server.on_change = reporter.report_connections
         adapters: tuple[Adapter, ...] = (cell_port, motion_server, io_server, reporter)
         if cell.ros2 is not None:

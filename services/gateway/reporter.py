@@ -1,22 +1,25 @@
 """What the gateway tells the rest of the cell about itself: which clients are connected, for
 the controller's OT#893 and OT#895 (incremental-motion §4.2, motoros1 §7.4; OT#894, the state
-port's, is the broadcaster's to report), and its metrics on ``gateway/metrics``, made only
-while a subscriber on the bus matches them."""
+port's, is the broadcaster's to report) and, for observers (``motocell watch``), which face
+holds trajectory mode; and its metrics on ``gateway/metrics``, made only while a subscriber on
+the bus matches them."""
 
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable
 from typing import Protocol
 
 from motocell.services.gateway.bus import Bus
 from motocell.services.gateway.metrics import GatewayStats
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.liveness import AT_REST_HEARTBEAT_S
-from motocell.shared.bus.schemas import CommandRequest, encode
+from motocell.shared.bus.schemas import CommandRequest, MotionHolder, encode
 
 REFRESH_S = AT_REST_HEARTBEAT_S
 """Connections are reported on every change and also this often: a restarted controller has
-to learn them again. The metrics go out as often, when observed."""
+to learn them again; a change of the face holding trajectory mode shows within it. The metrics
+go out as often, when observed."""
 NOT_SERVED = -1
 """In a ``connections`` notice, the state port: the broadcaster serves it and reports it."""
 STOP_JOIN_S = 5.0
@@ -28,11 +31,19 @@ class Port(Protocol):
 
 class Reporter:
     def __init__(
-        self, bus: Bus, keys: CellKeys, *, stats: GatewayStats, motion: Port, io: Port
+        self,
+        bus: Bus,
+        keys: CellKeys,
+        *,
+        stats: GatewayStats,
+        motion: Port,
+        io: Port,
+        holder: Callable[[], MotionHolder],
     ) -> None:
         self.stats = stats
         self.motion = motion
         self.io = io
+        self.holder = holder
         self._metrics = bus.publisher(keys.metrics("gateway"), latest=True)
         # Called from the port threads on every change and from this one each REFRESH_S: a
         # lost notice is made good within that, so it never blocks a port thread.
@@ -50,7 +61,7 @@ class Reporter:
 
     def report_connections(self) -> None:
         motion, io = self.connections()
-        request = CommandRequest(args=[motion, NOT_SERVED, io])
+        request = CommandRequest(args=[motion, NOT_SERVED, io, int(self.holder())])
         self._connections.put(encode(request))
 
     def report(self) -> None:

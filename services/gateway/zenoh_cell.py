@@ -48,6 +48,7 @@ from motocell.shared.bus.schemas import (
     CommandRequest,
     ControllerStatus,
     Decoder,
+    MotionHolder,
     Point,
     QueueState,
     Slot,
@@ -159,6 +160,11 @@ class ZenohCell:
             self._drain(self._clock())
             self._plan_again_if_sooner()
             yield self.state
+
+    def motion_holder(self) -> MotionHolder:
+        """Which face holds trajectory mode now (``CellState.motion_holder``)."""
+        with self.current() as state:
+            return state.motion_holder()
 
     def moving(self) -> bool:
         """Whether a newcomer on a port must be refused (``CellState.moving``), read now."""

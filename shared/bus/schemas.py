@@ -8,6 +8,7 @@ lists are ROS order, one entry per axis of the group.
 from __future__ import annotations
 
 import math
+from enum import IntEnum
 from typing import Generic, TypeVar
 
 import msgspec
@@ -226,6 +227,16 @@ class State(msgspec.Struct, array_like=True, frozen=True):
     """CLOCK_MONOTONIC of the tick the feedback comes from (for feedback-age measurements)."""
     groups: list[GroupState]
     status: RobotStatusFields
+
+
+class MotionHolder(IntEnum):
+    """Which face holds trajectory mode: the fourth value of the gateway's ``connections``
+    notice (a ``CommandRequest``'s ``args``: motion, state, I/O clients, then this)."""
+
+    NOBODY = 0
+    MOTION_PORT = 1
+    """The motion port's Simple Message client."""
+    ROS2_FACE = 2
 
 
 class CommandRequest(msgspec.Struct, array_like=True, frozen=True):

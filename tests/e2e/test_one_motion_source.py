@@ -5,6 +5,8 @@ trajectory mode holds it alone, each refusal in its own protocol's code; nobody 
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from collections.abc import Iterator
 
 import pytest
@@ -62,10 +64,28 @@ def face(cell: RunningCell) -> Iterator[zenoh.Session]:
     session.close()
 
 
+def watch_shows(cell: RunningCell, words: str) -> None:
+    """``motocell watch --count 1`` of the cell says ``words`` (the gateway tells who holds
+    trajectory mode at least once a second): asked again until it does, or the deadline."""
+    assert cell.credentials is not None
+    command = [sys.executable, "-m", "motocell.tools.cli", "watch", "--count", "1"]
+    command += ["--zenoh-connect", cell.zenoh_endpoint, "--credentials", str(cell.credentials)]
+    command += ["--cell", cell.cell.name]
+
+    def shown() -> bool:
+        watched = subprocess.run(
+            command, capture_output=True, text=True, timeout=DEADLINE_S, check=True
+        )
+        return f"trajectory mode: {words}" in watched.stdout
+
+    wait_until(shown, DEADLINE_S, f"motocell watch to say: trajectory mode {words}")
+
+
 def test_the_face_holds_trajectory_mode_and_the_motion_port_is_refused(
     cell: RunningCell, face: zenoh.Session
 ) -> None:
     assert ask(face, cell, Command.START_TRAJ_MODE) == (Result.SUCCESS, 0)
+    watch_shows(cell, "held by the ROS 2 face")
     with cell.motion() as motion:
         refused = motion.command(Command.START_TRAJ_MODE)
         assert (refused.result, refused.subcode) == (Result.NOT_READY, NotReadySubcode.UNSPECIFIED)
@@ -85,6 +105,7 @@ def test_the_motion_port_holds_trajectory_mode_and_the_face_is_refused(
 ) -> None:
     with cell.motion() as motion:
         assert motion.command(Command.START_TRAJ_MODE).result == Result.SUCCESS
+        watch_shows(cell, "held by the motion port's client")
         assert ask(face, cell, Command.START_TRAJ_MODE) == (
             Result.NOT_READY,
             OTHER_TRAJ_MODE_ACTIVE,

@@ -24,6 +24,7 @@ from motocell.shared.bus.schemas import (
     ExecutorMetrics,
     GroupState,
     LateTicks,
+    MotionHolder,
     Percentiles,
     QueueState,
     RobotStatusFields,
@@ -173,6 +174,24 @@ def test_client_counts_come_from_each_ports_own_notices() -> None:
     watcher.received(connections, encode(CommandRequest(args=[1, -1, 0])), T0)  # the gateway
     watcher.received(connections, encode(CommandRequest(args=[-1, 3, -1])), T0)  # broadcaster
     assert line_with(frame(watcher, T0), "clients:") == "  clients: motion 1  state 3  io 0"
+
+
+@pytest.mark.parametrize(
+    ("holder", "words"),
+    [
+        (MotionHolder.NOBODY, "free"),
+        (MotionHolder.MOTION_PORT, "held by the motion port's client"),
+        (MotionHolder.ROS2_FACE, "held by the ROS 2 face"),
+    ],
+)
+def test_the_gateways_notice_says_which_face_holds_trajectory_mode(
+    holder: MotionHolder, words: str
+) -> None:
+    watcher = Watcher()
+    notice = CommandRequest(args=[1, -1, 0, int(holder)])
+    watcher.received(KEYS.controller_cmd("connections"), encode(notice), T0)
+    line = line_with(frame(watcher, T0), "clients:")
+    assert line.endswith(f"   trajectory mode: {words}")
 
 
 def test_the_first_frame_waits_for_what_each_live_service_publishes() -> None:

@@ -9,9 +9,14 @@ from __future__ import annotations
 
 from motocell.services.gateway.core.credits import GroupCredit
 from motocell.services.gateway.core.freshness import Freshness
-from motocell.services.gateway.core.sources import OTHER_HOLDS_SUBCODE, MotionSources, Source
+from motocell.services.gateway.core.sources import (
+    HOLDER,
+    OTHER_HOLDS_SUBCODE,
+    MotionSources,
+    Source,
+)
 from motocell.shared.bus.liveness import Asking
-from motocell.shared.bus.schemas import ControllerStatus, QueueState, Slot
+from motocell.shared.bus.schemas import ControllerStatus, MotionHolder, QueueState, Slot
 from motocell.shared.protocol.constants import NotReadySubcode
 
 EXECUTOR = "executor/0"
@@ -152,8 +157,14 @@ class CellState:
         return status.motion_ready, status.not_ready_subcode
 
     def held_by_other(self, source: Source) -> bool:
-        operating = self.status is not None and self.status.operating
-        return self.sources.held_by_other(source, operating)
+        return self.sources.held_by_other(source, self._operating())
+
+    def motion_holder(self) -> MotionHolder:
+        holding = self.sources.holding(self._operating())
+        return MotionHolder.NOBODY if holding is None else HOLDER[holding]
+
+    def _operating(self) -> bool:
+        return self.status is not None and self.status.operating
 
     def queue_count(self, group: int) -> int | None:
         """CHECK_QUEUE_CNT (motoros1 §2.3): the increment entries in the group's ring, not

@@ -13,12 +13,17 @@ from __future__ import annotations
 from dataclasses import dataclass
 from enum import Enum
 
+from motocell.shared.bus.schemas import MotionHolder
 from motocell.shared.protocol.constants import NotReadySubcode
 
 
 class Source(Enum):
     SIMPLE_MESSAGE = "the motion port's client"
     ROS2 = "the ROS 2 face"
+
+
+HOLDER = {Source.SIMPLE_MESSAGE: MotionHolder.MOTION_PORT, Source.ROS2: MotionHolder.ROS2_FACE}
+"""How the gateway tells the cell who holds trajectory mode (its ``connections`` notice)."""
 
 
 OTHER_HOLDS_SUBCODE = {
@@ -37,12 +42,15 @@ class MotionSources:
     starting: bool = False
     """The holder's START_TRAJ_MODE is still with the controller."""
 
+    def holding(self, operating: bool) -> Source | None:
+        """The face that holds trajectory mode now (``operating``: the controller's job runs,
+        as its last status says), if one does."""
+        return self.holder if self.starting or operating else None
+
     def held_by_other(self, source: Source, operating: bool) -> bool:
-        """Whether the other face holds trajectory mode (``operating``: the controller's job
-        runs, as its last status says)."""
-        return (
-            self.holder is not None and self.holder is not source and (self.starting or operating)
-        )
+        """Whether the other face holds trajectory mode."""
+        holding = self.holding(operating)
+        return holding is not None and holding is not source
 
     def begin_start(self, source: Source) -> None:
         self.holder, self.starting = source, True

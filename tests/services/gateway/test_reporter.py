@@ -9,7 +9,7 @@ from dataclasses import dataclass
 from motocell.services.gateway.metrics import GatewayStats
 from motocell.services.gateway.reporter import NOT_SERVED, Reporter
 from motocell.shared.bus.keys import CellKeys
-from motocell.shared.bus.schemas import CommandRequest, Decoder, GatewayMetrics
+from motocell.shared.bus.schemas import CommandRequest, Decoder, GatewayMetrics, MotionHolder
 from motocell.shared.protocol.constants import MsgType
 from tests.services.fakes import FakePublication
 from tests.services.gateway.fake_bus import FakeBus
@@ -30,7 +30,15 @@ class Harness:
         self.bus = FakeBus()
         self.stats = GatewayStats(groups=1)
         self.motion, self.io = Port(), Port()
-        self.reporter = Reporter(self.bus, KEYS, stats=self.stats, motion=self.motion, io=self.io)
+        self.holder = MotionHolder.NOBODY
+        self.reporter = Reporter(
+            self.bus,
+            KEYS,
+            stats=self.stats,
+            motion=self.motion,
+            io=self.io,
+            holder=lambda: self.holder,
+        )
         self.metrics: FakePublication = self.bus.publications[KEYS.metrics("gateway")]
         self.notices: FakePublication = self.bus.publications[KEYS.controller_cmd("connections")]
 
@@ -60,11 +68,12 @@ def test_connections_are_told_every_round_and_on_every_change() -> None:
     harness.motion.clients = 1
     harness.reporter.report_connections()
     harness.io.clients = 1
+    harness.holder = MotionHolder.ROS2_FACE
     harness.reporter.report()
     assert harness.connections() == [
-        [0, NOT_SERVED, 0],
-        [1, NOT_SERVED, 0],
-        [1, NOT_SERVED, 1],
+        [0, NOT_SERVED, 0, MotionHolder.NOBODY],
+        [1, NOT_SERVED, 0, MotionHolder.NOBODY],
+        [1, NOT_SERVED, 1, MotionHolder.ROS2_FACE],
     ]
 
 
@@ -76,4 +85,4 @@ def test_the_thread_is_started_by_start_named_and_joined_by_close() -> None:
     [thread] = [t for t in threading.enumerate() if t.name == "gateway-reports"]
     harness.reporter.close()
     assert not thread.is_alive()
-    assert harness.connections()[0] == [0, NOT_SERVED, 0]
+    assert harness.connections()[0] == [0, NOT_SERVED, 0, MotionHolder.NOBODY]

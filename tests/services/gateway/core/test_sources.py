@@ -121,3 +121,15 @@ def test_a_start_under_way_already_holds_trajectory_mode() -> None:
     assert sources.held_by_other(SM, operating=True)
     assert not sources.held_by_other(SM, operating=False)
     assert not sources.held_by_other(ROS2, operating=True)
+
+
+def test_the_holder_shown_is_the_one_whose_job_runs_or_is_starting() -> None:
+    sources = MotionSources()
+    assert sources.holding(operating=True) is None
+    sources.begin_start(Source.ROS2)
+    assert sources.holding(operating=False) is Source.ROS2, "starting"
+    sources.end_start(Source.ROS2, started=True)
+    assert sources.holding(operating=True) is Source.ROS2
+    assert sources.holding(operating=False) is None, "its job ended (an E-stop)"
+    sources.release(Source.ROS2)
+    assert sources.holding(operating=True) is None
