@@ -15,6 +15,7 @@ from pathlib import Path
 import pytest
 
 from motocell.testing.processes import cmdline, wait_until
+from tests.terminal import as_a_terminal_starts
 
 RUN_TIMEOUT_S = 120.0
 """A run takes 8-40 s here; a loaded machine starts a cell's eleven processes slowly."""
@@ -146,7 +147,7 @@ def test_cutting_the_interpolators_link_is_told_and_nothing_moves_late(
 
 def test_ctrl_c_while_the_cell_starts_leaves_nothing(repo: Path, network_namespaces: None) -> None:
     script = subprocess.Popen(
-        ["bash", str(repo / "scripts" / "multihost")],
+        as_a_terminal_starts(["bash", str(repo / "scripts" / "multihost")]),
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
         text=True,

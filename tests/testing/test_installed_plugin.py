@@ -25,6 +25,7 @@ import pytest
 
 from motocell.testing.processes import cmdline, wait_until
 from tests.installed import clean_env, run
+from tests.terminal import as_a_terminal_starts
 from tests.test_packaging import BUILD_TIMEOUT_S, INSTALL_TIMEOUT_S, source_copy
 
 pytestmark = [pytest.mark.cell, pytest.mark.timeout(1800)]
@@ -126,7 +127,7 @@ def interrupted_run(venv: Path, project: Path) -> Iterator[subprocess.Popen[byte
     with its cell; killed (its whole session) on exit if it still runs."""
     with (project / "pytest.log").open("w") as out:
         user = subprocess.Popen(
-            pytest_command(venv, "test_interrupted.py"),
+            as_a_terminal_starts(pytest_command(venv, "test_interrupted.py")),
             cwd=project,
             env=user_env(project),
             stdout=out,
