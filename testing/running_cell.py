@@ -22,7 +22,7 @@ import sys
 import tempfile
 import threading
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -387,19 +387,29 @@ MAX_ROUTER_OUTPUT = 64 * 1024
 """What of a router's output is read for its first lines."""
 
 
+def _listening_on(endpoint: str) -> list[str]:
+    return ["--listen", endpoint]
+
+
 @contextmanager
-def router_on_free_port(host: str = HOST) -> Iterator[str]:
-    """A Zenoh router as ``zenoh_router`` starts it, open on ``tcp/host:PORT`` with PORT picked
-    free, once it runs: its endpoint. Started again on a new port when another process took
-    that one first (``testing.ports.on_free_port``)."""
+def router_on_free_port(
+    host: str = HOST,
+    scheme: str = "tcp",
+    configure: Callable[[str], list[str]] = _listening_on,
+) -> Iterator[str]:
+    """A Zenoh router as ``zenoh_router`` starts it, open on ``scheme/host:PORT`` with PORT
+    picked free, once it runs: its endpoint. ``configure(endpoint)``: the router's options for
+    that endpoint (by default ``--listen`` it; or write a configuration file that listens there
+    and give ``--config``). Started again on a new port when another process took that one
+    first (``testing.ports.on_free_port``)."""
     with ExitStack() as stack:
 
         def started(port: int) -> str:
-            endpoint = f"tcp/{host}:{port}"
+            endpoint = f"{scheme}/{host}:{port}"
             with ExitStack() as attempt:
                 # Its output in a file with no name: nothing of it is left, however this ends.
                 out = attempt.enter_context(tempfile.TemporaryFile())
-                process = attempt.enter_context(_router(["--listen", endpoint], out, "INFO"))
+                process = attempt.enter_context(_router(configure(endpoint), out, "INFO"))
 
                 def running() -> bool:
                     said = os.pread(out.fileno(), MAX_ROUTER_OUTPUT, 0).decode(errors="replace")

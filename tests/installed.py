@@ -10,9 +10,10 @@ import re
 import signal
 import subprocess
 import time
+from collections.abc import Callable
 from pathlib import Path
 
-from motocell.shared.ports import free_port, free_port_block
+from motocell.testing.ports import PortTakenError, on_free_port, taken
 from motocell.testing.processes import alive, cmdline, descendants, wait_until
 
 READY_TIMEOUT_S = 180.0
@@ -42,40 +43,47 @@ def clean_env() -> dict[str, str]:
     return {**env, "PIP_NO_INPUT": "1", "PIP_DISABLE_PIP_VERSION_CHECK": "1"}
 
 
-def free_cell_ports(host: str) -> tuple[int, int]:
-    """A free block of the cell's three TCP ports, and a free port for its router apart."""
-    port_base = free_port_block(3, host)
-    router_port = free_port(host)
-    while port_base <= router_port < port_base + 3:
-        router_port = free_port(host)
-    return port_base, router_port
+CommandOn = Callable[[int, int], list[str | Path]]
+"""A launcher's command on a port base (its three TCP ports) and a port for its router."""
 
 
-def cell_starts_and_stops(command: list[str | Path], venv: Path, cwd: Path) -> None:
-    """Run a launcher ``command`` until its cell's ready line, check that every process of the
-    cell runs ``venv``'s Python, stop it with SIGTERM: it exits 0 and leaves nothing behind."""
+def cell_starts_and_stops(command_on: CommandOn, venv: Path, cwd: Path, host: str) -> None:
+    """Run a launcher until its cell's ready line, on ports picked free (picked again when one
+    was taken meanwhile), check that every process of the cell runs ``venv``'s Python, stop it
+    with SIGTERM: it exits 0 and leaves nothing behind."""
     env = {**clean_env(), "MOTOCELL_RUNTIME_DIR": str(cwd / "runtime"), "MOTOCELL_LOG": "INFO"}
     log_path = cwd / "up.log"
-    with log_path.open("wb") as log:
-        launcher = subprocess.Popen(
-            [str(part) for part in command], cwd=cwd, env=env, stdout=log, stderr=log
-        )
     children: set[int] = set()
 
-    def ready() -> bool:
+    def started(port_base: int) -> subprocess.Popen[bytes]:
+        # Four ports in a row: motion, state, I/O, then the router's.
+        command = [str(part) for part in command_on(port_base, port_base + 3)]
+        with log_path.open("wb") as log:
+            launcher = subprocess.Popen(command, cwd=cwd, env=env, stdout=log, stderr=log)
+        try:
+            wait_until(lambda: ready(launcher), READY_TIMEOUT_S, "the cell's ready line")
+        except BaseException:
+            stop(launcher, children)
+            raise
+        return launcher
+
+    def ready(launcher: subprocess.Popen[bytes]) -> bool:
         children.update(descendants(launcher.pid))
+        said = log_path.read_text(errors="replace")
         if launcher.poll() is not None:
-            raise AssertionError(f"the launcher exited with {launcher.returncode}")
-        return re.search(r"cell \S+ ready: ", log_path.read_text(errors="replace")) is not None
+            ended = f"the launcher exited with {launcher.returncode}: {said}"
+            raise PortTakenError(ended) if taken(RuntimeError(said)) else AssertionError(ended)
+        return re.search(r"cell \S+ ready: ", said) is not None
 
     try:
-        wait_until(ready, READY_TIMEOUT_S, "the cell's ready line")
+        launcher = on_free_port(started, count=4, host=host)
+    except (AssertionError, TimeoutError) as error:
+        raise AssertionError(f"{error}\n{log_path.read_text(errors='replace')}") from error
+    try:
         pythons = {
             args[0] for pid in descendants(launcher.pid) | {launcher.pid} if (args := cmdline(pid))
         }
         assert pythons == {str(venv / "bin" / "python")}, pythons
-    except (AssertionError, TimeoutError) as error:
-        raise AssertionError(f"{error}\n{log_path.read_text(errors='replace')}") from error
     finally:
         stop(launcher, children)
     assert launcher.returncode == 0, log_path.read_text(errors="replace")

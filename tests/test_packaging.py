@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.installed import cell_starts_and_stops, clean_env, free_cell_ports, run
+from tests.installed import cell_starts_and_stops, clean_env, run
 
 pytestmark = [pytest.mark.cell, pytest.mark.timeout(1800)]
 
@@ -125,17 +125,10 @@ def test_the_installed_package_is_the_artifact(venv: Path) -> None:
 
 
 def test_a_cell_starts_from_the_install_and_stops_on_sigterm(venv: Path) -> None:
-    port_base, router_port = free_cell_ports(HOST)
-    command: list[str | Path] = [
-        venv / "bin" / "motocell",
-        "up",
-        "--config",
-        "four-group",
-        "--host",
-        HOST,
-        "--port-base",
-        str(port_base),
-        "--zenoh-listen",
-        f"tcp/{HOST}:{router_port}",
-    ]
-    cell_starts_and_stops(command, venv, venv)
+    def command_on(port_base: int, router_port: int) -> list[str | Path]:
+        return [
+            *(venv / "bin" / "motocell", "up", "--config", "four-group", "--host", HOST),
+            *("--port-base", str(port_base), "--zenoh-listen", f"tcp/{HOST}:{router_port}"),
+        ]
+
+    cell_starts_and_stops(command_on, venv, venv, HOST)

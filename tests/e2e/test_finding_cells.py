@@ -18,7 +18,6 @@ import pytest
 from motocell.shared import registry
 from motocell.shared.bus.access import cell_identities
 from motocell.shared.bus.credentials import write_passwords
-from motocell.shared.ports import free_port, free_port_block
 from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
 from motocell.testing.client import MotionClient
@@ -29,6 +28,7 @@ from motocell.testing.running_cell import (
     RunningCell,
     wait_for_whole_cell,
 )
+from tests.launched import launched
 
 pytestmark = pytest.mark.cell
 
@@ -43,14 +43,25 @@ def registry_of(cell: RunningCell, monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 @pytest.fixture(scope="module")
-def beside(cell: RunningCell) -> Iterator[int]:
+def beside(cell: RunningCell, tmp_path_factory: pytest.TempPathFactory) -> Iterator[int]:
     """A second cell next to the module's, as ``motocell up --name beside`` starts it (its own
     router and credentials, the same registry); its motion port."""
-    port_base = free_port_block(3)
-    listen = f"tcp/{HOST}:{free_port()}"
-    command = [*LAUNCHER, "--port-base", str(port_base), "--zenoh-listen", listen]
+
+    def command_on(port_base: int, router_port: int) -> list[str]:
+        listen = f"tcp/{HOST}:{router_port}"
+        return [
+            *LAUNCHER,
+            "--port-base",
+            str(port_base),
+            "--zenoh-listen",
+            listen,
+            "--name",
+            BESIDE,
+        ]
+
     env = {**os.environ, RUNTIME_DIR_ENV: str(cell.runtime_dir), "MOTOCELL_LOG": "WARNING"}
-    process = subprocess.Popen([*command, "--name", BESIDE], env=env)
+    log = tmp_path_factory.mktemp("beside") / "up.log"
+    process, port_base = launched(command_on, env, log)
     try:
         wait_for_whole_cell(HOST, port_base, cell.byte_order)
         yield port_base

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from tests.dockerfile import Image, assemble
-from tests.installed import cell_starts_and_stops, clean_env, free_cell_ports, run
+from tests.installed import cell_starts_and_stops, clean_env, run
 
 pytestmark = [pytest.mark.cell, pytest.mark.timeout(1800)]
 
@@ -81,10 +81,12 @@ def test_the_images_command_runs_a_cell(image: Image, venv: Path) -> None:
     in_image = [str(image.path(part)) if part.startswith("/") else part for part in arguments]
     host = in_image.index("--host") + 1
     in_image[host] = HOST  # the image listens on every interface; a test on loopback only
-    port_base, router_port = free_cell_ports(HOST)
-    command: list[str | Path] = [
-        venv / "bin" / "python",
-        *in_image,
-        *("--port-base", str(port_base), "--zenoh-listen", f"tcp/{HOST}:{router_port}"),
-    ]
-    cell_starts_and_stops(command, venv, venv)
+
+    def command_on(port_base: int, router_port: int) -> list[str | Path]:
+        return [
+            venv / "bin" / "python",
+            *in_image,
+            *("--port-base", str(port_base), "--zenoh-listen", f"tcp/{HOST}:{router_port}"),
+        ]
+
+    cell_starts_and_stops(command_on, venv, venv, HOST)

@@ -21,6 +21,7 @@ from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
 from motocell.testing.client import MotionClient, StateListener, smooth_move, stream
 from motocell.testing.processes import wait_until
 from motocell.testing.running_cell import LAUNCHER, RunningCell, wait_for_whole_cell
+from tests.launched import launched
 
 pytestmark = pytest.mark.cell
 
@@ -29,6 +30,8 @@ REFUSAL_TIMEOUT_S = 20.0
 
 
 def launcher(*extra: str) -> list[str]:
+    """A launcher's command on ports picked free, for a start refused for its name (the name is
+    checked before the ports: a port taken meanwhile cannot change the answer)."""
     port_base = free_port_block(3)
     listen = f"tcp/127.0.0.1:{free_port()}"
     return [*LAUNCHER, "--port-base", str(port_base), "--zenoh-listen", listen, *extra]
@@ -65,11 +68,21 @@ def test_a_second_cell_of_the_same_name_is_refused_naming_the_first(
     still_moves(motion, state)
 
 
-def test_another_name_for_the_same_file_runs_beside_it(cell: RunningCell) -> None:
-    command = launcher("--name", "beside")
-    process = subprocess.Popen(command, env=env_for(cell.runtime_dir))
+def test_another_name_for_the_same_file_runs_beside_it(cell: RunningCell, tmp_path: Path) -> None:
+    def command_on(port_base: int, router_port: int) -> list[str]:
+        listen = f"tcp/127.0.0.1:{router_port}"
+        return [
+            *LAUNCHER,
+            "--port-base",
+            str(port_base),
+            "--zenoh-listen",
+            listen,
+            "--name",
+            "beside",
+        ]
+
+    process, port_base = launched(command_on, env_for(cell.runtime_dir), tmp_path / "up.log")
     try:
-        port_base = int(command[command.index("--port-base") + 1])
         wait_for_whole_cell("127.0.0.1", port_base, cell.byte_order, REFUSAL_TIMEOUT_S)
         with MotionClient("127.0.0.1", port_base, cell.byte_order) as motion:
             assert motion.command(Command.START_TRAJ_MODE).result == Result.SUCCESS

@@ -50,6 +50,7 @@ from motocell.testing.running_cell import (
     RunningCell,
     SampleLog,
     TickLog,
+    router_on_free_port,
     running_cell,
     wait_for_whole_cell,
     zenoh_router,
@@ -92,15 +93,18 @@ def site(tmp_path_factory: pytest.TempPathFactory, motocell: Motocell) -> Iterat
         tls = ["--tls", "--host", "127.0.0.1"] if index == 0 else []
         made = motocell("credentials", str(directory), "--config", config, *tls)
         assert made.returncode == 0, made.stderr
-    endpoint = f"tls/127.0.0.1:{free_port()}"
     config_file = directory.parent / "router.json5"
     options = [arg for config in CELL_FILES for arg in ("--config", config)]
-    written = motocell(
-        "site", str(directory), *options, "--listen", endpoint, "--out", str(config_file)
-    )
-    assert written.returncode == 0, written.stderr
+
+    def site_router(endpoint: str) -> list[str]:
+        written = motocell(
+            "site", str(directory), *options, "--listen", endpoint, "--out", str(config_file)
+        )
+        assert written.returncode == 0, written.stderr
+        return ["--config", str(config_file)]
+
     with ExitStack() as stack:
-        stack.enter_context(zenoh_router(config_file=config_file))
+        endpoint = stack.enter_context(router_on_free_port(scheme="tls", configure=site_router))
         cells = [
             stack.enter_context(
                 running_cell(
