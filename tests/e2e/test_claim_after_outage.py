@@ -7,6 +7,7 @@ refused with one line naming the session that holds it."""
 
 from __future__ import annotations
 
+import os
 import signal
 import subprocess
 from collections.abc import Callable, Iterator
@@ -21,10 +22,10 @@ from motocell.shared.bus.credentials import load
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.session import open_session
 from motocell.shared.config import load_cell
-from motocell.shared.ports import free_port
 from motocell.shared.protocol.constants import Command, Result
 from motocell.testing.client import smooth_move, stream
-from motocell.testing.processes import connectable, wait_until
+from motocell.testing.ports import PortTakenError, on_free_port, taken
+from motocell.testing.processes import wait_until
 from motocell.testing.running_cell import (
     ROUTER,
     STOP_TIMEOUT_S,
@@ -51,17 +52,33 @@ one on a valid session id that no process has."""
 
 class Router:
     """The cell's secured router in a process of its own, to be killed and started again on
-    the same endpoint."""
+    the same endpoint (a port taken during the outage would fail the test: what it tests is a
+    router back where the services look for it)."""
 
     def __init__(self, config: Path, endpoint: str) -> None:
         self.config = config
         self.endpoint = endpoint
+        self.log = config.with_suffix(".log")
         self.process = self._start()
 
     def _start(self) -> subprocess.Popen[bytes]:
-        process = subprocess.Popen([*ROUTER, "--config", str(self.config)])
-        host, port = self.endpoint.removeprefix("tcp/").rsplit(":", 1)
-        wait_until(lambda: connectable(host, int(port)), SEEN_TIMEOUT_S, "the router to listen")
+        """Once it says it runs; PortTakenError if it exits because its port is taken."""
+        with self.log.open("wb") as out:
+            process = subprocess.Popen(
+                [*ROUTER, "--config", str(self.config)],
+                env={**os.environ, "MOTOCELL_LOG": "INFO"},  # its "running" line
+                stdout=out,
+                stderr=out,
+            )
+
+        def running() -> bool:
+            said = self.log.read_text(errors="replace")
+            if process.poll() is not None:
+                ended = f"the router exited with {process.returncode}: {said}"
+                raise PortTakenError(ended) if taken(RuntimeError(said)) else AssertionError(ended)
+            return "Zenoh router running" in said
+
+        wait_until(running, SEEN_TIMEOUT_S, "the router to run")
         return process
 
     def kill_and_restart(self) -> None:
@@ -88,14 +105,18 @@ def credentials(tmp_path_factory: pytest.TempPathFactory, motocell: Motocell) ->
 
 @pytest.fixture
 def router(tmp_path: Path, credentials: Path, motocell: Motocell) -> Iterator[Router]:
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
     config = tmp_path / "router.json5"
     cell = f"{load_cell(CELL_FILE).name}={CELL_FILE}"
-    written = motocell(
-        "site", str(credentials), "--config", cell, "--listen", endpoint, "--out", str(config)
-    )
-    assert written.returncode == 0, written.stderr
-    running = Router(config, endpoint)
+
+    def started(port: int) -> Router:
+        endpoint = f"tcp/127.0.0.1:{port}"
+        written = motocell(
+            "site", str(credentials), "--config", cell, "--listen", endpoint, "--out", str(config)
+        )
+        assert written.returncode == 0, written.stderr
+        return Router(config, endpoint)
+
+    running = on_free_port(started)
     yield running
     running.stop()
 

@@ -25,12 +25,12 @@ from motocell.shared.bus.access import Identity, cell_identities
 from motocell.shared.bus.catalog import SERVICES, Role
 from motocell.shared.config import load_cell
 from motocell.shared.motion.kinematics import AxisMap
-from motocell.shared.ports import free_port, free_port_block
+from motocell.shared.ports import free_port_block
 from motocell.shared.protocol.codec import ByteOrder
 from motocell.shared.protocol.constants import Command, Result
 from motocell.testing.client import MotionClient, StateListener, smooth_move, stream_ex
 from motocell.testing.processes import alive, wait_until
-from motocell.testing.running_cell import wait_for_whole_cell, zenoh_router
+from motocell.testing.running_cell import router_on_free_port, wait_for_whole_cell
 from motocell.tools.cli import build_parser
 from motocell.tools.deploy import (
     COMPOSE_CELL,
@@ -111,13 +111,18 @@ def compose_cell(repo: Path, tmp_path: Path) -> Iterator[int]:
     args = build_parser().parse_args([*argv, "--host", "127.0.0.1"])
     with contextlib.redirect_stdout(io.StringIO()):
         assert args.run(args) == 0
-    port_base = free_port_block(3)
-    listen = f"tls/127.0.0.1:{free_port()}"
-    config = router_config(repo, credentials, listen, tmp_path / "router.json5")
+    config = tmp_path / "router.json5"
+
+    def configured(endpoint: str) -> list[str]:
+        return ["--config", str(router_config(repo, credentials, endpoint, config))]
+
     env = {**os.environ, "MOTOCELL_LOG": "WARNING"}
     processes: list[subprocess.Popen[bytes]] = []
     # As `docker compose down`: services first, the router they depend on last.
-    with zenoh_router(config_file=config):
+    with router_on_free_port(scheme="tls", configure=configured) as listen:
+        # Bound by the gateway and the broadcaster started apart, as compose starts them: a
+        # port taken in between fails the test (the router's is picked again).
+        port_base = free_port_block(3)
         try:
             for command in compose_commands(repo, listen, port_base, credentials).values():
                 processes.append(subprocess.Popen(command, env=env))
