@@ -1,21 +1,32 @@
 """Running motocell from a venv it was installed into, apart from the development venv and the
-source tree: tests/test_packaging.py (the sdist and the wheel) and tests/e2e/test_image.py (the
-image's files) use it."""
+source tree: tests/test_packaging.py (the sdist and the wheel), tests/testing/
+test_installed_plugin.py (the wheel with pytest) and tests/e2e/test_image.py (the image's
+files) use it. A pytest plugin of the suite (tests/conftest.py): ``artifacts`` is built once
+per run for every test that installs one."""
 
 from __future__ import annotations
 
 import contextlib
 import os
 import re
+import shutil
 import signal
 import subprocess
+import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
 
+import pytest
+
 from motocell.testing.ports import PortTakenError, on_free_port, taken
 from motocell.testing.processes import alive, cmdline, descendants, wait_until
 
+ROOT = Path(__file__).resolve().parent.parent
+PROJECT_FILES = ("pyproject.toml", "README.md", "LICENSE", "MANIFEST.in")
+BUILD_TIMEOUT_S = 600.0
+INSTALL_TIMEOUT_S = 900.0
+"""Generous: on a loaded machine pip and the build's isolated environment take minutes."""
 READY_TIMEOUT_S = 180.0
 """Generous: on a loaded machine a cell from a cold venv takes long to import and start."""
 STOP_TIMEOUT_S = 30.0
@@ -35,6 +46,39 @@ def run(command: list[str | Path], timeout: float, cwd: Path, env: dict[str, str
     )
     assert done.returncode == 0, f"{command} exited with {done.returncode}:\n{done.stdout}"
     return done.stdout
+
+
+def source_copy(destination: Path) -> Path:
+    """What a build needs of the source tree: the project files, `motocell/` with its links,
+    and the folders they point to, without caches or results."""
+    destination.mkdir()
+    for name in PROJECT_FILES:
+        shutil.copy2(ROOT / name, destination / name)
+    ignore = shutil.ignore_patterns("__pycache__", "*.pyc", "results")
+    shutil.copytree(ROOT / "motocell", destination / "motocell", symlinks=True, ignore=ignore)
+    for link in (ROOT / "motocell").iterdir():
+        if link.is_symlink():
+            target = link.resolve()
+            shutil.copytree(target, destination / target.name, ignore=ignore)
+    return destination
+
+
+@pytest.fixture(scope="session")
+def artifacts(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """The sdist and the wheel built from it, by `python -m build`: once a run."""
+    work = tmp_path_factory.mktemp("build")
+    source = source_copy(work / "source")
+    dist = work / "dist"
+    run(
+        [sys.executable, "-m", "build", "--outdir", dist, source],
+        BUILD_TIMEOUT_S,
+        work,
+        clean_env(),
+    )
+    shutil.rmtree(source)
+    (sdist,) = dist.glob("motocell-*.tar.gz")
+    (wheel,) = dist.glob("motocell-*.whl")
+    return {"sdist": sdist, "wheel": wheel}
 
 
 def clean_env() -> dict[str, str]:

@@ -20,48 +20,17 @@ from pathlib import Path
 
 import pytest
 
-from tests.installed import cell_starts_and_stops, clean_env, run
+from tests.installed import (
+    INSTALL_TIMEOUT_S,
+    PROJECT_FILES,
+    cell_starts_and_stops,
+    clean_env,
+    run,
+)
 
 pytestmark = [pytest.mark.cell, pytest.mark.timeout(1800)]
 
-ROOT = Path(__file__).resolve().parent.parent
-PROJECT_FILES = ("pyproject.toml", "README.md", "LICENSE", "MANIFEST.in")
 HOST = "127.0.0.1"
-BUILD_TIMEOUT_S = 600.0
-INSTALL_TIMEOUT_S = 900.0
-"""Generous: on a loaded machine pip and the build's isolated environment take minutes."""
-
-
-def source_copy(destination: Path) -> Path:
-    """What a build needs of the source tree: the project files, `motocell/` with its links,
-    and the folders they point to, without caches or results."""
-    destination.mkdir()
-    for name in PROJECT_FILES:
-        shutil.copy2(ROOT / name, destination / name)
-    ignore = shutil.ignore_patterns("__pycache__", "*.pyc", "results")
-    shutil.copytree(ROOT / "motocell", destination / "motocell", symlinks=True, ignore=ignore)
-    for link in (ROOT / "motocell").iterdir():
-        if link.is_symlink():
-            target = link.resolve()
-            shutil.copytree(target, destination / target.name, ignore=ignore)
-    return destination
-
-
-@pytest.fixture(scope="module")
-def artifacts(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    """The sdist and the wheel built from it, by `python -m build`."""
-    work = tmp_path_factory.mktemp("build")
-    source = source_copy(work / "source")
-    dist = work / "dist"
-    run(
-        [sys.executable, "-m", "build", "--outdir", dist, source],
-        BUILD_TIMEOUT_S,
-        work,
-        clean_env(),
-    )
-    (sdist,) = dist.glob("motocell-*.tar.gz")
-    (wheel,) = dist.glob("motocell-*.whl")
-    return {"sdist": sdist, "wheel": wheel}
 
 
 def test_the_sdist_holds_the_package_and_no_tests(artifacts: dict[str, Path]) -> None:

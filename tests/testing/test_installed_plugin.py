@@ -24,9 +24,8 @@ from pathlib import Path
 import pytest
 
 from motocell.testing.processes import cmdline, wait_until
-from tests.installed import clean_env, run
+from tests.installed import INSTALL_TIMEOUT_S, clean_env, run
 from tests.terminal import as_a_terminal_starts
-from tests.test_packaging import BUILD_TIMEOUT_S, INSTALL_TIMEOUT_S, source_copy
 
 pytestmark = [pytest.mark.cell, pytest.mark.timeout(1800)]
 
@@ -41,23 +40,13 @@ GONE_TIMEOUT_S = 15.0
 
 
 @pytest.fixture(scope="module")
-def venv(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
+def venv(tmp_path_factory: pytest.TempPathFactory, artifacts: dict[str, Path]) -> Iterator[Path]:
     """A fresh venv with motocell's wheel and pytest, nothing else of ours."""
     work = tmp_path_factory.mktemp("plugin")
-    dist = work / "dist"
-    source = source_copy(work / "source")
-    run(
-        [sys.executable, "-m", "build", "--wheel", "--outdir", dist, source],
-        BUILD_TIMEOUT_S,
-        work,
-        clean_env(),
-    )
-    (wheel,) = dist.glob("motocell-*.whl")
     home = work / "venv"
     run([sys.executable, "-m", "venv", home], INSTALL_TIMEOUT_S, work, clean_env())
     pip: list[str | Path] = [home / "bin" / "python", "-m", "pip", "install", "--quiet"]
-    run([*pip, wheel, "pytest"], INSTALL_TIMEOUT_S, work, clean_env())
-    shutil.rmtree(source)
+    run([*pip, artifacts["wheel"], "pytest"], INSTALL_TIMEOUT_S, work, clean_env())
     yield home
     shutil.rmtree(work, ignore_errors=True)
 
