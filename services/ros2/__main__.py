@@ -54,8 +54,8 @@ def main(argv: Sequence[str] | None = None) -> None:
         runner = GoalRunner(motion, decisions.newest, cell.groups, feedback_ns)
         modes = Modes(names_by_group(cell, face))
         services = Motoros2Services(motion, cell.groups, modes)
-        node = FaceNode(cell, face, services, runner, decisions.newest)
         feed = StateFeed(bus, ctx.keys, ctx.stop)
+        node = FaceNode(cell, face, services, runner, decisions.newest, readers_changed=feed.ring)
         log.info(
             "node %s%s on ROS domain %d (discovery %s)",
             face.node_namespace.rstrip("/") + "/" if face.node_namespace else "/",

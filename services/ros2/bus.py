@@ -107,6 +107,10 @@ class StateFeed:
     def controller_status(self) -> ControllerStatus | None:
         return decoded_payload(self._statuses.take(), _status_decoder, self._status_key)
 
+    def ring(self) -> None:
+        """Wake ``next`` now, from any thread (a new reader of the face's topics)."""
+        self._channel.ring()
+
     def close(self) -> None:
         """Once the stop flag is set: the waker ends with it."""
         self._waker.close()

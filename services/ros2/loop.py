@@ -30,6 +30,11 @@ class Topics(Protocol):
 
     def publish(self, values: TopicValues) -> None: ...
 
+    def observed(self) -> bool:
+        """Whether any subscription matches any topic now; a new one rings the samples'
+        doorbell."""
+        ...
+
 
 class FaceLoop:
     def __init__(
@@ -47,7 +52,10 @@ class FaceLoop:
     def run(self, stop: StopSignal) -> None:
         face = self.face
         while not stop.is_set():
-            state = self.samples.next(face.wake_ns, face.samples_expected)
+            # Nobody reads: no wake-up for the period. A sample (once a second at rest) or a
+            # new reader's doorbell wakes the loop, and the face publishes from then on.
+            deadline_ns = face.wake_ns if self.topics.observed() else None
+            state = self.samples.next(deadline_ns, face.samples_expected)
             now_ns = self._monotonic_ns()
             status = self.samples.controller_status()
             if status is not None:

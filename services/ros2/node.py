@@ -45,6 +45,7 @@ from motoros2_interfaces.srv import (
 from rclpy.action.server import ActionServer, CancelResponse, GoalResponse, ServerGoalHandle
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.context import Context
+from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
@@ -117,7 +118,11 @@ class FaceNode:
         services: Motoros2Services,
         runner: GoalRunner,
         newest: Callable[[], State | None],
+        *,
+        readers_changed: Callable[[], None],
     ) -> None:
+        """``readers_changed``: called (on the executor's thread) when a subscription to a
+        topic of the face comes or goes."""
         os.environ[DISCOVERY_RANGE_ENV] = discovery_range(face)
         self._context = Context()
         rclpy.init(
@@ -133,20 +138,30 @@ class FaceNode:
             start_parameter_services=False,
         )
         qos = qos_profile_sensor_data  # MotoROS2's default for joint_states
-        self._joint_states = self.node.create_publisher(JointState, "joint_states", qos)
+        # A reader come or gone wakes the loop, which sleeps through its periods unread.
+        events = PublisherEventCallbacks(matched=lambda info: readers_changed())
+        self._joint_states = self.node.create_publisher(
+            JointState, "joint_states", qos, event_callbacks=events
+        )
         self._groups = [
-            self.node.create_publisher(JointState, ctrl_group_topic(group), qos)
+            self.node.create_publisher(
+                JointState, ctrl_group_topic(group), qos, event_callbacks=events
+            )
             for group in cell.groups
         ]
         self._joint_publishers = [self._joint_states, *self._groups]
         self._built: list[JointState] = []
         self._built_for: JointValues | None = None
-        self._robot_status = self.node.create_publisher(RobotStatus, "robot_status", qos)
+        self._robot_status = self.node.create_publisher(
+            RobotStatus, "robot_status", qos, event_callbacks=events
+        )
         self._status_message = RobotStatus()
         self._status_for: RobotStatusFields | None = None
         # MotoROS2 makes the publisher whatever publish_tf says; tf's QoS is the default one
         # (reliable), which RViz needs.
-        self._tf = self.node.create_publisher(TFMessage, "tf" if face.namespace_tf else "/tf", 10)
+        self._tf = self.node.create_publisher(
+            TFMessage, "tf" if face.namespace_tf else "/tf", 10, event_callbacks=events
+        )
         self._tf_message = TFMessage()
         self._tf_for: tuple[FrameTransform, ...] = ()
         self._services = services
@@ -347,6 +362,10 @@ class FaceNode:
         feedback.desired.positions = desired
         feedback.error.positions = [want - have for want, have in zip(desired, actual, strict=True)]
         return feedback
+
+    def observed(self) -> bool:
+        publishers = [*self._joint_publishers, self._robot_status, self._tf]
+        return any(_read(publisher) for publisher in publishers)
 
     def publish(self, values: TopicValues) -> None:
         """Every topic someone subscribes to; a message nobody reads is neither built nor sent

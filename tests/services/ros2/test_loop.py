@@ -47,18 +47,24 @@ class Script:
 
 
 class Published:
-    def __init__(self) -> None:
+    def __init__(self, observed: bool = True) -> None:
         self.values: list[TopicValues] = []
+        self.read = observed
 
     def publish(self, values: TopicValues) -> None:
         self.values.append(values)
 
+    def observed(self) -> bool:
+        return self.read
+
 
 def run(
-    steps: list[tuple[int, State | None]], statuses: list[ControllerStatus | None] | None = None
+    steps: list[tuple[int, State | None]],
+    statuses: list[ControllerStatus | None] | None = None,
+    observed: bool = True,
 ) -> tuple[Script, Published]:
     assert CELL.ros2 is not None
-    script, published = Script(steps), Published()
+    script, published = Script(steps), Published(observed)
     script.statuses = statuses or []
     FaceLoop(Face(CELL, CELL.ros2), script, published, lambda: script.now_ns).run(script)
     return script, published
@@ -87,6 +93,13 @@ def test_samples_go_out_as_they_come_and_a_rest_is_held_at_the_period() -> None:
         hold_at + PERIOD_NS + MS,
     ]
     assert published.values[-1].joint_states.positions == (0.5,) * 6
+
+
+def test_unread_the_loop_waits_for_a_sample_or_a_reader_not_for_the_period() -> None:
+    """Nobody subscribes: no deadline, so no wake-up every period; what comes (a sample, the
+    doorbell of a new reader) is handed on as ever."""
+    script, _ = run([(T0, sample(CELL, T0 - MS)), (T0 + 700 * MS, None)], observed=False)
+    assert script.deadlines == [None, None]
 
 
 def test_a_wake_up_before_the_deadline_publishes_nothing() -> None:
