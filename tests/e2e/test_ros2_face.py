@@ -20,7 +20,9 @@ import pytest
 from motocell.shared.bus.catalog import Role
 from motocell.shared.motion.forward_kinematics import Chain
 from motocell.shared.motion.kinematics import AxisMap
+from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
 from motocell.shared.ros2.interfaces import ensure
+from motocell.testing.processes import wait_until
 from motocell.testing.running_cell import RunningCell, TickLog, moving, running_cell
 
 pytestmark = pytest.mark.cell
@@ -177,3 +179,22 @@ def test_while_moving_every_joint_state_is_one_ticks_feedback(cell: RunningCell)
     assert len(set(moved)) > 10, "the probe saw the arm move"
     strays = [position for position in moved if position not in fed_back]
     assert strays == [], f"{len(strays)} of {len(moved)} joint states match no tick"
+
+
+def test_motocell_ps_lists_the_face(cell: RunningCell) -> None:
+    """Once its node is up: the cell is ready without it (the controller does not wait for it)."""
+    env = {**os.environ, RUNTIME_DIR_ENV: str(cell.runtime_dir)}
+
+    def face_listed() -> bool:
+        done = subprocess.run(
+            [sys.executable, "-m", "motocell.tools.cli", "ps"],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=PROBE_TIMEOUT_S,
+            check=True,
+        )
+        rows = [line.split()[:3] for line in done.stdout.split("\n\n")[0].splitlines()[1:]]
+        return [NAME, "ros2", "-"] in rows
+
+    wait_until(face_listed, PROBE_TIMEOUT_S, "motocell ps to list the face")
