@@ -67,7 +67,7 @@ from motocell.services.ros2.core.goal import (
     plan,
 )
 from motocell.services.ros2.core.point_queue import MotionMode, QueuedPoint
-from motocell.services.ros2.core.tf import FrameTransform
+from motocell.services.ros2.core.tf import Frames, FrameTransform
 from motocell.services.ros2.core.topics import (
     JointValues,
     TopicValues,
@@ -92,6 +92,7 @@ def discovery_range(face: Ros2Face) -> str:
     return "SUBNET" if face.open_discovery else "LOCALHOST"
 
 
+ROBOT_STATUS = "robot_status"
 UNSPECIFIED = "Unspecified error occurred while adding the trajectory point to the queue."
 """MotoROS2's words for a queued point refused for a reason it has no words for."""
 
@@ -138,32 +139,30 @@ class FaceNode:
             start_parameter_services=False,
         )
         qos = qos_profile_sensor_data  # MotoROS2's default for joint_states
-        # A reader come or gone wakes the loop, which sleeps through its periods unread.
-        events = PublisherEventCallbacks(matched=lambda info: readers_changed())
-        self._joint_states = self.node.create_publisher(
-            JointState, "joint_states", qos, event_callbacks=events
-        )
-        self._groups = [
+        self._readers = Readers(readers_changed)
+        self._joint_topics = ["joint_states", *map(ctrl_group_topic, cell.groups)]
+        self._joint_publishers = [
             self.node.create_publisher(
-                JointState, ctrl_group_topic(group), qos, event_callbacks=events
+                JointState, topic, qos, event_callbacks=self._readers.events(topic)
             )
-            for group in cell.groups
+            for topic in self._joint_topics
         ]
-        self._joint_publishers = [self._joint_states, *self._groups]
         self._built: list[JointState] = []
         self._built_for: JointValues | None = None
         self._robot_status = self.node.create_publisher(
-            RobotStatus, "robot_status", qos, event_callbacks=events
+            RobotStatus, ROBOT_STATUS, qos, event_callbacks=self._readers.events(ROBOT_STATUS)
         )
         self._status_message = RobotStatus()
         self._status_for: RobotStatusFields | None = None
         # MotoROS2 makes the publisher whatever publish_tf says; tf's QoS is the default one
         # (reliable), which RViz needs.
+        self._tf_topic = "tf" if face.namespace_tf else "/tf"
         self._tf = self.node.create_publisher(
-            TFMessage, "tf" if face.namespace_tf else "/tf", 10, event_callbacks=events
+            TFMessage, self._tf_topic, 10, event_callbacks=self._readers.events(self._tf_topic)
         )
+        self._frames = Frames(cell, face) if face.publish_tf else None
         self._tf_message = TFMessage()
-        self._tf_for: tuple[FrameTransform, ...] = ()
+        self._tf_for: State | None = None
         self._services = services
         self._words = _words(MotionReadyEnum)
         self._init_words = _words(InitTrajEnum)
@@ -364,15 +363,14 @@ class FaceNode:
         return feedback
 
     def observed(self) -> bool:
-        publishers = [*self._joint_publishers, self._robot_status, self._tf]
-        return any(_read(publisher) for publisher in publishers)
+        return self._readers.any()
 
     def publish(self, values: TopicValues) -> None:
         """Every topic someone subscribes to; a message nobody reads is neither built nor sent
-        (rclpy would serialise it for no reader: most of the face's cost)."""
-        read = [_read(publisher) for publisher in self._joint_publishers]
-        status_read = _read(self._robot_status)
-        tf_read = bool(values.tf) and _read(self._tf)
+        (rclpy would serialise it for no reader)."""
+        read = [self._readers.read(topic) for topic in self._joint_topics]
+        status_read = self._readers.read(ROBOT_STATUS)
+        tf_read = self._frames is not None and self._readers.read(self._tf_topic)
         if not (any(read) or status_read or tf_read):
             return
         # The values carry CLOCK_MONOTONIC; ROS stamps are the system clock's.
@@ -386,12 +384,18 @@ class FaceNode:
             self._status_message.header.stamp = stamp
             self._robot_status.publish(self._status_message)
         if tf_read:
-            if values.tf is not self._tf_for:
-                self._tf_message = TFMessage(transforms=[_transform(one) for one in values.tf])
-                self._tf_for = values.tf
-            for transform in self._tf_message.transforms:
-                transform.header.stamp = stamp
-            self._tf.publish(self._tf_message)
+            self._publish_tf(values.sample, stamp)
+
+    def _publish_tf(self, sample: State, stamp: Any) -> None:
+        if sample is not self._tf_for and self._frames is not None:
+            # A new sample's poses; a resting robot's sample is the one already turned into
+            # transforms, sent again.
+            transforms = self._frames.transforms(sample)
+            self._tf_message = TFMessage(transforms=[_transform(one) for one in transforms])
+            self._tf_for = sample
+        for transform in self._tf_message.transforms:
+            transform.header.stamp = stamp
+        self._tf.publish(self._tf_message)
 
     def _publish_joints(self, values: TopicValues, stamp: Any, read: list[bool]) -> None:
         if values.joint_states is not self._built_for:
@@ -413,9 +417,27 @@ class FaceNode:
         self.node.destroy_node()
 
 
-def _read(publisher: Any) -> bool:
-    """Whether any subscription matches ``publisher`` now (about a microsecond to ask)."""
-    return bool(publisher.get_subscription_count() > 0)
+class Readers:
+    """How many subscriptions match each topic of the face, kept by rclpy's
+    publication-matched events (on the executor's thread): the loop reads a number each period
+    instead of asking the RMW for each topic. A change rings ``changed``."""
+
+    def __init__(self, changed: Callable[[], None]) -> None:
+        self._counts: dict[str, int] = {}
+        self._changed = changed
+
+    def events(self, topic: str) -> PublisherEventCallbacks:
+        def matched(info: Any) -> None:
+            self._counts[topic] = int(info.current_count)
+            self._changed()
+
+        return PublisherEventCallbacks(matched=matched)
+
+    def read(self, topic: str) -> bool:
+        return self._counts.get(topic, 0) > 0
+
+    def any(self) -> bool:
+        return any(count > 0 for count in list(self._counts.values()))
 
 
 def _robot_status(status: RobotStatusFields) -> RobotStatus:

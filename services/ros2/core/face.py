@@ -16,7 +16,6 @@ from motocell.services.ros2.core.states import (
     Publish,
     Wake,
 )
-from motocell.services.ros2.core.tf import Frames
 from motocell.services.ros2.core.topics import TopicValues, names_by_group, topic_values
 from motocell.shared.bus.liveness import AT_REST_HEARTBEAT_S, STALE_HEARTBEATS
 from motocell.shared.bus.schemas import ControllerStatus, State
@@ -35,7 +34,6 @@ class Face:
     def __init__(self, cell: Cell, face: Ros2Face) -> None:
         self._groups = cell.groups
         self._joint_names = names_by_group(cell, face)
-        self._frames = Frames(cell, face) if face.publish_tf else None
         self.period_ns = face.update_periods.controller_status_monitor_period * 1_000_000
         self._schedule = Schedule(self.period_ns)
         self.pacing = Pacing.QUIET
@@ -105,8 +103,7 @@ class Face:
             # send the messages it built for them again, stamped anew.
             values = dataclasses.replace(last[1], sampled_ns=sampled_ns, status=status)
         else:
-            tf = () if self._frames is None else self._frames.transforms(newest)
-            values = topic_values(newest, self._groups, self._joint_names, sampled_ns, tf)
+            values = topic_values(newest, self._groups, self._joint_names, sampled_ns)
             values = dataclasses.replace(values, status=status)
         self._published = (newest, values)
         return values

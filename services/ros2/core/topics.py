@@ -15,7 +15,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from motocell.services.ros2.core.tf import FrameTransform
 from motocell.shared.bus.schemas import RobotStatusFields, State
 from motocell.shared.config import Cell, Group, Ros2Face
 from motocell.shared.motion.kinematics import AxisMap
@@ -39,8 +38,9 @@ class TopicValues:
     groups: tuple[JointValues, ...]
     """One per group, in group order."""
     status: RobotStatusFields
-    tf: tuple[FrameTransform, ...] = ()
-    """The robots' transforms (``core.tf``); none with ``publish_tf`` off."""
+    sample: State
+    """The sample the values come from: ``tf`` is made from its poses (``core.tf``) only where
+    someone reads it."""
 
 
 def error_codes(status: RobotStatusFields) -> tuple[int, ...]:
@@ -71,7 +71,6 @@ def topic_values(
     groups: Sequence[Group],
     joint_names: Sequence[Sequence[str]],
     sampled_ns: int,
-    tf: tuple[FrameTransform, ...] = (),
 ) -> TopicValues:
     """``joint_names``: per group, in ROS order (``ros_order_names``)."""
     per_group = []
@@ -89,4 +88,4 @@ def topic_values(
         tuple(value for values in per_group for value in values.positions),
         tuple(value for values in per_group for value in values.velocities),
     )
-    return TopicValues(sampled_ns, everything, tuple(per_group), state.status, tf)
+    return TopicValues(sampled_ns, everything, tuple(per_group), state.status, state)
