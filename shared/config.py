@@ -12,10 +12,11 @@ import difflib
 import math
 import re
 import tomllib
+import types
 import typing
 from collections.abc import Sequence
 from dataclasses import dataclass
-from enum import StrEnum
+from enum import Enum, StrEnum
 from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
@@ -361,22 +362,45 @@ def _problem(
     problem, _, at = str(exc).partition(" - at `")
     path = at.rstrip("`").removeprefix("$").removeprefix(".")
     problem += _did_you_mean(problem, path, within or CellFile)
+    problem += _choices(problem, path, within or CellFile)
     if prefix and path:
         path = prefix + ("" if path.startswith("[") else ".") + path
     field = path or prefix
     return f"{field}: {problem}" if field else problem
 
 
-def _did_you_mean(problem: str, path: str, within: type[msgspec.Struct]) -> str:
-    unknown = re.fullmatch(r"Object contains unknown field `(.+)`", problem)
-    if unknown is None:
-        return ""
+def _field_type(path: str, within: type[msgspec.Struct]) -> Any:
+    """The declared type at ``path`` ("groups[0].servo") of ``within``."""
     table: Any = within
     for step in re.findall(r"\w+", path):  # "groups[0]": the field, then a list item
         if step.isdigit():
             (table,) = typing.get_args(table)
         else:
             table = {field.name: field.type for field in msgspec.structs.fields(table)}[step]
+    return table
+
+
+def _choices(problem: str, path: str, within: type[msgspec.Struct]) -> str:
+    """For a value its field does not take, of a field with a fixed set (an enum, a Literal,
+    either or None): the set."""
+    if not problem.startswith("Invalid enum value"):
+        return ""
+    kind = _field_type(path, within)
+    values: list[object] = []
+    either = typing.get_origin(kind) in (typing.Union, types.UnionType)
+    for member in typing.get_args(kind) if either else (kind,):
+        if isinstance(member, type) and issubclass(member, Enum):
+            values += [choice.value for choice in member]
+        elif typing.get_origin(member) is Literal:
+            values += typing.get_args(member)
+    return "; one of: " + ", ".join(map(str, values)) if values else ""
+
+
+def _did_you_mean(problem: str, path: str, within: type[msgspec.Struct]) -> str:
+    unknown = re.fullmatch(r"Object contains unknown field `(.+)`", problem)
+    if unknown is None:
+        return ""
+    table = _field_type(path, within)
     # A union (``servo``) offers the fields of each of its tables but the one that failed.
     tables = [t for t in typing.get_args(table) or (table,) if isinstance(t, type)]
     names = [

@@ -614,6 +614,23 @@ def test_a_misspelt_field_gets_the_nearest_one_of_its_table(
     assert suggestion in refused(tmp_path, text)
 
 
+@pytest.mark.parametrize(
+    ("text", "choices"),
+    [
+        (
+            'controller = "YRC9000"\n',
+            "controller: Invalid enum value 'YRC9000'; one of: DX100, FS100",
+        ),
+        ('byte_order = "middle"\n', "byte_order: Invalid enum value 'middle'; one of: little, big"),
+        ('[[groups]]\nmodel = "arm6"\nservo = { kind = "nope" }\n', "groups[0].servo.kind"),
+    ],
+)
+def test_a_value_a_field_does_not_take_lists_the_ones_it_does(
+    tmp_path: Path, text: str, choices: str
+) -> None:
+    assert choices in refused(tmp_path, text)
+
+
 def test_a_field_like_no_other_gets_no_suggestion(tmp_path: Path) -> None:
     assert "did you mean" not in refused(tmp_path, "colour = 1\n")
 

@@ -104,7 +104,7 @@ def test_a_passing_and_a_failing_test_leave_no_cell_behind(venv: Path, project: 
     )
     output = done.stdout + done.stderr
     assert done.returncode == 1, output
-    assert re.search(r"\b1 failed, 2 passed\b", output), output
+    assert re.search(r"\b1 failed, 3 passed\b", output), output
     assert "FAILED test_client.py::test_trajectory_mode_under_an_estop_fails_on_purpose" in output
     assert "fails on purpose: the E-stop is on" in output
     assert_nothing_left(venv, project, output)

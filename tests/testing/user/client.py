@@ -1,12 +1,12 @@
 """A user's own tests of a Simple Message client against motocell, run from outside the
 repository against an installed motocell (tests/testing/test_installed_plugin.py copies it
 there as test_client.py): one passes, one fails on purpose, one starts two cells with the
-factory."""
+factory, one asks for a cell it cannot have."""
 
 import pytest
 
 from motocell.shared.protocol.constants import Command, Result
-from motocell.testing import CellUnderTest, StartCell
+from motocell.testing import CellUnderTest, ConfigError, StartCell
 from motocell.testing.client import MotionClient, smooth_move, stream
 
 
@@ -40,3 +40,10 @@ def test_a_big_endian_four_group_cell_beside_a_default_one(motocell_cells: Start
     assert four.name != one.name
     assert four.motion_port != one.motion_port
     assert len(four.positions(group=3)) == four.config.groups[3].axes
+
+
+def test_a_setting_a_cell_cannot_take_is_refused_before_it_starts(
+    motocell_cells: StartCell,
+) -> None:
+    with pytest.raises(ConfigError, match=r"byte_order: .*one of: little, big"):
+        motocell_cells(byte_order="middle")
