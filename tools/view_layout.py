@@ -80,9 +80,14 @@ def _add(panels: dict[str, dict[str, Any]], kind: str, name: str, config: Any) -
     return panel_id
 
 
+TITLE_KEYS = ("foxglovePanelTitle", "lichtblickPanelTitle")
+"""Where a panel's title is read: Foxglove's key, and Lichtblick's (its fork renamed it; seen
+in Lichtblick 1.28.1, whose plots were all titled "Plot" with Foxglove's key alone)."""
+
+
 def _titled(config: Any, title: str) -> dict[str, Any]:
     named: dict[str, Any] = json.loads(config.to_json())
-    return {"foxglovePanelTitle": title, **named}
+    return {**dict.fromkeys(TITLE_KEYS, title), **named}
 
 
 def _three_d(cells: list[Cell]) -> fl.ThreeDeeConfig:

@@ -93,6 +93,14 @@ def test_every_path_names_a_field_the_view_publishes() -> None:
                 assert int(index) < groups[parts[1]].axes, path
 
 
+def test_every_titled_panel_is_titled_for_foxglove_and_for_lichtblick() -> None:
+    panels = json.loads(layout_text([load_cell()]))["configById"]
+    titled = [config for config in panels.values() if "foxglovePanelTitle" in config]
+    assert titled
+    for config in titled:
+        assert config["lichtblickPanelTitle"] == config["foxglovePanelTitle"]
+
+
 def test_the_file_is_json_foxglove_can_import() -> None:
     text = SHIPPED.read_text()
     assert json.loads(text)["layout"]["first"] == "3D!scene"
