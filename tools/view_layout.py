@@ -107,6 +107,10 @@ def _three_d(cells: list[Cell]) -> fl.ThreeDeeConfig:
         order=1,
     )
     return fl.ThreeDeeConfig(
+        # The robots first: with a label per frame, about two dozen names in large type
+        # covered the arms (seen in Lichtblick 1.28.1). The frames stay; their names are one
+        # click away in the panel's settings.
+        scene=fl.BaseRendererSceneSettings(transforms=fl.BaseRendererTransforms(show_label=False)),
         follow_tf=root,
         follow_mode="follow-pose",
         camera_state=fl.ThreeDeeCameraState(

@@ -101,6 +101,12 @@ def test_every_titled_panel_is_titled_for_foxglove_and_for_lichtblick() -> None:
         assert config["lichtblickPanelTitle"] == config["foxglovePanelTitle"]
 
 
+def test_the_3d_panel_shows_the_frames_without_their_names() -> None:
+    panels = json.loads(layout_text([load_cell()]))["configById"]
+    [three_d] = [config for panel, config in panels.items() if panel.startswith("3D")]
+    assert three_d["scene"]["transforms"]["showLabel"] is False
+
+
 def test_the_file_is_json_foxglove_can_import() -> None:
     text = SHIPPED.read_text()
     assert json.loads(text)["layout"]["first"] == "3D!scene"
