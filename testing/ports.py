@@ -56,6 +56,14 @@ def listening(open_: Callable[[str], T], scheme: str = "tcp", host: str = HOST) 
     return on_free_port(bind, host=host)
 
 
+def ended(what: str, returncode: int, said: str) -> Exception:
+    """The error for ``what`` that exited with ``returncode`` after saying ``said``: a
+    ``PortTakenError`` (``on_free_port`` picks again) when its words say a port was taken,
+    else an AssertionError with its output."""
+    message = f"{what} exited with {returncode}: {said}"
+    return PortTakenError(message) if taken(RuntimeError(said)) else AssertionError(message)
+
+
 def taken(error: BaseException) -> bool:
     """Whether ``error`` says that an address was in use."""
     if isinstance(error, PortTakenError):

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-from motocell.testing.ports import PortTakenError, on_free_port, taken
+from motocell.testing.ports import ended, on_free_port
 from motocell.testing.processes import alive, cmdline, descendants, wait_until
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -115,8 +115,7 @@ def cell_starts_and_stops(command_on: CommandOn, venv: Path, cwd: Path, host: st
         children.update(descendants(launcher.pid))
         said = log_path.read_text(errors="replace")
         if launcher.poll() is not None:
-            ended = f"the launcher exited with {launcher.returncode}: {said}"
-            raise PortTakenError(ended) if taken(RuntimeError(said)) else AssertionError(ended)
+            raise ended("the launcher", launcher.returncode, said)
         return re.search(r"cell \S+ ready: ", said) is not None
 
     try:

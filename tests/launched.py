@@ -8,12 +8,22 @@ import subprocess
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
-from motocell.testing.ports import HOST, PortTakenError, on_free_port, taken
+from motocell.testing.ports import HOST, ended, on_free_port
 from motocell.testing.processes import connectable, wait_until
-from motocell.testing.running_cell import START_TIMEOUT_S
+from motocell.testing.running_cell import LAUNCHER, START_TIMEOUT_S
 
 CommandOn = Callable[[int, int], list[str]]
 """A launcher's command on a port base (its three TCP ports) and its router's port."""
+
+
+def named(name: str) -> CommandOn:
+    """``motocell up --name NAME`` (the default cell) on the ports given, its own router."""
+
+    def command_on(port_base: int, router_port: int) -> list[str]:
+        listen = f"tcp/{HOST}:{router_port}"
+        return [*LAUNCHER, "--port-base", str(port_base), "--zenoh-listen", listen, "--name", name]
+
+    return command_on
 
 
 def launched(
@@ -36,8 +46,7 @@ def launched(
         )
         if process.poll() is not None:
             said = log.read_text(errors="replace")
-            ended = f"the launcher exited with {process.returncode}: {said}"
-            raise PortTakenError(ended) if taken(RuntimeError(said)) else AssertionError(ended)
+            raise ended("the launcher", process.returncode, said)
         return process, port_base
 
     return on_free_port(started, count=4)

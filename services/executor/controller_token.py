@@ -12,6 +12,8 @@ from __future__ import annotations
 from motocell.services.executor.bus import Bus, TokenAnswers
 from motocell.shared.bus.liveness import QUERY_TIMEOUT_S, Asking, Presence
 
+_PRESENT, _ABSENT = (True,), (False,)
+"""A tick's usual answers, made once."""
 CHANNEL_DEPTH = 64
 """Events and answers between two drains: a handful at most."""
 
@@ -62,4 +64,4 @@ class ControllerToken:
             self._ask(now_ns / 1e9)
         if self._presence.take_departed():
             return (False, alive)
-        return (alive,)
+        return _PRESENT if alive else _ABSENT

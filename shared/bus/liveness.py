@@ -42,6 +42,9 @@ def silence_bound_s(heartbeat: int, heartbeats: int) -> float:
     return heartbeats * heartbeat / 1000
 
 
+NONE_DEPARTED: frozenset[str] = frozenset()
+
+
 class Presence:
     """Which liveliness tokens are present, on evidence only. Pure.
 
@@ -77,7 +80,10 @@ class Presence:
         return True
 
     def take_departed(self) -> frozenset[str]:
-        """The tokens deleted since the last call, present again or not."""
+        """The tokens deleted since the last call, present again or not (nothing allocated
+        when none was: the executor asks every tick)."""
+        if not self._departed:
+            return NONE_DEPARTED
         departed = frozenset(self._departed)
         self._departed.clear()
         return departed

@@ -24,7 +24,7 @@ from motocell.shared.bus.session import open_session
 from motocell.shared.config import load_cell
 from motocell.shared.protocol.constants import Command, Result
 from motocell.testing.client import smooth_move, stream
-from motocell.testing.ports import PortTakenError, on_free_port, taken
+from motocell.testing.ports import ended, on_free_port
 from motocell.testing.processes import wait_until
 from motocell.testing.running_cell import (
     ROUTER,
@@ -74,8 +74,7 @@ class Router:
         def running() -> bool:
             said = self.log.read_text(errors="replace")
             if process.poll() is not None:
-                ended = f"the router exited with {process.returncode}: {said}"
-                raise PortTakenError(ended) if taken(RuntimeError(said)) else AssertionError(ended)
+                raise ended("the router", process.returncode, said)
             return "Zenoh router running" in said
 
         wait_until(running, SEEN_TIMEOUT_S, "the router to run")

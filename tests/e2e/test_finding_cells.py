@@ -23,12 +23,11 @@ from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
 from motocell.testing.client import MotionClient
 from motocell.testing.running_cell import (
     HOST,
-    LAUNCHER,
     STOP_TIMEOUT_S,
     RunningCell,
     wait_for_whole_cell,
 )
-from tests.launched import launched
+from tests.launched import launched, named
 
 pytestmark = pytest.mark.cell
 
@@ -47,21 +46,9 @@ def beside(cell: RunningCell, tmp_path_factory: pytest.TempPathFactory) -> Itera
     """A second cell next to the module's, as ``motocell up --name beside`` starts it (its own
     router and credentials, the same registry); its motion port."""
 
-    def command_on(port_base: int, router_port: int) -> list[str]:
-        listen = f"tcp/{HOST}:{router_port}"
-        return [
-            *LAUNCHER,
-            "--port-base",
-            str(port_base),
-            "--zenoh-listen",
-            listen,
-            "--name",
-            BESIDE,
-        ]
-
     env = {**os.environ, RUNTIME_DIR_ENV: str(cell.runtime_dir), "MOTOCELL_LOG": "WARNING"}
     log = tmp_path_factory.mktemp("beside") / "up.log"
-    process, port_base = launched(command_on, env, log)
+    process, port_base = launched(named(BESIDE), env, log)
     try:
         wait_for_whole_cell(HOST, port_base, cell.byte_order)
         yield port_base

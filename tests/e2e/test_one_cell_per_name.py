@@ -21,7 +21,7 @@ from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
 from motocell.testing.client import MotionClient, StateListener, smooth_move, stream
 from motocell.testing.processes import wait_until
 from motocell.testing.running_cell import LAUNCHER, RunningCell, wait_for_whole_cell
-from tests.launched import launched
+from tests.launched import launched, named
 
 pytestmark = pytest.mark.cell
 
@@ -69,19 +69,7 @@ def test_a_second_cell_of_the_same_name_is_refused_naming_the_first(
 
 
 def test_another_name_for_the_same_file_runs_beside_it(cell: RunningCell, tmp_path: Path) -> None:
-    def command_on(port_base: int, router_port: int) -> list[str]:
-        listen = f"tcp/127.0.0.1:{router_port}"
-        return [
-            *LAUNCHER,
-            "--port-base",
-            str(port_base),
-            "--zenoh-listen",
-            listen,
-            "--name",
-            "beside",
-        ]
-
-    process, port_base = launched(command_on, env_for(cell.runtime_dir), tmp_path / "up.log")
+    process, port_base = launched(named("beside"), env_for(cell.runtime_dir), tmp_path / "up.log")
     try:
         wait_for_whole_cell("127.0.0.1", port_base, cell.byte_order, REFUSAL_TIMEOUT_S)
         with MotionClient("127.0.0.1", port_base, cell.byte_order) as motion:
