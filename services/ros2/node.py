@@ -50,8 +50,8 @@ from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
 from rclpy.signals import SignalHandlerOptions
-from rclpy.time import Time
 from sensor_msgs.msg import JointState
+from std_msgs.msg import Header
 from std_srvs.srv import Trigger
 from tf2_msgs.msg import TFMessage
 
@@ -69,10 +69,10 @@ from motocell.services.ros2.core.goal import (
 from motocell.services.ros2.core.point_queue import MotionMode, QueuedPoint
 from motocell.services.ros2.core.tf import Frames, FrameTransform
 from motocell.services.ros2.core.topics import (
-    JointValues,
     TopicValues,
     ctrl_group_topic,
     error_codes,
+    group_spans,
     names_by_group,
 )
 from motocell.services.ros2.goal_runner import GoalRunner, positions_of
@@ -96,8 +96,10 @@ ROBOT_STATUS = "robot_status"
 UNSPECIFIED = "Unspecified error occurred while adding the trajectory point to the queue."
 """MotoROS2's words for a queued point refused for a reason it has no words for."""
 
-SPIN_S = 0.1
-"""How long the executor waits for work before it looks at the stop flag again."""
+SPIN_S = 5.0
+"""A bound on the executor's wait for work, not a rate: the context's shutdown wakes it
+(rclpy's executor wakes itself on it), and each of its wake-ups costs about half a
+millisecond (it builds its wait set anew), ten times a second with a 0.1 s bound."""
 
 
 def _words(enum: type) -> dict[int, str]:
@@ -147,8 +149,13 @@ class FaceNode:
             )
             for topic in self._joint_topics
         ]
-        self._built: list[JointState] = []
-        self._built_for: JointValues | None = None
+        names = [list(group) for group in names_by_group(cell, face)]
+        spans = group_spans(cell.groups)
+        self._joint_spans = [(0, spans[-1][1]), *spans]
+        self._joint_messages = [_joint_state(_flat(names)), *map(_joint_state, names)]
+        """One message per topic, its names set once: a new sample changes only its arrays."""
+        self._joints_for: list[tuple[float, ...] | None] = [None] * len(self._joint_topics)
+        """The positions each message holds (the values' own tuple)."""
         self._robot_status = self.node.create_publisher(
             RobotStatus, ROBOT_STATUS, qos, event_callbacks=self._readers.events(ROBOT_STATUS)
         )
@@ -190,7 +197,7 @@ class FaceNode:
             self.node.create_service(kind, name, self._writing(write))
         self.node.create_service(SelectMotionTool, "select_motion_tool", self._select_motion_tool)
         self._groups_of_cell = cell.groups
-        self._names = [list(names) for names in names_by_group(cell, face)]
+        self._names = names
         self._runner = runner
         self._newest = newest
         self._running = threading.Lock()
@@ -374,19 +381,19 @@ class FaceNode:
         if not (any(read) or status_read or tf_read):
             return
         # The values carry CLOCK_MONOTONIC; ROS stamps are the system clock's.
-        stamp = Time(nanoseconds=values.sampled_ns + time.time_ns() - time.monotonic_ns()).to_msg()
+        stamp = divmod(values.sampled_ns + time.time_ns() - time.monotonic_ns(), 10**9)
         if any(read):
             self._publish_joints(values, stamp, read)
         if status_read:
             if values.status != self._status_for:
                 self._status_message = _robot_status(values.status)
                 self._status_for = values.status
-            self._status_message.header.stamp = stamp
+            _stamp(self._status_message.header, stamp)
             self._robot_status.publish(self._status_message)
         if tf_read:
             self._publish_tf(values.sample, stamp)
 
-    def _publish_tf(self, sample: State, stamp: Any) -> None:
+    def _publish_tf(self, sample: State, stamp: tuple[int, int]) -> None:
         if sample is not self._tf_for and self._frames is not None:
             # A new sample's poses; a resting robot's sample is the one already turned into
             # transforms, sent again.
@@ -394,20 +401,25 @@ class FaceNode:
             self._tf_message = TFMessage(transforms=[_transform(one) for one in transforms])
             self._tf_for = sample
         for transform in self._tf_message.transforms:
-            transform.header.stamp = stamp
+            _stamp(transform.header, stamp)
         self._tf.publish(self._tf_message)
 
-    def _publish_joints(self, values: TopicValues, stamp: Any, read: list[bool]) -> None:
-        if values.joint_states is not self._built_for:
-            # New joint values; a resting robot's are the same object, its messages sent again.
-            self._built = [_joint_state(values.joint_states), *map(_joint_state, values.groups)]
-            self._built_for = values.joint_states
-        for publisher, message, wanted in zip(
-            self._joint_publishers, self._built, read, strict=True
-        ):
-            if wanted:
-                message.header.stamp = stamp
-                publisher.publish(message)
+    def _publish_joints(
+        self, values: TopicValues, stamp: tuple[int, int], read: list[bool]
+    ) -> None:
+        for index, wanted in enumerate(read):
+            if not wanted:
+                continue
+            message = self._joint_messages[index]
+            if self._joints_for[index] is not values.positions:
+                # New joint values; a resting robot's are the same tuple, its message sent
+                # again as it is.
+                start, end = self._joint_spans[index]
+                message.position = array.array("d", values.positions[start:end])
+                message.velocity = array.array("d", values.velocities[start:end])
+                self._joints_for[index] = values.positions
+            _stamp(message.header, stamp)
+            self._joint_publishers[index].publish(message)
 
     def close(self) -> None:
         rclpy.shutdown(context=self._context)  # ends the executor's wait
@@ -440,6 +452,12 @@ class Readers:
         return any(count > 0 for count in list(self._counts.values()))
 
 
+def _stamp(header: Header, stamp: tuple[int, int]) -> None:
+    """``stamp`` (seconds, nanoseconds) into a message's header, in place: a new ``Time``
+    message, or rclpy's ``Time.to_msg``, costs several times as much, every period."""
+    header.stamp.sec, header.stamp.nanosec = stamp
+
+
 def _robot_status(status: RobotStatusFields) -> RobotStatus:
     """industrial_msgs' RobotStatus takes the state port's ROBOT_STATUS fields as they are: the
     same TriState and RobotMode values."""
@@ -461,11 +479,9 @@ def _transform(frames: FrameTransform) -> TransformStamped:
     return message
 
 
-def _joint_state(values: JointValues) -> JointState:
+def _joint_state(names: list[str]) -> JointState:
     message = JointState()
-    message.name = list(values.names)
-    message.position = array.array("d", values.positions)
-    message.velocity = array.array("d", values.velocities)
+    message.name = list(names)
     return message
 
 

@@ -8,12 +8,8 @@ non-empty msgpack array, so an empty sample can only be a doorbell.
 
 from __future__ import annotations
 
-import contextlib
-import math
-import os
 import select
 import threading
-import time
 from collections.abc import Callable
 from typing import Protocol, TypeVar
 
@@ -21,6 +17,7 @@ import zenoh
 
 from motocell.shared.bus.ignored import decoded_payload
 from motocell.shared.bus.schemas import Decoder
+from motocell.shared.timerfd import DeadlineTimer
 
 T = TypeVar("T")
 
@@ -54,8 +51,10 @@ class StopSignal(Protocol):
 class Waker:
     """The timer of a thread that blocks in a channel's ``recv()``: calls ``ring`` (a doorbell's,
     or whichever the thread waits behind) at the deadline its owner sets (``wake_at``) and once
-    at stop. Its own thread sleeps in ``poll`` until then, so a service waiting for nothing but
-    its inputs costs no wake-up at all.
+    at stop. Its own thread sleeps in ``poll`` on a kernel timer (``shared.timerfd``) until
+    then, so a service waiting for nothing but its inputs costs no wake-up at all, and an owner
+    that moves its deadline at every sample (the ROS 2 face, following the cell's state) costs
+    none either.
 
     A deadline is rung once; the owner sets the next one each time it is about to block.
     """
@@ -63,11 +62,7 @@ class Waker:
     def __init__(self, ring: Callable[[], None], stop: StopSignal, name: str) -> None:
         self._ring = ring
         self._stop = stop
-        self._deadline: float | None = None
-        self._lock = threading.Lock()
-        self._poke_read, self._poke_write = os.pipe()
-        for fd in (self._poke_read, self._poke_write):
-            os.set_blocking(fd, False)
+        self._timer = DeadlineTimer()
         self._thread = threading.Thread(target=self._run, name=name)
 
     def start(self) -> None:
@@ -75,39 +70,23 @@ class Waker:
 
     def wake_at(self, deadline: float | None) -> None:
         """Ring at ``deadline`` (CLOCK_MONOTONIC seconds; None: only at stop) instead of the
-        deadline set before. Only an earlier one wakes the thread now; a later one is found
-        when it wakes for the old one."""
-        with self._lock:
-            earlier = deadline is not None and (self._deadline is None or deadline < self._deadline)
-            self._deadline = deadline
-        if earlier:
-            with contextlib.suppress(BlockingIOError):  # a poke is pending already
-                os.write(self._poke_write, b"\0")
+        deadline set before; from any thread, waking nobody."""
+        self._timer.set(None if deadline is None else round(deadline * 1e9))
 
     def _run(self) -> None:
         poller = select.poll()
         poller.register(self._stop.fileno(), select.POLLIN)
-        poller.register(self._poke_read, select.POLLIN)
+        poller.register(self._timer.fileno(), select.POLLIN)
         while not self._stop.is_set():
-            with self._lock:
-                deadline = self._deadline
-            wait = None if deadline is None else deadline - time.monotonic()
-            if wait is not None and wait <= 0:
-                with self._lock:
-                    if self._deadline == deadline:
-                        self._deadline = None
+            poller.poll()
+            if self._timer.take():
                 self._ring()
-                continue
-            poller.poll(None if wait is None else math.ceil(wait * 1000))
-            with contextlib.suppress(BlockingIOError):
-                os.read(self._poke_read, 64)
         self._ring()
 
     def close(self) -> None:
         """After the stop flag is set: the thread ends, having rung once more."""
         self._thread.join()
-        os.close(self._poke_read)
-        os.close(self._poke_write)
+        self._timer.close()
 
 
 def is_doorbell(sample: zenoh.Sample) -> bool:

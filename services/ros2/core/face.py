@@ -6,8 +6,6 @@ in with the instant (CLOCK_MONOTONIC ns) and publishes what it returns.
 
 from __future__ import annotations
 
-import dataclasses
-
 from motocell.services.ros2.core.states import (
     PACING,
     ImpossibleEventError,
@@ -16,7 +14,7 @@ from motocell.services.ros2.core.states import (
     Publish,
     Wake,
 )
-from motocell.services.ros2.core.topics import TopicValues, names_by_group, topic_values
+from motocell.services.ros2.core.topics import TopicValues, topic_values
 from motocell.shared.bus.liveness import AT_REST_HEARTBEAT_S, STALE_HEARTBEATS
 from motocell.shared.bus.schemas import ControllerStatus, State
 from motocell.shared.config import Cell, Ros2Face
@@ -33,7 +31,6 @@ class Face:
 
     def __init__(self, cell: Cell, face: Ros2Face) -> None:
         self._groups = cell.groups
-        self._joint_names = names_by_group(cell, face)
         self.period_ns = face.update_periods.controller_status_monitor_period * 1_000_000
         self._schedule = Schedule(self.period_ns)
         self.pacing = Pacing.QUIET
@@ -101,10 +98,10 @@ class Face:
         if last is not None and last[0] is newest:
             # The same sample again (a resting robot): the same joint values, so the node can
             # send the messages it built for them again, stamped anew.
-            values = dataclasses.replace(last[1], sampled_ns=sampled_ns, status=status)
+            old = last[1]
+            values = TopicValues(sampled_ns, old.positions, old.velocities, status, newest)
         else:
-            values = topic_values(newest, self._groups, self._joint_names, sampled_ns)
-            values = dataclasses.replace(values, status=status)
+            values = topic_values(newest, self._groups, sampled_ns, status)
         self._published = (newest, values)
         return values
 

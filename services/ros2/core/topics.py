@@ -12,6 +12,7 @@ JointState may leave any array empty).
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -21,22 +22,18 @@ from motocell.shared.motion.kinematics import AxisMap
 
 
 @dataclass(frozen=True)
-class JointValues:
-    names: tuple[str, ...]
-    positions: tuple[float, ...]
-    velocities: tuple[float, ...]
-
-
-@dataclass(frozen=True)
 class TopicValues:
-    """One publication of the face's topics."""
+    """One publication of the face's topics.
+
+    Kept lean, since the face makes one every period: every group's joints side by side in
+    group order (``joint_states``'s arrays), and ``spans`` says where each group's sit (its
+    ``ctrl_groups`` topic's); the names never change and are the node's (``names_by_group``)."""
 
     sampled_ns: int
     """CLOCK_MONOTONIC when the values were measured: the tick's time, or now when the newest
     sample is published again while the robot rests (the shell stamps messages with it)."""
-    joint_states: JointValues
-    groups: tuple[JointValues, ...]
-    """One per group, in group order."""
+    positions: tuple[float, ...]
+    velocities: tuple[float, ...]
     status: RobotStatusFields
     sample: State
     """The sample the values come from: ``tf`` is made from its poses (``core.tf``) only where
@@ -66,26 +63,21 @@ def names_by_group(cell: Cell, face: Ros2Face) -> list[tuple[str, ...]]:
     ]
 
 
+def group_spans(groups: Sequence[Group]) -> tuple[tuple[int, int], ...]:
+    """Where each group's joints sit among every group's (``TopicValues.positions``)."""
+    ends = list(itertools.accumulate(group.axes for group in groups))
+    return tuple(zip([0, *ends[:-1]], ends, strict=True))
+
+
 def topic_values(
-    state: State,
-    groups: Sequence[Group],
-    joint_names: Sequence[Sequence[str]],
-    sampled_ns: int,
+    state: State, groups: Sequence[Group], sampled_ns: int, status: RobotStatusFields
 ) -> TopicValues:
-    """``joint_names``: per group, in ROS order (``ros_order_names``)."""
-    per_group = []
-    for group, names in zip(groups, joint_names, strict=True):
+    """The feedback of every group's axes (the state's arrays carry padding past them), in
+    ROS order as the state carries them."""
+    positions: list[float] = []
+    velocities: list[float] = []
+    for group in groups:
         shown = state.groups[group.index]
-        per_group.append(
-            JointValues(
-                tuple(names),
-                tuple(shown.positions[: group.axes]),
-                tuple(shown.velocities[: group.axes]),
-            )
-        )
-    everything = JointValues(
-        tuple(name for values in per_group for name in values.names),
-        tuple(value for values in per_group for value in values.positions),
-        tuple(value for values in per_group for value in values.velocities),
-    )
-    return TopicValues(sampled_ns, everything, tuple(per_group), state.status, state)
+        positions += shown.positions[: group.axes]
+        velocities += shown.velocities[: group.axes]
+    return TopicValues(sampled_ns, tuple(positions), tuple(velocities), status, state)

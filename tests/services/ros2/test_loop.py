@@ -85,14 +85,14 @@ def test_samples_go_out_as_they_come_and_a_rest_is_held_at_the_period() -> None:
     assert script.expected == [True, True, False, False]
     # A held sample's joint values are those already published: the node sends them again.
     first, held, held_again, _ = published.values
-    assert first.joint_states is held.joint_states is held_again.joint_states
+    assert first.positions is held.positions is held_again.positions
     assert [values.sampled_ns for values in published.values] == [
         T0 - MS,
         hold_at,
         hold_at + PERIOD_NS,
         hold_at + PERIOD_NS + MS,
     ]
-    assert published.values[-1].joint_states.positions == (0.5,) * 6
+    assert published.values[-1].positions == (0.5,) * 6
 
 
 def test_unread_the_loop_waits_for_a_sample_or_a_reader_not_for_the_period() -> None:

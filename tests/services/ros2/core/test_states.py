@@ -96,7 +96,7 @@ def test_a_wake_up_while_quiet_publishes_nothing_and_sets_no_deadline() -> None:
 def test_a_due_sample_is_published_as_it_comes() -> None:
     face = into(Pacing.FOLLOWING)
     values = face.on_sample(sample(CELL, TICK0 + PERIOD_NS, 0.5), T0 + PERIOD_NS)
-    assert values is not None and values.joint_states.positions == (0.5,) * 6
+    assert values is not None and values.positions == (0.5,) * 6
     assert (pacing(face), face.wake_ns) == (Pacing.FOLLOWING, T0 + PERIOD_NS + HOLD_AFTER_NS)
 
 
@@ -109,7 +109,7 @@ def test_a_sample_before_the_due_time_is_kept_not_published() -> None:
     assert (pacing(face), face.wake_ns) == (Pacing.FOLLOWING, wake)
     # What it kept is what the next deadline publishes.
     held = face.on_wake(T0 + HOLD_AFTER_NS)
-    assert held is not None and held.joint_states.positions == (0.5,) * 6
+    assert held is not None and held.positions == (0.5,) * 6
 
 
 @row(Pacing.FOLLOWING, PacingEvent.DUE)
@@ -142,7 +142,7 @@ def test_a_resting_cells_sample_while_holding_is_news_at_once() -> None:
     have changed (an E-stop): published at once, though its tick is old."""
     face = into(Pacing.HOLDING)
     values = face.on_sample(sample(CELL, TICK0, 0.5), T0 + 500 * MS)
-    assert values is not None and values.joint_states.positions == (0.5,) * 6
+    assert values is not None and values.positions == (0.5,) * 6
     assert pacing(face) is Pacing.FOLLOWING
     # Its tick is older than what was published while holding: stamped now, never back.
     assert values.sampled_ns == T0 + 500 * MS
