@@ -10,7 +10,6 @@ its own, one request at a time, as MotoROS2 serves them.
 
 from __future__ import annotations
 
-import array
 import os
 import threading
 import time
@@ -66,6 +65,7 @@ from motocell.services.ros2.core.goal import (
     error_code,
     plan,
 )
+from motocell.services.ros2.core.joint_state_cdr import JointStateCdr
 from motocell.services.ros2.core.point_queue import MotionMode, QueuedPoint
 from motocell.services.ros2.core.tf import Frames, FrameTransform
 from motocell.services.ros2.core.topics import (
@@ -152,9 +152,8 @@ class FaceNode:
         names = [list(group) for group in names_by_group(cell, face)]
         spans = group_spans(cell.groups)
         self._joint_spans = [(0, spans[-1][1]), *spans]
-        self._joint_messages = [_joint_state(_flat(names)), *map(_joint_state, names)]
-        """One message per topic, its names set once: a new sample changes only its arrays."""
-        self._joints_for: list[tuple[float, ...] | None] = [None] * len(self._joint_topics)
+        self._joint_messages = [JointStateCdr(_flat(names)), *map(JointStateCdr, names)]
+        """Each topic's message as bytes: its names laid out once (``core.joint_state_cdr``)."""
         """The positions each message holds (the values' own tuple)."""
         self._robot_status = self.node.create_publisher(
             RobotStatus, ROBOT_STATUS, qos, event_callbacks=self._readers.events(ROBOT_STATUS)
@@ -408,18 +407,12 @@ class FaceNode:
         self, values: TopicValues, stamp: tuple[int, int], read: list[bool]
     ) -> None:
         for index, wanted in enumerate(read):
-            if not wanted:
-                continue
-            message = self._joint_messages[index]
-            if self._joints_for[index] is not values.positions:
-                # New joint values; a resting robot's are the same tuple, its message sent
-                # again as it is.
+            if wanted:
                 start, end = self._joint_spans[index]
-                message.position = array.array("d", values.positions[start:end])
-                message.velocity = array.array("d", values.velocities[start:end])
-                self._joints_for[index] = values.positions
-            _stamp(message.header, stamp)
-            self._joint_publishers[index].publish(message)
+                message = self._joint_messages[index].encode(
+                    stamp, values.positions[start:end], values.velocities[start:end]
+                )
+                self._joint_publishers[index].publish(message)
 
     def close(self) -> None:
         rclpy.shutdown(context=self._context)  # ends the executor's wait
@@ -476,12 +469,6 @@ def _transform(frames: FrameTransform) -> TransformStamped:
     translation, rotation = message.transform.translation, message.transform.rotation
     translation.x, translation.y, translation.z = frames.translation
     rotation.x, rotation.y, rotation.z, rotation.w = frames.rotation
-    return message
-
-
-def _joint_state(names: list[str]) -> JointState:
-    message = JointState()
-    message.name = list(names)
     return message
 
 
