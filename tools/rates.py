@@ -16,11 +16,11 @@ from motocell.shared.bus.schemas import ControllerStatus, QueueState, State, Tic
 from motocell.tools.listen import Received
 
 MIN_SAMPLES = 3
-"""A rate needs two intervals at least: one alone is whatever gap two samples had, and two that
-came back to back (a state sent twice within a state period) would read as a thousand hertz."""
+"""A rate needs two intervals at least: one alone is whatever gap two samples had, and two
+samples that came back to back would read as hundreds of hertz on a key sent once a second."""
 MIN_SPAN_S = 0.5
-"""...and samples that have come over half a second at least, so that the first report
-(``hz.REPORT_S`` after subscribing) already gives a fast key's rate, while a burst does not."""
+"""A rate also needs samples that came over half a second at least: the first report
+(``hz.REPORT_S`` after subscribing) still gives a fast key's rate, and a burst gives none."""
 AT_REST_BEAT = f"every {AT_REST_HEARTBEAT_S:g} s"
 
 
