@@ -1,22 +1,26 @@
 """``motocell hz KEY``: how often a key's samples arrive, as ``rostopic hz`` reports a topic.
 
 Every second, per key: the average rate over the last ``--window`` intervals between samples,
-and the shortest, the longest and the standard deviation of those intervals. Times are when
-the samples reached this command, so they include the network's and Zenoh's jitter.
+and the shortest, the longest and the standard deviation of those intervals, once the samples
+mean a rate (``tools.rates``); and when the samples say that their publisher rests while
+nothing moves, that too. Times are when the samples reached this command, so they include the
+network's and Zenoh's jitter.
 """
 
 from __future__ import annotations
 
 import argparse
-import statistics
 import sys
 import time
-from collections import deque
+from collections.abc import Callable
+from typing import Protocol
 
-from motocell.shared.service import StopFlag, stop_on_signals
+from motocell.shared.service import stop_on_signals
 from motocell.tools import cells, listen
+from motocell.tools.bell import StopSignal
 from motocell.tools.cells import CellsError
-from motocell.tools.listen import Listener
+from motocell.tools.listen import Listener, Received
+from motocell.tools.rates import Rate
 
 REPORT_S = 1.0
 WINDOW = 1000
@@ -37,34 +41,10 @@ def add_arguments(hz: argparse.ArgumentParser) -> None:
     hz.set_defaults(run=run)
 
 
-class Rate:
-    """The intervals between one key's samples, the last ``window`` of them."""
+class Samples(Protocol):
+    """``listen.Listener``, or a test's script of samples."""
 
-    def __init__(self, window: int) -> None:
-        self.intervals_ns: deque[int] = deque(maxlen=window)
-        self.last_ns: int | None = None
-        self.new = 0
-        """Samples since the last report."""
-
-    def add(self, received_ns: int) -> None:
-        if self.last_ns is not None:
-            self.intervals_ns.append(received_ns - self.last_ns)
-        self.last_ns = received_ns
-        self.new += 1
-
-    def report(self) -> str:
-        """``average rate 100.000 Hz  min 0.0095 s  ...``, and start a new report."""
-        new, self.new = self.new, 0
-        if not new:
-            return "no new samples"
-        intervals = [ns / 1e9 for ns in self.intervals_ns]
-        if not intervals:
-            return "one sample so far"
-        rate = len(intervals) / sum(intervals) if sum(intervals) > 0 else float("inf")
-        return (
-            f"average rate {rate:.3f} Hz  min {min(intervals):.4f} s  max {max(intervals):.4f} s"
-            f"  std dev {statistics.pstdev(intervals):.5f} s  window {len(intervals)}"
-        )
+    def next(self, stop: StopSignal, timeout: float | None = None) -> Received | None: ...
 
 
 def run(args: argparse.Namespace) -> int:
@@ -82,17 +62,24 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def report(samples: Listener, stop: StopFlag, window: int, count: int | None) -> None:
-    """A report every REPORT_S once samples flow (nothing before the first, as rostopic hz),
-    until ``count`` reports or ``stop``."""
+def report(
+    samples: Samples,
+    stop: StopSignal,
+    window: int,
+    count: int | None,
+    clock: Callable[[], float] = time.monotonic,
+) -> None:
+    """A report every REPORT_S of ``clock`` once samples flow (nothing before the first, as
+    rostopic hz), until ``count`` reports or ``stop``. Between reports it sleeps in
+    ``samples.next``, which ``stop`` wakes."""
     rates: dict[str, Rate] = {}
     reports = 0
-    due = time.monotonic() + REPORT_S
+    due = clock() + REPORT_S
     while not stop.is_set() and (count is None or reports < count):
-        sample = samples.next(stop, timeout=max(0.0, due - time.monotonic()))
+        sample = samples.next(stop, timeout=max(0.0, due - clock()))
         if sample is not None:
-            rates.setdefault(sample.key, Rate(window)).add(sample.received_ns)
-        if time.monotonic() < due:
+            rates.setdefault(sample.key, Rate(window)).add(sample)
+        if clock() < due:
             continue
         due += REPORT_S
         if rates:

@@ -3,8 +3,9 @@
 Per group: joint positions, commanded (dashed) against feedback (solid); the following error
 (commanded - feedback, the servo's lag, docs/servo.md); joint velocities, commanded (dashed)
 against feedback (solid); all from ``state``. Then every group's executor queue depth and the
-executor's tick lateness, from ``executor/tick``. Time is seconds since the cell's first
-recorded sample, on every panel, so the panels line up.
+executor's tick lateness, from ``executor/tick``, whose lines break where the executor's clock
+rested (``plotting.GAP_PERIODS``). Time is seconds since the cell's first recorded sample, on
+every panel, so the panels line up.
 """
 
 from __future__ import annotations

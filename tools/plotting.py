@@ -25,6 +25,13 @@ DPI = 100
 JOINT_STYLE: dict[str, Literal["--", "-"]] = {"commanded": "--", "feedback": "-"}
 PANELS_PER_GROUP = 3
 """Positions, following error, velocities."""
+GAP_PERIODS = 3
+"""The tick panels' lines go on across at most this many periods of the executor's clock from
+one recorded tick to the next (tick numbers count its periods): across a tick or two the
+recording lacks (lost on a loaded machine), a line stands for what the ticks between were,
+and at the 4 ms default period those 12 ms are narrower than a pixel of a plot a few seconds
+long. A longer step is a span the clock did not tick through (it rested: docs/timing.md, the
+clock at rest) and is left a gap, as is a tick sent again (its resting tick, once a second)."""
 
 
 @dataclass
@@ -73,7 +80,8 @@ def plot_recording(recording: Recording, out: str | Path, cell: str | None = Non
 
     Lines carry a ``gid`` (``group<g>/joint<j>/commanded``, ``.../feedback``,
     ``.../following_error``, ``.../velocity``, ``.../velocity/commanded``, ``group<g>/depth``,
-    ``lateness``) so callers can find each series.
+    ``lateness``) so callers can find each series; the tick panels' lines hold a NaN (x and y)
+    where they break (``tick_gaps``).
     """
     path = recording.path
     cells = collect(recording)
@@ -90,8 +98,9 @@ def plot_recording(recording: Recording, out: str | Path, cell: str | None = Non
     for g in range(groups):
         first = PANELS_PER_GROUP * g
         _plot_group(axes[first : first + PANELS_PER_GROUP], g, state_s, series.states)
-    _plot_depth(axes[-2], tick_s, series.ticks, groups)
-    _plot_lateness(axes[-1], tick_s, series.ticks)
+    gaps = tick_gaps([tick["tick"] for tick in series.ticks])
+    _plot_depth(axes[-2], tick_s, series.ticks, groups, gaps)
+    _plot_lateness(axes[-1], tick_s, series.ticks, gaps)
     for ax in axes:
         # Shared x (the panels line up) but every panel keeps its own time labels, so any one
         # of them can be read alone.
@@ -176,14 +185,32 @@ def _series(states: list[dict[str, Any]], g: int, field: str) -> np.ndarray[Any,
     return np.array([s["groups"][g][field] for s in states], dtype=np.float64)
 
 
+def tick_gaps(ticks: list[int]) -> np.ndarray[Any, np.dtype[np.intp]]:
+    """Where the tick panels' lines break: the indices ``i`` of the ticks after which the next
+    is the same tick again or more than ``GAP_PERIODS`` periods on."""
+    steps = np.diff(np.asarray(ticks, dtype=np.int64))
+    return np.flatnonzero((steps < 1) | (steps > GAP_PERIODS))
+
+
+def broken_at(
+    gaps: np.ndarray[Any, np.dtype[np.intp]], values: np.ndarray[Any, Any]
+) -> np.ndarray[Any, np.dtype[np.float64]]:
+    """``values`` with a NaN after each of ``gaps``: matplotlib lifts the pen at a NaN."""
+    return np.insert(values.astype(np.float64), gaps + 1, np.nan)
+
+
 def _plot_depth(
-    ax: Axes, t: np.ndarray[Any, np.dtype[np.float64]], ticks: list[dict[str, Any]], groups: int
+    ax: Axes,
+    t: np.ndarray[Any, np.dtype[np.float64]],
+    ticks: list[dict[str, Any]],
+    groups: int,
+    gaps: np.ndarray[Any, np.dtype[np.intp]],
 ) -> None:
     for g in range(groups):
         depth = np.array([tick["groups"][g]["depth"] for tick in ticks], dtype=np.int64)
         ax.plot(
-            t,
-            depth,
+            broken_at(gaps, t),
+            broken_at(gaps, depth),
             drawstyle="steps-post",
             linewidth=1.2,
             label=f"group {g}",
@@ -198,10 +225,19 @@ def _plot_depth(
 
 
 def _plot_lateness(
-    ax: Axes, t: np.ndarray[Any, np.dtype[np.float64]], ticks: list[dict[str, Any]]
+    ax: Axes,
+    t: np.ndarray[Any, np.dtype[np.float64]],
+    ticks: list[dict[str, Any]],
+    gaps: np.ndarray[Any, np.dtype[np.intp]],
 ) -> None:
     lateness_us = np.array([tick["lateness_ns"] for tick in ticks], dtype=np.float64) / 1e3
-    ax.plot(t, lateness_us, color="C3", linewidth=0.8, gid="lateness")
+    ax.plot(
+        broken_at(gaps, t),
+        broken_at(gaps, lateness_us),
+        color="C3",
+        linewidth=0.8,
+        gid="lateness",
+    )
     ax.set_title("executor tick lateness (start of the tick after its deadline)")
     ax.set_ylabel("lateness (µs)")
     if not ticks:

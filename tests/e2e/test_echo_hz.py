@@ -1,5 +1,6 @@
 """``motocell echo`` and ``motocell hz`` on a running cell, found by name as a cell started on
-this machine is; Ctrl-C ends them cleanly; every sample says it is msgpack."""
+this machine is; Ctrl-C ends them cleanly, and SIGTERM ends hz at once; hz says when the
+cell's clock rests; every sample says it is msgpack."""
 
 from __future__ import annotations
 
@@ -20,7 +21,7 @@ from motocell.shared.bus.catalog import ROUTES, Op, Role
 from motocell.shared.bus.session import ENCODING
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
 from motocell.testing.processes import wait_until
-from motocell.testing.running_cell import RunningCell, moving
+from motocell.testing.running_cell import RunningCell, TickLog, moving
 
 pytestmark = pytest.mark.cell
 
@@ -99,6 +100,46 @@ def test_ctrl_c_ends_them_cleanly(command: str) -> None:
             process.communicate()
     assert process.returncode == 0
     assert "Traceback" not in err and "KeyboardInterrupt" not in err
+
+
+STOP_DEADLINE_S = 1.0
+"""From SIGTERM to the exit of an ``hz`` waiting for samples: its wait is a poll that the stop
+flag's pipe ends, and what remains (closing its Zenoh session, Python's exit) took 25 ms on
+an idle 2-core machine; a second bounds that on a loaded one."""
+
+
+def test_hz_says_the_clock_rests_and_a_sigterm_ends_it_at_once(
+    cell: RunningCell, observer: zenoh.Session
+) -> None:
+    ticks = TickLog(observer, cell.keys)
+    try:
+        wait_until(lambda: any(t.resting for t in ticks.since(0)), 10.0, "a resting tick")
+    finally:
+        ticks.subscriber.undeclare()
+    process = subprocess.Popen(
+        [sys.executable, "-m", "motocell.tools.cli", "hz", "executor/tick"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert process.stdout is not None
+        subscribed, first = process.stdout.readline(), process.stdout.readline()
+        assert subscribed == f"subscribed to {cell.keys.executor_tick}\n"
+        # One resting tick a second: one or two by the first report, no rate from them.
+        assert re.fullmatch(
+            r".*: [12] samples? over [\d.]+ s: too few for a rate \(it takes 3 over 0.5 s\)"
+            r"; the executor's clock rests while nothing moves: its last tick again every 1 s\n",
+            first,
+        ), first
+        process.send_signal(signal.SIGTERM)
+        process.wait(timeout=STOP_DEADLINE_S)
+    finally:
+        if process.poll() is None:
+            process.kill()
+        _, err = process.communicate()
+    assert process.returncode == 0, err
+    assert err == ""
 
 
 @pytest.fixture

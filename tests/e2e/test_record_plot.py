@@ -40,7 +40,7 @@ from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
 from motocell.testing.client import smooth_move, stream
 from motocell.testing.processes import wait_until
 from motocell.testing.running_cell import RunningCell, SampleLog, router_on_free_port
-from motocell.tools.plotting import plot_recording
+from motocell.tools.plotting import GAP_PERIODS, plot_recording
 from motocell.tools.record import FLUSH_S
 from motocell.tools.recording import Recording as RecordingFile
 
@@ -264,6 +264,15 @@ def lines_by_gid(figure: Figure) -> dict[str, Line2D]:
     }
 
 
+def drawn(line: Line2D, breaks: int) -> tuple[np.ndarray[Any, Any], np.ndarray[Any, Any]]:
+    """The points of ``line`` without the ``breaks`` NaNs that lift its pen (x and y both)."""
+    x, y = np.asarray(line.get_xdata()), np.asarray(line.get_ydata())
+    lifted = np.isnan(y)
+    np.testing.assert_array_equal(np.isnan(x), lifted)
+    assert lifted.sum() == breaks
+    return x[~lifted], y[~lifted]
+
+
 def test_plot_draws_the_recorded_series(recording: Recording, tmp_path: Path) -> None:
     png = tmp_path / "cell.png"
     figure = plot_recording(RecordingFile(recording.path), png)
@@ -297,15 +306,17 @@ def test_plot_draws_the_recorded_series(recording: Recording, tmp_path: Path) ->
     assert lines["group0/joint0/commanded"].get_linestyle() == "--"
     assert lines["group0/joint0/velocity/commanded"].get_linestyle() == "--"
     assert lines["group0/joint0/feedback"].get_linestyle() == "-"
-    lateness = lines["lateness"]
-    np.testing.assert_allclose(np.asarray(lateness.get_xdata()), tick_s, rtol=0, atol=1e-9)
-    np.testing.assert_array_equal(
-        np.asarray(lateness.get_ydata()), [p["lateness_ns"] / 1e3 for _, p in ticks]
-    )
-    depth = lines["group0/depth"]
-    np.testing.assert_allclose(np.asarray(depth.get_xdata()), tick_s, rtol=0, atol=1e-9)
+    # The tick panels lift the pen after each tick that the next does not follow within
+    # GAP_PERIODS (a rest, a resting tick sent again), and draw every tick.
+    steps = np.diff([p["tick"] for _, p in ticks])
+    breaks = int(np.count_nonzero((steps < 1) | (steps > GAP_PERIODS)))
+    lateness = drawn(lines["lateness"], breaks)
+    np.testing.assert_allclose(lateness[0], tick_s, rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(lateness[1], [p["lateness_ns"] / 1e3 for _, p in ticks])
+    depth = drawn(lines["group0/depth"], breaks)
+    np.testing.assert_allclose(depth[0], tick_s, rtol=0, atol=1e-9)
     depths = [p["groups"][0]["depth"] for _, p in ticks]
-    np.testing.assert_array_equal(np.asarray(depth.get_ydata()), depths)
+    np.testing.assert_array_equal(depth[1], depths)
     assert max(depths) > 0, "streaming a trajectory fills the executor's queue"
 
     # Joint 1's colour is drawn inside the position panel (display y runs up, image rows down).

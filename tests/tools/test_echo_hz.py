@@ -1,6 +1,7 @@
 """``motocell echo`` and ``motocell hz`` without a cell: which keys they take, how a sample is
-shown, the rate statistics, and how the samples reach the command's thread, which sleeps until
-one comes or it is stopped (a broken wake-up hangs: pytest-timeout ends the test)."""
+shown, when hz reports (on a fake clock; what a report says: test_rates.py), and how the
+samples reach the command's thread, which sleeps until one comes or it is stopped (a broken
+wake-up hangs: pytest-timeout ends the test)."""
 
 from __future__ import annotations
 
@@ -12,10 +13,10 @@ import pytest
 
 from motocell.shared.bus.schemas import Slot, encode
 from motocell.shared.service import StopFlag
-from motocell.tools.bell import Bell
+from motocell.tools.bell import Bell, StopSignal
 from motocell.tools.cells import TargetError
 from motocell.tools.echo import as_json
-from motocell.tools.hz import Rate
+from motocell.tools.hz import report
 from motocell.tools.listen import PUBLISHED, Arrivals, Received, published_key
 
 MS = 1_000_000
@@ -65,18 +66,59 @@ def test_a_payload_that_does_not_decode_is_shown_as_hex(key: str, payload: bytes
     assert json.loads(as_json(Received(key, payload, 0))) == {"key": key, "hex": payload.hex()}
 
 
-def test_the_rate_over_the_window() -> None:
-    rate = Rate(window=3)
-    assert rate.report() == "no new samples"
-    rate.add(0)
-    assert rate.report() == "one sample so far"
-    for t in (10 * MS, 30 * MS, 40 * MS, 50 * MS):
-        rate.add(t)
-    # The window keeps the last 3 intervals: 20, 10 and 10 ms.
-    assert rate.report() == (
-        "average rate 75.000 Hz  min 0.0100 s  max 0.0200 s  std dev 0.00471 s  window 3"
-    )
-    assert rate.report() == "no new samples"
+class Script:
+    """Samples at given times of a fake clock: each ``next`` moves the clock to the next
+    sample's time and hands it over, or to the wait's end when none comes before it."""
+
+    def __init__(self, *ms: int) -> None:
+        self.now = 0.0
+        self.times = [t / 1e3 for t in ms]
+
+    def clock(self) -> float:
+        return self.now
+
+    def next(self, stop: StopSignal, timeout: float | None = None) -> Received | None:
+        assert timeout is not None
+        if not self.times or self.times[0] > self.now + timeout:
+            self.now += timeout
+            return None
+        self.now = self.times.pop(0)
+        return Received(METRICS, b"", round(self.now * 1e9))
+
+
+METRICS = "motocell/c1/group/0/metrics"
+
+
+def test_a_report_every_second_once_samples_flow(capsys: pytest.CaptureFixture[str]) -> None:
+    # Nothing for two seconds (no report), two samples back to back, then one a second.
+    script = Script(2_500, 2_510, 3_500, 4_500)
+    report(script, StopFlag(), window=1000, count=3, clock=script.clock)
+    assert capsys.readouterr().out.splitlines() == [
+        f"{METRICS}: 2 samples over 0.010 s: too few for a rate (it takes 3 over 0.5 s)",
+        f"{METRICS}: average rate 2.000 Hz  min 0.0100 s  max 0.9900 s  std dev 0.49000 s"
+        "  window 2",
+        f"{METRICS}: average rate 1.500 Hz  min 0.0100 s  max 1.0000 s  std dev 0.46435 s"
+        "  window 3",
+    ]
+    assert script.now == 5.0
+
+
+def test_a_stop_ends_the_report_while_it_waits() -> None:
+    """The fake clock never moves: only the stop can end the wait, and the test hangs (until
+    pytest-timeout) if it does not."""
+    stop = StopFlag()
+    waiting = threading.Event()
+
+    class Waiting:
+        def next(self, stop: StopSignal, timeout: float | None = None) -> Received | None:
+            waiting.set()
+            return Arrivals().next(stop, timeout)
+
+    reporter = threading.Thread(target=report, args=(Waiting(), stop, 1000, None, lambda: 0.0))
+    reporter.start()
+    waiting.wait()
+    stop.set()
+    reporter.join()
 
 
 # -- the samples' way to the command's thread ----------------------------------------------

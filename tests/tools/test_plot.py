@@ -1,4 +1,5 @@
-"""``motocell plot`` on files that are not whole recordings: one clean line, whatever the size."""
+"""``motocell plot`` on files that are not whole recordings (one clean line, whatever the size),
+what the velocity panel says it draws, and the tick panels' breaks where the clock rested."""
 
 from __future__ import annotations
 
@@ -6,6 +7,7 @@ import argparse
 import io
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from motocell.shared.bus.schemas import (
@@ -17,7 +19,7 @@ from motocell.shared.bus.schemas import (
     encode,
 )
 from motocell.tools import plot
-from motocell.tools.plotting import plot_recording
+from motocell.tools.plotting import GAP_PERIODS, broken_at, plot_recording, tick_gaps
 from motocell.tools.recording import McapSink, Recording
 
 
@@ -118,3 +120,68 @@ def test_the_velocity_panel_says_what_it_draws(
     assert legend is not None
     labels = [text.get_text() for text in legend.get_texts()]
     assert ("commanded" in labels) == bool(commanded_lines)
+
+
+# -- the tick panels' lines break where the clock did not tick ----------------------------
+
+
+@pytest.mark.parametrize(
+    ("ticks", "gaps"),
+    [
+        ([], []),
+        ([7], []),
+        ([1, 2, 3, 4], []),
+        ([1, 2, 4, 7], []),  # two ticks, then two, the recording lacks: still one line
+        ([1, 2, 6, 7], [1]),  # the clock rested from tick 2 until tick 6
+        ([1, 2, 2, 2, 300, 301], [1, 2, 3]),  # tick 2 resting, sent again twice, then a wake
+        ([5, 3, 4], [0]),  # a restarted executor counts from its own start
+    ],
+)
+def test_lines_break_after_a_tick_sent_again_or_more_than_gap_periods_on(
+    ticks: list[int], gaps: list[int]
+) -> None:
+    assert GAP_PERIODS == 3
+    assert tick_gaps(ticks).tolist() == gaps
+
+
+def test_a_break_is_a_nan_after_each_gap() -> None:
+    broken = broken_at(np.array([1, 3]), np.array([10, 11, 12, 13, 14]))
+    np.testing.assert_array_equal(broken, [10, 11, np.nan, 12, 13, np.nan, 14])
+    assert broken.dtype == np.float64
+    np.testing.assert_array_equal(broken_at(np.array([], dtype=np.intp), np.arange(3)), [0, 1, 2])
+
+
+def resting_recording() -> bytes:
+    """Ticks 1 to 3 with the clock running, tick 3 the one it rests after, sent again a second
+    later, and ticks 300 and 301 after it woke."""
+    stream = io.BytesIO()
+    sink = McapSink(stream)
+    status = RobotStatusFields(1, 0, 0, 0, 0, 2, 1)
+    group = GroupState(0, [0.0] * 6, [0.0] * 6, [0.0] * 6)
+    sink.write(0, "motocell/c/state", encode(State(1, 1, 0, [group], status)))
+    for n, log_ms, lateness_us in ((1, 4, 50), (2, 8, 60), (3, 12, 40), (3, 1012, 0)):
+        tick = Tick(n, 0, lateness_us * 1000, 0, True, [GroupTick([0], [0], [0], 4 - n)])
+        sink.write(log_ms * 1_000_000, "motocell/c/executor/tick", encode(tick))
+    for n, log_ms in ((300, 1200), (301, 1204)):
+        tick = Tick(n, 0, 1_600_000, 0, True, [GroupTick([0], [0], [0], 1)])
+        sink.write(log_ms * 1_000_000, "motocell/c/executor/tick", encode(tick))
+    sink.finish()
+    return stream.getvalue()
+
+
+def test_the_tick_panels_lift_the_pen_where_the_clock_rested(tmp_path: Path) -> None:
+    path = tmp_path / "rest.mcap"
+    path.write_bytes(resting_recording())
+    figure = plot_recording(Recording(path), tmp_path / "rest.png")
+    lines = {str(line.get_gid()): line for ax in figure.axes for line in ax.get_lines()}
+    nan = np.nan
+    lateness = lines["lateness"]
+    np.testing.assert_array_equal(
+        np.asarray(lateness.get_xdata()), [0.004, 0.008, 0.012, nan, 1.012, nan, 1.2, 1.204]
+    )
+    np.testing.assert_array_equal(
+        np.asarray(lateness.get_ydata()), [50, 60, 40, nan, 0, nan, 1600, 1600]
+    )
+    np.testing.assert_array_equal(
+        np.asarray(lines["group0/depth"].get_ydata()), [3, 2, 1, nan, 1, nan, 1, 1]
+    )
