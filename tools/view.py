@@ -20,6 +20,7 @@ call, set or publish: the view cannot command a cell.
 from __future__ import annotations
 
 import argparse
+import logging
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -45,6 +46,15 @@ past that the oldest are dropped, so such a client costs a few MB (a frame tree 
 never memory without bound. Two to three seconds of one cell."""
 SUBSCRIBED = ("state", "controller/status", "executor/tick", "executor/metrics")
 """The keys the view shows (``tools.view_channels``)."""
+SUBPROTOCOL = "foxglove.sdk.v1"
+"""The one WebSocket subprotocol foxglove-sdk's server accepts."""
+OFFERED_BY = (
+    f"a viewer must offer the WebSocket subprotocol {SUBPROTOCOL}: current Foxglove releases "
+    "and Lichtblick 1.22.0 or later do; Foxglove Studio and older Lichtblick offer only "
+    "foxglove.websocket.v1"
+)
+"""Which viewers connect (docs/observing.md, In Foxglove). Lichtblick's first release with the
+name is 1.22.0 (its pull request 819); 1.21.0 refused an SDK server."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -98,6 +108,7 @@ def _serve(joined: Joined, known: dict[str, Cell], args: argparse.Namespace) -> 
         if problem is not None:
             print(f"motocell view: --layout {args.layout}: {problem}", file=sys.stderr)
             return 2
+    logging.getLogger(REFUSALS_LOGGER).addFilter(_EXPLAIN_REFUSALS)
     context = foxglove.Context()
     try:
         server = foxglove.start_server(
@@ -115,6 +126,28 @@ def _serve(joined: Joined, known: dict[str, Cell], args: argparse.Namespace) -> 
         return _forward(joined, ViewSink(ViewChannels(context, known)), server.port, args)
     finally:
         server.stop()
+
+
+REFUSALS_LOGGER = "foxglove.websocket.server"
+"""Where foxglove-sdk's Rust server logs through Python's logging that it dropped a client."""
+
+
+class ExplainRefusals(logging.Filter):
+    """foxglove-sdk answers a handshake without ``foxglove.sdk.v1`` with HTTP 400 inside its Rust
+    server, out of Python's reach, and logs only ``Dropping client ADDR: handshake failed``.
+    This adds to that line what the client needs. The SDK logs the same words for any failed
+    handshake (a plain HTTP request, a client that hung up), so they say what a viewer must
+    offer rather than claim that it did not."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        message = record.getMessage()
+        if message.endswith(": handshake failed"):
+            record.msg, record.args = f"{message} ({OFFERED_BY})", ()
+        return True
+
+
+_EXPLAIN_REFUSALS = ExplainRefusals()
+"""One instance, so that serving again (a test's second view) adds no second copy."""
 
 
 def _write_layout(path: str, known: list[Cell]) -> str | None:

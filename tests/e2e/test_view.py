@@ -29,6 +29,7 @@ from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
 from motocell.testing.client import Feedback, smooth_move, stream
 from motocell.testing.processes import wait_until
 from motocell.testing.running_cell import RunningCell, moving
+from motocell.tools.view import OFFERED_BY
 from motocell.tools.view_layout import layout_text
 from tests.foxglove_ws import SUBPROTOCOL, FoxgloveClient, Received
 from tests.frames import foxglove_steps, in_root, pose_matrix, rotation, vector
@@ -127,6 +128,11 @@ def test_it_speaks_foxglove_sdk_v1_and_refuses_a_client_offering_only_the_older_
     with pytest.raises(InvalidStatus) as refused:
         connect(view.url, subprotocols=[Subprotocol("foxglove.websocket.v1")], open_timeout=10)
     assert refused.value.response.status_code == 400
+    wait_until(
+        lambda: any(line.endswith(f"handshake failed ({OFFERED_BY})") for line in view.lines),
+        DEADLINE_S,
+        "the view to say which subprotocol the refused client lacked",
+    )
     with connect(view.url, subprotocols=[Subprotocol(SUBPROTOCOL)], open_timeout=10) as client:
         assert client.subprotocol == "foxglove.sdk.v1"
 
