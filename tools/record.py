@@ -24,6 +24,7 @@ import queue
 import sys
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Protocol
 
@@ -39,8 +40,7 @@ from motocell.tools.cells import Target
 
 
 class Sink(Protocol):
-    """Where the recorder's writer thread puts each sample: an MCAP file (``McapSink``), or
-    Foxglove's live view (``tools.view``)."""
+    """Where the recorder's writer thread puts each sample: an MCAP file (``McapSink``)."""
 
     def write(self, received_ns: int, key: str, data: bytes) -> None: ...
 
@@ -178,14 +178,26 @@ def run_recorder(
         recorder = Recorder(sink, stop)
         recorder.start()
         try:
-            subscribers = [s.declare_subscriber(e, recorder.on_sample) for s, e in subscriptions]
-            print(ready, flush=True)
-            stop.wait(duration)
-            for subscriber in subscribers:
-                subscriber.undeclare()
+            subscribed_until_stopped(recorder.on_sample, subscriptions, ready, stop, duration)
         finally:
             recorder.close()
     return recorder
+
+
+def subscribed_until_stopped(
+    on_sample: Callable[[zenoh.Sample], None],
+    subscriptions: list[tuple[zenoh.Session, str]],
+    ready: str,
+    stop: StopFlag,
+    duration: float | None,
+) -> None:
+    """Every sample on ``subscriptions`` (session, key expression) to ``on_sample``, on Zenoh's
+    threads, from when ``ready`` is printed until ``stop`` or ``duration`` seconds."""
+    subscribers = [s.declare_subscriber(e, on_sample) for s, e in subscriptions]
+    print(ready, flush=True)
+    stop.wait(duration)
+    for subscriber in subscribers:
+        subscriber.undeclare()
 
 
 # --------------------------------------------------------------------------- the command

@@ -1,12 +1,16 @@
-"""A Foxglove layout for ``motocell view`` and recordings: the 3D scene on the left, and per
-cell a tab with each group's joint plots (feedback solid, commanded dashed), the controller's
-status and the executor's lateness and queue depths.
+"""A Foxglove layout for ``motocell view`` and recordings, drawn to be read in a 1280x800
+window: the 3D scene on the left above each cell's four status lights, and on the right a tab
+per group (its joint positions, feedback solid and commanded dashed, above its velocities)
+and a tab per cell for the controller (its whole status message, the executor's lateness and
+the queue depths).
 
 The file is a layout as Foxglove's "Export..." writes it and "Import from file..." reads it:
 ``configById`` (each panel's settings, keyed ``<PanelType>!<id>``), ``layout`` (the split tree
-of those ids), ``globalVariables``, ``userNodes``, ``playbackConfig``. The panels' settings are
-built with ``foxglove.layouts``, the schema of each panel's configuration that ``foxglove-sdk``
-ships, so their field names are Foxglove's own.
+of those ids, each split giving its first part ``splitPercentage`` of the space),
+``globalVariables``, ``userNodes``, ``playbackConfig``. The panels' settings are built with
+``foxglove.layouts``, the schema of each panel's configuration that ``foxglove-sdk`` ships, so
+their field names are Foxglove's own; Lichtblick reads the same names (its Plot panel's
+``legendDisplay``, ``sidebarDimension`` and ``followingViewWidth`` among them).
 
 ``motocell view --layout FILE`` writes one for the cells it views. The default cell's ships in
 the package (``SHIPPED``, package data), for an install with no source tree;
@@ -16,6 +20,7 @@ the package (``SHIPPED``, package data), for an install with no source tree;
 from __future__ import annotations
 
 import json
+import math
 import re
 from collections.abc import Sequence
 from pathlib import Path
@@ -43,6 +48,23 @@ ARM_AXES = {6: "SLURBT", 7: "SLEURBT"}
 """Motoman's axis letters in ROS order (a 7-axis arm's E sits third)."""
 TRUE = "true"
 """How an Indicator panel's rule names a boolean's true value."""
+PANELS_PX = 696
+"""The height the panels get in a 1280x800 window: less Lichtblick's app bar (44 px) and its
+playback bar (about 60 px)."""
+LIGHTS_ROW_PX = 112
+"""A cell's row of status lights: a panel's 30 px toolbar, then the coloured box. Lichtblick
+1.28.1 centres an Indicator's label in a box 10vw high (128 px at 1280 px), so in a shorter
+panel the label sits about 72 px below the box's top: 80 px of box show it."""
+LIGHTS_AT_MOST = 60
+"""The share of the left column the lights may take (three cells), the rest the 3D scene's."""
+SCENE_SHARE = 55
+"""The window's width the 3D scene and the lights take."""
+LEGEND_PX = 90
+"""A legend beside its plot (``sidebarDimension``): a colour and a short name per series, one
+30 px row each, never over the data as Lichtblick's default floating legend is."""
+WINDOW_S = 30
+"""The time a plot shows, sliding (Foxglove's own choice for live data): without it
+Lichtblick's axis spans everything since the connection, and its ticks coarsen."""
 
 Node = str | dict[str, Any]
 """A split tree: a panel id, or a split of two trees."""
@@ -52,14 +74,24 @@ def layout(cells: list[Cell]) -> dict[str, Any]:
     """The layout for ``cells``: the first cell's frame is the 3D panel's display frame."""
     panels: dict[str, dict[str, Any]] = {}
     scene = _add(panels, "3D", "scene", _three_d(cells))
-    tabs = [{"title": cell.name, "layout": _cell_tab(panels, cell)} for cell in cells]
+    lights = _stack([_lights(panels, cell.name) for cell in cells], "column")
+    # Rounded up, to a tenth of a percent: a row is never a fraction of a pixel short.
+    lights_share = min(
+        LIGHTS_AT_MOST, math.ceil(1000 * LIGHTS_ROW_PX * len(cells) / PANELS_PX) / 10
+    )
+    tabs = [tab for cell in cells for tab in _cell_tabs(panels, cell)]
     side = _add(panels, "Tab", "cells", {"activeTabIdx": 0, "tabs": tabs})
     return {
         "configById": panels,
         "globalVariables": {},
         "userNodes": {},
         "playbackConfig": {"speed": 1},
-        "layout": {"first": scene, "second": side, "direction": "row", "splitPercentage": 55},
+        "layout": {
+            "first": _split(scene, lights, "column", 100 - lights_share),
+            "second": side,
+            "direction": "row",
+            "splitPercentage": SCENE_SHARE,
+        },
     }
 
 
@@ -130,14 +162,20 @@ def _three_d(cells: list[Cell]) -> fl.ThreeDeeConfig:
     )
 
 
-def _cell_tab(panels: dict[str, dict[str, Any]], cell: Cell) -> Node:
-    rows: list[Node] = []
+def _cell_tabs(panels: dict[str, dict[str, Any]], cell: Cell) -> list[dict[str, Any]]:
+    """A tab per group, then the cell's controller tab."""
+    tabs = []
     for group in cell.groups:
-        rows.append(_add(panels, "Plot", f"{cell.name}{group.name}pos", _positions(cell, group)))
-        rows.append(_add(panels, "Plot", f"{cell.name}{group.name}vel", _velocities(cell, group)))
-    rows.append(_status(panels, cell.name))
-    rows.append(_executor(panels, cell))
-    return _stack(rows, "column")
+        positions = _add(panels, "Plot", f"{cell.name}{group.name}pos", _positions(cell, group))
+        velocities = _add(panels, "Plot", f"{cell.name}{group.name}vel", _velocities(cell, group))
+        tabs.append(
+            {
+                "title": f"{cell.name} {group.name}",
+                "layout": _split(positions, velocities, "column", 50),
+            }
+        )
+    tabs.append({"title": f"{cell.name} controller", "layout": _controller(panels, cell)})
+    return tabs
 
 
 def axis_names(group: Group) -> list[str]:
@@ -145,7 +183,21 @@ def axis_names(group: Group) -> list[str]:
     return list(letters) if letters else [str(axis + 1) for axis in range(group.axes)]
 
 
+def _plot(series: list[fl.PlotSeries], unit: str, *, legend: bool) -> fl.PlotConfig:
+    return fl.PlotConfig(
+        paths=series,
+        show_legend=legend,
+        legend_display="left" if legend else None,
+        sidebar_dimension=LEGEND_PX if legend else None,
+        y_axis_label=unit,
+        time_window_mode="sliding",
+        following_view_width=WINDOW_S,
+    )
+
+
 def _positions(cell: Cell, group: Group) -> dict[str, Any]:
+    """Twice as many series as axes, more legend rows than a half-height plot holds: the
+    velocities below name the colours, the same per axis."""
     joints = f"/{cell.name}/{group.name}/joints"
     series = []
     for axis, name in enumerate(axis_names(group)):
@@ -154,8 +206,8 @@ def _positions(cell: Cell, group: Group) -> dict[str, Any]:
         series.append(
             _series(f"{joints}.command_positions[{axis}]", f"{name} commanded", colour, "dashed")
         )
-    plot = fl.PlotConfig(paths=series, show_legend=True, y_axis_label="position (rad, m)")
-    return _titled(plot, f"{cell.name} {group.name}: position, feedback vs commanded")
+    title = f"{cell.name} {group.name} position: solid feedback, dashed commanded"
+    return _titled(_plot(series, "rad, m", legend=False), title)
 
 
 def _velocities(cell: Cell, group: Group) -> dict[str, Any]:
@@ -164,8 +216,8 @@ def _velocities(cell: Cell, group: Group) -> dict[str, Any]:
         _series(f"{joints}.velocities[{axis}]", name, COLOURS[axis % len(COLOURS)], "solid")
         for axis, name in enumerate(axis_names(group))
     ]
-    plot = fl.PlotConfig(paths=series, show_legend=True, y_axis_label="velocity (rad/s, m/s)")
-    return _titled(plot, f"{cell.name} {group.name}: feedback velocity")
+    title = f"{cell.name} {group.name} feedback velocity (each axis's colour)"
+    return _titled(_plot(series, "rad/s, m/s", legend=True), title)
 
 
 def _series(path: str, label: str, colour: str, style: str) -> fl.PlotSeries:
@@ -179,23 +231,20 @@ def _series(path: str, label: str, colour: str, style: str) -> fl.PlotSeries:
     )
 
 
-def _status(panels: dict[str, dict[str, Any]], cell: str) -> Node:
-    """Four lights (motion-ready, servo, E-stop, HOLD) above the whole status message."""
-    status = f"/{cell}/status"
-    lights = [
-        _light(panels, cell, "motion_ready", "motion-ready", good_when_true=True),
-        _light(panels, cell, "servo_on", "servo on", good_when_true=True),
-        _light(panels, cell, "estop", "E-stop", good_when_true=False),
-        _light(panels, cell, "hold", "HOLD", good_when_true=False),
-    ]
-    raw = fl.RawMessagesConfig(topic_path=status, expansion="all")
-    everything = _add(panels, "RawMessages", f"{cell}status", _titled(raw, f"{cell} status"))
-    return {
-        "first": _stack(lights, "row"),
-        "second": everything,
-        "direction": "column",
-        "splitPercentage": 25,
-    }
+LIGHTS = (
+    ("motion_ready", "motion-ready", True),
+    ("servo_on", "servo on", True),
+    ("estop", "E-stop", False),
+    ("hold", "HOLD", False),
+)
+"""The status lights: the field, its name, and whether true is the good value."""
+
+
+def _lights(panels: dict[str, dict[str, Any]], cell: str) -> Node:
+    return _stack(
+        [_light(panels, cell, field, name, good_when_true=good) for field, name, good in LIGHTS],
+        "row",
+    )
 
 
 def _light(
@@ -216,29 +265,49 @@ def _light(
         fallback_color=bad if good_when_true else good,
         fallback_label=f"{label}: no",
     )
-    return _add(panels, "Indicator", f"{cell}{field}", config)
+    return _add(panels, "Indicator", f"{cell}{field}", _titled(config, f"{cell} {label}"))
 
 
-def _executor(panels: dict[str, dict[str, Any]], cell: Cell) -> Node:
+def _controller(panels: dict[str, dict[str, Any]], cell: Cell) -> Node:
+    """The whole status message, the executor's lateness and the queue depths."""
+    raw = fl.RawMessagesConfig(topic_path=f"/{cell.name}/status", expansion="all")
+    status = _add(panels, "RawMessages", f"{cell.name}status", _titled(raw, f"{cell.name} status"))
     executor = f"/{cell.name}/executor"
-    late = fl.PlotConfig(
-        paths=[_series(f"{executor}.lateness_us", "tick lateness (us)", COLOURS[3], "solid")],
-        show_legend=True,
-        y_axis_label="us",
+    # The view sends ticks at its rate, a few of the 250 a second: a late one it did not send
+    # still shows in the metrics' worst of each second.
+    late = _plot(
+        [
+            _series(f"{executor}.lateness_us", "tick", COLOURS[3], "solid"),
+            _series(f"{executor}/metrics.lateness.max_us", "worst/s", COLOURS[1], "dashed"),
+        ],
+        "us",
+        legend=True,
     )
-    depths = fl.PlotConfig(
-        paths=[
+    depths = _plot(
+        [
             _series(f"{executor}.depths[{g.index}]", g.name, COLOURS[g.index], "solid")
             for g in cell.groups
         ],
-        show_legend=True,
-        y_axis_label="entries",
+        "entries",
+        legend=True,
     )
+    title = f"{cell.name} executor lateness"
+    return _stack(
+        [
+            status,
+            _add(panels, "Plot", f"{cell.name}late", _titled(late, title)),
+            _add(panels, "Plot", f"{cell.name}depth", _titled(depths, f"{cell.name} queue depths")),
+        ],
+        "column",
+    )
+
+
+def _split(first: Node, second: Node, direction: str, first_share: float) -> Node:
     return {
-        "first": _add(panels, "Plot", f"{cell.name}late", _titled(late, "executor lateness")),
-        "second": _add(panels, "Plot", f"{cell.name}depth", _titled(depths, "queue depths")),
-        "direction": "row",
-        "splitPercentage": 50,
+        "first": first,
+        "second": second,
+        "direction": direction,
+        "splitPercentage": round(first_share, 2),
     }
 
 
@@ -246,12 +315,7 @@ def _stack(nodes: Sequence[Node], direction: str) -> Node:
     """``nodes`` side by side in ``direction``, each given the same share."""
     if len(nodes) == 1:
         return nodes[0]
-    return {
-        "first": nodes[0],
-        "second": _stack(nodes[1:], direction),
-        "direction": direction,
-        "splitPercentage": 100 / len(nodes),
-    }
+    return _split(nodes[0], _stack(nodes[1:], direction), direction, 100 / len(nodes))
 
 
 def main() -> None:

@@ -29,6 +29,7 @@ from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
 from motocell.testing.client import Feedback, smooth_move, stream
 from motocell.testing.processes import wait_until
 from motocell.testing.running_cell import RunningCell, moving
+from motocell.tools.view import OFFERED_BY
 from motocell.tools.view_layout import layout_text
 from tests.foxglove_ws import SUBPROTOCOL, FoxgloveClient, Received
 from tests.frames import foxglove_steps, in_root, pose_matrix, rotation, vector
@@ -41,11 +42,15 @@ POSE_TOLERANCE_M = 1e-5
 """A flange pose from float32 joints, about a metre from the base: 1e-7 rad x 1 m, and margin."""
 MOVE = (0.4, -0.3, 0.3, 0.5, -0.4, 0.6)
 STALLED_TICKS = 1000
-DEADLINE_S = 60.0
-"""For what an idle machine does at once: a bound for a hang, not a speed."""
 """Executor ticks (4 s) a client does not read: with the other topics it subscribed, the
 server has more than twice ``tools.view.MESSAGE_BACKLOG`` messages for it, more than its queue
 and the sockets' buffers hold."""
+DEADLINE_S = 60.0
+"""For what an idle machine does at once: a bound for a hang, not a speed."""
+EVERY_SAMPLE = "1000"
+"""A ``--rate`` above every rate of the cell (ticks at 250 Hz): the view sends each sample, as
+the tests of what it sends and of its backlog need."""
+CAPPED_HZ = 20.0
 READY = re.compile(r"ws://(?P<host>[\d.]+):(?P<port>\d+)")
 
 
@@ -107,7 +112,7 @@ def layout_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.fixture(scope="module")
 def view(cell: RunningCell, layout_file: Path) -> Iterator[View]:
-    served = View(cell, "--layout", str(layout_file))
+    served = View(cell, "--layout", str(layout_file), "--rate", EVERY_SAMPLE)
     yield served
     assert served.stop() == 0, served.lines
 
@@ -127,6 +132,11 @@ def test_it_speaks_foxglove_sdk_v1_and_refuses_a_client_offering_only_the_older_
     with pytest.raises(InvalidStatus) as refused:
         connect(view.url, subprotocols=[Subprotocol("foxglove.websocket.v1")], open_timeout=10)
     assert refused.value.response.status_code == 400
+    wait_until(
+        lambda: any(line.endswith(f"handshake failed ({OFFERED_BY})") for line in view.lines),
+        DEADLINE_S,
+        "the view to say which subprotocol the refused client lacked",
+    )
     with connect(view.url, subprotocols=[Subprotocol(SUBPROTOCOL)], open_timeout=10) as client:
         assert client.subprotocol == "foxglove.sdk.v1"
 
@@ -330,6 +340,25 @@ def test_a_client_that_never_reads_is_held_a_bounded_backlog(view: View, cell: R
         stalled.close()
     assert set(sent) - set(kept), f"all {len(sent)} ticks kept for a client that did not read"
     assert view.process.poll() is None
+
+
+def test_each_topic_is_sent_at_most_at_the_rate_asked(cell: RunningCell) -> None:
+    """Ticks come at 250 Hz while the arm moves; the view sends at most one per period, each
+    the newest that had arrived: of n sent, the n-1 after the first each arrived after the one
+    before went out, so n-2 periods fit between the first's and the last's receive times."""
+    capped = View(cell, "--rate", f"{CAPPED_HZ:g}")
+    try:
+        with moving(cell, seconds=3.0), subscribed(capped, cell, "executor") as client:
+            received = client.messages_until(
+                lambda found: len(found) >= 20, DEADLINE_S, "20 ticks while the arm moves"
+            )
+    finally:
+        assert capped.stop() == 0, capped.lines
+    ticks = [m for m in received if m.topic == topics(cell)["executor"]]
+    span_s = (ticks[-1].log_time_ns - ticks[0].log_time_ns) / 1e9
+    assert len(ticks) - 2 <= CAPPED_HZ * span_s, f"{len(ticks)} ticks in {span_s:.2f} s"
+    numbers = [m.json()["tick"] for m in ticks]
+    assert numbers == sorted(numbers) and numbers[-1] - numbers[0] > len(numbers), numbers
 
 
 def view_address(view: View) -> tuple[str, int]:

@@ -41,3 +41,9 @@ def test_a_port_out_of_range(port: str, capsys: pytest.CaptureFixture[str]) -> N
 def test_a_duration_not_positive(capsys: pytest.CaptureFixture[str]) -> None:
     line = refused(["view", "--port", "0", "--duration", "0"], capsys)
     assert line == "motocell view: --duration must be positive"
+
+
+@pytest.mark.parametrize("rate", ["0", "-5", "nan", "inf"])
+def test_a_rate_not_above_0(rate: str, capsys: pytest.CaptureFixture[str]) -> None:
+    line = refused(["view", "--port", "0", "--rate", rate], capsys)
+    assert line == "motocell view: --rate must be a number of Hz above 0"
