@@ -111,13 +111,19 @@ def described(config: str | Path | None, scope: Scope, settings: dict[str, Any])
 
 
 def ask_a_person(config: pytest.Config) -> Callable[[str], None]:
-    """``input`` with pytest's capture off, when a person can answer: at a terminal, and not
-    in an xdist worker (whose input is its controller's); elsewhere nothing is asked."""
+    """``input`` from pytest's own standard input, when a person can answer: at a terminal,
+    and not in an xdist worker (whose input is its controller's); elsewhere nothing is asked."""
     capture = config.pluginmanager.getplugin("capturemanager")
 
     def ask(prompt: str) -> None:
-        with capture.global_and_fixture_disabled() if capture else ExitStack():
-            if not hasattr(config, "workerinput") and sys.stdin.isatty():
+        if capture is not None:
+            # The run's output is all written by now: what is captured stays released.
+            capture.suspend_global_capture(in_=True)
+        if not hasattr(config, "workerinput") and sys.stdin.isatty():
+            try:
                 input(prompt)
+            # Ctrl-C or Ctrl-D answers as Enter does: the cells stop, without a traceback.
+            except (EOFError, KeyboardInterrupt):
+                print()
 
     return ask
