@@ -27,7 +27,8 @@ class CellStatus:
     not_ready: int
     """Why motion is not ready: the NOT_READY subcode (motoros1 §7.2), 0 when it is."""
     trajectory_mode: MotionHolder
-    """Which face holds trajectory mode (``NOBODY``: none does)."""
+    """Which face holds trajectory mode (``NOBODY``: none does), as the gateway last said: on
+    a client's connecting or leaving, and once a second, so up to a second old."""
     positions: tuple[tuple[float, ...], ...]
     """Each group's joint positions (radians, metres for a linear axis; ROS order)."""
 
