@@ -35,8 +35,8 @@ class Keeper:
 
     def __init__(self, keep: bool) -> None:
         self.keep = keep
-        self._failed: set[int] = set()
-        """The cells of failed tests, by ``id``: the objects live while their fixtures do."""
+        self._failed: set[Reported] = set()
+        """The cells of failed tests (held, so that no later cell takes one's identity)."""
         self._kept = ExitStack()
         self.kept: list[str] = []
         """The names of the cells kept, in the order their fixtures ended."""
@@ -44,14 +44,14 @@ class Keeper:
     def failed_with(self, cell: Reported) -> bool:
         """A test that used ``cell`` failed: whether the cell is kept."""
         if self.keep:
-            self._failed.add(id(cell))
+            self._failed.add(cell)
         return self.keep
 
     def hand_over(self, value: object, stop: ExitStack) -> None:
         """A fixture's scope ended: ``stop`` stops ``value``'s cells now, or, if a failed test
         used one of them, when ``stop()`` is called."""
         cells = reported_in(value)
-        if any(id(cell) in self._failed for cell in cells):
+        if any(cell in self._failed for cell in cells):
             self._kept.push(stop.pop_all())
             self.kept += [cell.name for cell in cells]
 
@@ -72,7 +72,9 @@ def kept_if_failed(request: pytest.FixtureRequest, cells: AbstractContextManager
     with ExitStack() as stop:
         value = stop.enter_context(cells)
         yield value
-        request.config.stash[KEEPER].hand_over(value, stop)
+        keeper = request.config.stash.get(KEEPER, None)
+        if keeper is not None:  # None: a cell_fixture in a run without the plugin (-p no:motocell)
+            keeper.hand_over(value, stop)
 
 
 def cell_fixture(

@@ -155,9 +155,9 @@ class CellUnderTest(Reported):
 
     def reset(self) -> None:
         """The controller's switches back to how a cell starts: E-stop, HOLD, PFL and servo
-        off, alarms and error cleared, PLAY and REMOTE (``START_FAULTS``). Not the rest: the
-        arm stays where it is, a client keeps trajectory mode, I/O, M-registers and tools keep
-        their values."""
+        off, alarms and error cleared, PLAY and REMOTE (``START_FAULTS``). The servo going off
+        stops the INIT_ROS job, and so ends trajectory mode, as a real controller's does. Not
+        the rest: the arm stays where it is, I/O, M-registers and tools keep their values."""
         for kind, setting in START_FAULTS:
             self.fault(kind, setting)
 

@@ -210,7 +210,7 @@ def test_two(per_module):
 """
 
 
-def test_a_factory_cell_at_module_scope_is_one_cell_per_module(
+def test_a_factory_cell_at_module_scope_is_one_cell_per_module_also_without_the_plugin(
     pytester: pytest.Pytester, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     started: list[str] = []
@@ -226,6 +226,8 @@ def test_a_factory_cell_at_module_scope_is_one_cell_per_module(
     pytester.makepyfile(test_first=tests, test_second=tests)
     pytester.inline_run("-p", "no:cacheprovider").assertoutcome(passed=4)
     assert started == ["four-group", "four-group"]
+    pytester.inline_run("-p", "no:cacheprovider", "-p", "no:motocell").assertoutcome(passed=4)
+    assert len(started) == 4
     shown = pytester.runpytest_inprocess("-p", "no:cacheprovider", "--fixtures")
     shown.stdout.fnmatch_lines(
         ["per_module [[]module scope[]]*", "*A started cell four-group, byte_order='big', shared*"]
