@@ -12,29 +12,35 @@ import importlib
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    from motocell.shared.bus.schemas import Alarm, MotionHolder
     from motocell.shared.config import ConfigError
     from motocell.testing.cell_status import CellStatus
     from motocell.testing.fixtures import cell_fixture
     from motocell.testing.under_test import CellUnderTest, FaultError, StartCell, cell, cells
 
 HOMES: dict[str, str] = {
+    "Alarm": "motocell.shared.bus.schemas",
     "CellStatus": "motocell.testing.cell_status",
     "CellUnderTest": "motocell.testing.under_test",
     "ConfigError": "motocell.shared.config",
     "FaultError": "motocell.testing.under_test",
+    "MotionHolder": "motocell.shared.bus.schemas",
     "StartCell": "motocell.testing.under_test",
     "cell": "motocell.testing.under_test",
     "cell_fixture": "motocell.testing.fixtures",
     "cells": "motocell.testing.under_test",
 }
-"""Each name's module. ``ConfigError`` (``motocell.shared.config``'s): a cell asked for with a
+"""Each name's module. ``Alarm`` and ``MotionHolder``: what ``CellStatus`` holds, for a test
+to compare with. ``ConfigError`` (``motocell.shared.config``'s): a cell asked for with a
 field it cannot take (``cell(byte_order="middle")``), raised before anything starts, naming
 the field and what it takes."""
 __all__ = [
+    "Alarm",
     "CellStatus",
     "CellUnderTest",
     "ConfigError",
     "FaultError",
+    "MotionHolder",
     "StartCell",
     "cell",
     "cell_fixture",

@@ -89,6 +89,9 @@ def cell_fixture(
     scope="module")`` in a conftest gives the fixture ``four_groups``, one cell for each test
     module that asks for it. A setting the cell cannot take fails the first test that asks."""
 
+    if scope not in SHARED_BY:
+        raise ValueError(f"cell_fixture: scope {scope!r} is not one of: {', '.join(SHARED_BY)}")
+
     def started_cell(request: pytest.FixtureRequest) -> Iterator[CellUnderTest]:
         yield from kept_if_failed(request, testing.cell(config, name=name, **settings))
 

@@ -12,7 +12,7 @@ from contextlib import ExitStack, contextmanager
 import pytest
 
 from motocell import testing
-from motocell.testing.fixtures import Keeper
+from motocell.testing.fixtures import Keeper, cell_fixture
 from motocell.testing.report import Reported, Starts, reported_in, section
 
 pytest_plugins = ["pytester"]
@@ -186,6 +186,11 @@ def test_a_person_is_asked_before_kept_cells_stop_and_not_without_any() -> None:
     keeper.stop(lambda prompt: asked.append((prompt, list(stopped))))
     assert asked == [("motocell: a kept running; Enter stops them ", [])]
     assert stopped == ["a"]
+
+
+def test_a_scope_pytest_does_not_have_is_refused_in_one_line() -> None:
+    with pytest.raises(ValueError, match=r"^cell_fixture: scope 'modul' is not one of: function"):
+        cell_fixture(scope="modul")  # type: ignore[arg-type]
 
 
 def test_motocell_testing_names_each_of_its_names_home() -> None:
