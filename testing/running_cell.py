@@ -337,7 +337,7 @@ def running_cell(
         except (TimeoutError, OSError) as exc:
             if attempt == attempts:
                 if log is not None:
-                    exc.add_note(f"the end of {log}:\n{_log_tail(log)}")
+                    exc.add_note(f"the end of {log}:\n{log_tail(log)}")
                 raise
             print(f"warning: the cell did not start ({exc}); again on new ports", file=sys.stderr)
             attempt += 1
@@ -367,7 +367,8 @@ def wait_for_whole_cell(
         )
 
 
-def _log_tail(path: Path, lines: int = 20) -> str:
+def log_tail(path: Path, lines: int = 20) -> str:
+    """The last ``lines`` lines of the log at ``path``, or why it cannot be read."""
     try:
         return "\n".join(path.read_text(errors="replace").splitlines()[-lines:])
     except OSError as exc:

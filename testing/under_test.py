@@ -19,7 +19,7 @@ import tempfile
 from collections.abc import Iterator
 from contextlib import ExitStack, contextmanager
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 import zenoh
 
@@ -28,9 +28,11 @@ from motocell.shared.bus.catalog import Role
 from motocell.shared.config import Cell, Ros2Face
 from motocell.shared.protocol.constants import Result, describe_reply
 from motocell.testing.cell_file import write_cell_file
+from motocell.testing.cell_status import CellStatus, cell_status
 from motocell.testing.following import FollowingError, following_errors
 from motocell.testing.observer import CellObserver
-from motocell.testing.running_cell import RunningCell, running_cell
+from motocell.testing.report import Reported, Starts
+from motocell.testing.running_cell import RunningCell, log_tail, running_cell
 
 START_TIMEOUT_S = 60.0
 """For a cell to be whole: about a second on an idle machine, many times that on a loaded one;
@@ -38,6 +40,22 @@ a bound for a hang, not a speed. A start that fails (a port taken meanwhile) is 
 more on new ports."""
 STATE_TIMEOUT_S = 10.0
 REST_TIMEOUT_S = 30.0
+REPORT_TIMEOUT_S = 2.0
+"""For a failed test's report to read the cell's state: a running cell's observer heard its
+status and state long before, so only a cell that stopped answering waits this long."""
+LOG_LINES = 20
+"""Of the cell's log, in a failed test's report."""
+START_FAULTS = (
+    ("estop", "off"),
+    ("hold", "off"),
+    ("alarm", "clear"),
+    ("error", "clear"),
+    ("pfl", "off"),
+    ("play", "play"),
+    ("remote", "on"),
+    ("servo", "off"),
+)
+"""The controller's switches as a cell starts with them, in ``fault``'s words: ``reset``."""
 
 _numbers = itertools.count(1)
 
@@ -51,10 +69,10 @@ class FaultError(RuntimeError):
     """The controller refused the fault, or no controller answered."""
 
 
-class CellUnderTest:
+class CellUnderTest(Reported):
     """A started cell: where to reach it, and what a test asks of it without knowing Zenoh."""
 
-    def __init__(self, running: RunningCell, session: zenoh.Session) -> None:
+    def __init__(self, running: RunningCell, session: zenoh.Session, log: Path) -> None:
         self.running = running
         """The harness's cell (``motocell.testing.running_cell``): its Simple Message clients
         (``motion()``, ``io()``, ``state()``), its processes, a Zenoh ``session()``."""
@@ -65,7 +83,15 @@ class CellUnderTest:
             running.cell, host=running.host, port_base=running.port_base
         )
         """The cell as its services run it: groups, models, periods, byte order, ports."""
+        self.log = log
+        """The file its launcher and services write their log to (``MOTOCELL_TEST_LOG``: at
+        WARNING unless set), removed with the cell."""
+        self.stopped = False
+        """Its ``cell()`` block ended: nothing of it runs."""
         self._observer = CellObserver(session, running.keys)
+        self._faults_seen = 0
+        """The controller status that shows the last fault injected (its reply's
+        ``status_seq``): what ``status()`` waits for."""
 
     @property
     def name(self) -> str:
@@ -118,6 +144,23 @@ class CellUnderTest:
         state = self._observer.state(timeout)
         return tuple(state.groups[group].positions[: self.config.groups[group].axes])
 
+    def status(self, timeout: float = STATE_TIMEOUT_S) -> CellStatus:
+        """The cell now: servo, PLAY or TEACH, REMOTE, E-stop, HOLD, alarms, error, whether
+        motion is ready, which face holds trajectory mode, every group's positions; from the
+        newest controller status, one that shows every fault this object injected, and the
+        newest state snapshot. TimeoutError after ``timeout`` s without them."""
+        controller = self._observer.controller(timeout, since_seq=self._faults_seen)
+        holder = self._observer.holder(timeout)
+        return cell_status(controller, holder, self._observer.state(timeout), self.config)
+
+    def reset(self) -> None:
+        """The controller's switches back to how a cell starts: E-stop, HOLD, PFL and servo
+        off, alarms and error cleared, PLAY and REMOTE (``START_FAULTS``). The servo going off
+        stops the INIT_ROS job, and so ends trajectory mode, as a real controller's does. Not
+        the rest: the arm stays where it is, I/O, M-registers and tools keep their values."""
+        for kind, setting in START_FAULTS:
+            self.fault(kind, setting)
+
     def wait_at_rest(self, timeout: float = REST_TIMEOUT_S) -> None:
         """Until the executor says its clock rests: nothing queued, owed or settling, for a
         second. Call it once the motion's last point was accepted; it takes about a second
@@ -140,6 +183,7 @@ class CellUnderTest:
         if reply.result != Result.SUCCESS:
             shown = describe_reply(reply.result, reply.subcode)
             raise FaultError(f"fault {kind} {setting}: {shown} {reply.detail}".rstrip())
+        self._faults_seen = max(self._faults_seen, reply.status_seq)
 
     def following_error(self, group: int = 0) -> FollowingError:
         """The group's following error (commanded - feedback, per axis) over the last motion:
@@ -149,6 +193,25 @@ class CellUnderTest:
         if not ticks:
             raise LookupError(f"cell {self.name}: nothing moved yet")
         return following_errors(self.config, ticks)[group]
+
+    def described(self) -> list[str]:
+        if self.stopped:
+            return ["stopped already (its fixture's scope ended)"]
+        exited = self.running.process.poll()
+        if exited is None:
+            lines = self.status(REPORT_TIMEOUT_S).lines()
+        else:
+            lines = [f"gone: its launcher exited with {exited} before this report"]
+        return [*lines, f"the end of its log ({self.log}):", log_tail(self.log, LOG_LINES)]
+
+    def how_to_look(self) -> list[str]:
+        where = f"--zenoh-connect {self.zenoh_endpoint} --credentials {self.credentials}"
+        return [
+            f"  motocell watch {where} --cell {self.name}",
+            f"  motocell ps {where} --cell {self.name}",
+            f"  its ports: motion {self.host}:{self.motion_port}, state {self.state_port},"
+            f" I/O {self.io_port}; its log: {self.log}",
+        ]
 
 
 @contextmanager
@@ -167,16 +230,31 @@ def cell(
         path = write_cell_file(
             Path(directory) / "cell.toml", config, name or unique_name(), settings
         )
-        with running_cell(path, timeout=timeout, attempts=2, scratch=[Path(directory)]) as running:
+        log = Path(directory) / "cell.log"
+        with running_cell(
+            path, log=log, timeout=timeout, attempts=2, scratch=[Path(directory)]
+        ) as running:
             session = running.session(Role.OPERATOR)
+            started = CellUnderTest(running, session, log)
             try:
-                yield CellUnderTest(running, session)
+                yield started
             finally:
+                started.stopped = True
                 session.close()
 
 
-class StartCell(Protocol):
-    """``start(config, name=..., timeout=..., **settings)``, as ``cell`` takes them."""
+class StartCell(Starts):
+    """``start(config, name=..., timeout=..., **settings)``, as ``cell`` takes them: a cell
+    started, stopped when the ``cells()`` block that made this ends."""
+
+    def __init__(self, stack: ExitStack) -> None:
+        self._stack = stack
+        self._started: list[CellUnderTest] = []
+
+    @property
+    def started(self) -> tuple[CellUnderTest, ...]:
+        """Every cell it started, in order."""
+        return tuple(self._started)
 
     def __call__(
         self,
@@ -185,7 +263,10 @@ class StartCell(Protocol):
         name: str | None = None,
         timeout: float = START_TIMEOUT_S,
         **settings: Any,
-    ) -> CellUnderTest: ...
+    ) -> CellUnderTest:
+        started = self._stack.enter_context(cell(config, name=name, timeout=timeout, **settings))
+        self._started.append(started)
+        return started
 
 
 @contextmanager
@@ -193,14 +274,4 @@ def cells() -> Iterator[StartCell]:
     """A function that starts a cell each time it is called (as ``cell`` does) and returns it
     started; every cell it started stops on exit, the last first."""
     with ExitStack() as stack:
-
-        def start(
-            config: str | Path | None = None,
-            *,
-            name: str | None = None,
-            timeout: float = START_TIMEOUT_S,
-            **settings: Any,
-        ) -> CellUnderTest:
-            return stack.enter_context(cell(config, name=name, timeout=timeout, **settings))
-
-        yield start
+        yield StartCell(stack)

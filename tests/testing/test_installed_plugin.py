@@ -107,6 +107,7 @@ def test_a_passing_and_a_failing_test_leave_no_cell_behind(venv: Path, project: 
     assert re.search(r"\b1 failed, 3 passed\b", output), output
     assert "FAILED test_client.py::test_trajectory_mode_under_an_estop_fails_on_purpose" in output
     assert "fails on purpose: the E-stop is on" in output
+    assert re.search(r"- motocell cell test-\d+-\d+ -+\nservo .*\nE-stop on, HOLD off\n", output)
     assert_nothing_left(venv, project, output)
 
 
