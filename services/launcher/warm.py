@@ -30,6 +30,7 @@ from motocell.services.launcher.core.forks import (
     encode,
 )
 from motocell.shared.service import PARENT_PID_ENV
+from motocell.shared.service_names import WARM_PARENT_MODULE
 
 log = logging.getLogger("motocell")
 
@@ -151,7 +152,7 @@ class Zygote:
         ours, theirs = socket.socketpair()
         env = {**os.environ, PARENT_PID_ENV: str(os.getpid())}
         command = [
-            *(sys.executable, "-m", "motocell.services.launcher.zygote"),
+            *(sys.executable, "-m", WARM_PARENT_MODULE),
             *("--channel", str(theirs.fileno()), "--room", " " * ROOM, ",".join(modules)),
         ]
         try:

@@ -4,7 +4,9 @@
 
 For a single-arm and a four-group cell, each run spawns ``motocell up`` (through the test
 harness, ``testing.running_cell.start_cell``) and waits until it is motion-ready: every service
-alive and START_TRAJ_MODE answered SUCCESS. At that instant it reads, for every process of the
+alive and START_TRAJ_MODE answered SUCCESS. Two ways, alternating: as ``motocell up`` starts
+by default, every service a fork of the launcher's warm parent (docs/startup.md), and with
+``--cold``, every service a fresh interpreter, as every start was before the warm parent. At that instant it reads, for every process of the
 cell (the launcher with its router, every service, and whatever else the launcher started):
 
 - CPU: utime + stime, plus what the process's reaped children used (cutime + cstime), summed
@@ -12,11 +14,13 @@ cell (the launcher with its router, every service, and whatever else the launche
 - memory: PSS (its own pages and its share of the shared ones), its private pages (what a
   further cell beside it costs: the shared ones are there already) and RSS, summed.
 
-Wall time is spawn -> motion-ready. Then one service's start is taken apart in a process of its
-own (``start_phases``): the interpreter, its imports, the cell file, ``zenoh.open``.
+Wall time is spawn -> motion-ready. Beside each cold run, one service's start is taken apart in
+a fresh interpreter of its own (``start_phases``): the interpreter, its imports, the cell
+file, ``zenoh.open``.
 
 Goals (issue 33): single-arm ready in <= 0.5 s wall and <= 0.4 s CPU, four-group <= 0.8 s /
-<= 0.7 s; each further single-arm cell <= 48 MiB, four-group <= 80 MiB. Runs of 3.
+<= 0.7 s; each further single-arm cell <= 48 MiB, four-group <= 80 MiB, for the default start.
+Runs of 3 each.
 """
 
 from __future__ import annotations
@@ -26,17 +30,17 @@ import subprocess
 import sys
 import time
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from motocell.shared.protocol.constants import Command, Result
-from motocell.testing.processes import cmdline, descendants
 from motocell.testing.running_cell import RunningCell, start_cell, wait_for_whole_cell
 from motocell.tools.bench.measuring import (
     CLK_TCK,
     GROUP_MODELS,
     figure_result,
+    process_kinds,
     workdir,
     write_cell_file,
 )
@@ -62,15 +66,6 @@ class ProcessRead:
     rss_mib: float
 
 
-def kind_of(pid: int, launcher: int) -> str:
-    if pid == launcher:
-        return "launcher+router"
-    for word in cmdline(pid):
-        if word.startswith("motocell.services."):
-            return word.removeprefix("motocell.services.")
-    return "other"
-
-
 def read_process(pid: int, kind: str) -> ProcessRead | None:
     """None once it is gone."""
     try:
@@ -92,13 +87,8 @@ def read_process(pid: int, kind: str) -> ProcessRead | None:
 
 
 def read_cell(cell: RunningCell) -> list[ProcessRead]:
-    launcher = cell.process.pid
-    reads = []
-    for pid in (launcher, *sorted(descendants(launcher))):
-        read = read_process(pid, kind_of(pid, launcher))
-        if read is not None:
-            reads.append(read)
-    return reads
+    reads = [read_process(pid, kind) for pid, kind in process_kinds(cell).items()]
+    return [read for read in reads if read is not None]
 
 
 def motion_ready(cell: RunningCell) -> None:
@@ -109,14 +99,16 @@ def motion_ready(cell: RunningCell) -> None:
         raise RuntimeError(f"START_TRAJ_MODE refused: {reply}")
 
 
-def once(config: Path, log: Path) -> tuple[float, list[ProcessRead], dict[str, float]]:
+def once(
+    config: Path, log: Path, *, cold: bool
+) -> tuple[float, list[ProcessRead], dict[str, float]]:
     """Wall seconds to motion-ready, every process read then, and one service's phases."""
-    cell = start_cell(config, log=log)
+    cell = start_cell(config, log=log, cold=cold)
     try:
         motion_ready(cell)
         wall = (time.monotonic_ns() - cell.spawned_ns) / 1e9
         reads = read_cell(cell)
-        phases = start_phases(cell)
+        phases = start_phases(cell) if cold else {}
     finally:
         cell.stop()
     return wall, reads, phases
@@ -146,63 +138,73 @@ def by_kind(reads: Iterable[ProcessRead]) -> dict[str, float]:
     return cpu
 
 
+@dataclass
+class Runs:
+    """One way of starting one cell, over the runs."""
+
+    walls: list[float] = field(default_factory=list)
+    cpus: list[float] = field(default_factory=list)
+    pss: list[float] = field(default_factory=list)
+    private: list[float] = field(default_factory=list)
+    rss: list[float] = field(default_factory=list)
+    kinds: dict[str, list[float]] = field(default_factory=dict)
+    phases: dict[str, list[float]] = field(default_factory=dict)
+    processes: int = 0
+
+    def add(self, wall: float, reads: list[ProcessRead], phases: dict[str, float]) -> None:
+        self.walls.append(wall * 1000)
+        self.cpus.append(sum(r.cpu_s for r in reads) * 1000)
+        self.pss.append(sum(r.pss_mib for r in reads))
+        self.private.append(sum(r.private_mib for r in reads))
+        self.rss.append(sum(r.rss_mib for r in reads))
+        for kind, cpu in by_kind(reads).items():
+            self.kinds.setdefault(kind, []).append(cpu * 1000)
+        for name, seconds in phases.items():
+            self.phases.setdefault(name, []).append(seconds * 1000)
+        self.processes = len(reads)
+
+
+def rows_of(label: str, runs: Runs, goals: tuple[float, ...] | None) -> list[dict[str, Any]]:
+    """``goals`` (wall s, CPU s, MiB for a further cell): None for the cold start, which is
+    measured to compare with."""
+    wall_goal, cpu_goal, further_goal = goals or (None, None, None)
+
+    def row(name: str, unit: str, values: list[float], goal: float | None) -> dict[str, Any]:
+        aimed = None if goal is None else ("<=", goal)
+        return figure_result(FIGURE, f"{label}: {name}", unit, values, goal=aimed)
+
+    rows = [
+        row("spawn -> motion-ready", "ms", runs.walls, wall_goal and wall_goal * 1000),
+        row("CPU of every process to motion-ready", "ms", runs.cpus, cpu_goal and cpu_goal * 1000),
+    ]
+    rows[0]["note"] = f"{runs.processes} processes"
+    rows += [
+        row(f"CPU, {kind} (all of them)", "ms", values, None)
+        for kind, values in sorted(runs.kinds.items())
+    ]
+    rows += [
+        row("PSS once ready", "MiB", runs.pss, None),
+        row("private once ready (a further cell)", "MiB", runs.private, further_goal),
+        row("RSS once ready", "MiB", runs.rss, None),
+    ]
+    rows += [
+        row(f"{PHASES_SERVICE} alone, CPU of {name}", "ms", values, None)
+        for name, values in runs.phases.items()
+    ]
+    return rows
+
+
 def cell_rows(
     label: str, models: tuple[str, ...], goals: tuple[float, ...], directory: Path
 ) -> list[dict[str, Any]]:
-    wall_goal, cpu_goal, further_goal = goals
+    """Cold and warm starts alternating, so that a change in the machine's load falls on both;
+    one service's start taken apart beside the cold ones, whose start it is."""
     config = write_cell_file(directory, f"bench13{label.replace('-', '')}", models=models)
-    walls, cpus, pss, private, rss = [], [], [], [], []
-    kinds: dict[str, list[float]] = {}
-    phases: dict[str, list[float]] = {}
+    cold, warm = Runs(), Runs()
     for index in range(RUNS):
-        wall, reads, phase = once(config, directory / f"{label}{index}.log")
-        walls.append(wall * 1000)
-        cpus.append(sum(r.cpu_s for r in reads) * 1000)
-        pss.append(sum(r.pss_mib for r in reads))
-        private.append(sum(r.private_mib for r in reads))
-        rss.append(sum(r.rss_mib for r in reads))
-        for kind, cpu in by_kind(reads).items():
-            kinds.setdefault(kind, []).append(cpu * 1000)
-        for name, seconds in phase.items():
-            phases.setdefault(name, []).append(seconds * 1000)
-    processes = f"{label}, {len(reads)} processes"
-    rows = [
-        figure_result(
-            FIGURE,
-            f"{label}: spawn -> motion-ready",
-            "ms",
-            walls,
-            goal=("<=", wall_goal * 1000),
-            note=processes,
-        ),
-        figure_result(
-            FIGURE,
-            f"{label}: CPU of every process to motion-ready",
-            "ms",
-            cpus,
-            goal=("<=", cpu_goal * 1000),
-        ),
-    ]
-    rows += [
-        figure_result(FIGURE, f"{label}: CPU, {kind} (all of them)", "ms", values)
-        for kind, values in sorted(kinds.items())
-    ]
-    rows += [
-        figure_result(FIGURE, f"{label}: PSS once ready", "MiB", pss),
-        figure_result(
-            FIGURE,
-            f"{label}: private once ready (a further cell)",
-            "MiB",
-            private,
-            goal=("<=", further_goal),
-        ),
-        figure_result(FIGURE, f"{label}: RSS once ready", "MiB", rss),
-    ]
-    rows += [
-        figure_result(FIGURE, f"{label}: {PHASES_SERVICE} alone, CPU of {name}", "ms", values)
-        for name, values in phases.items()
-    ]
-    return rows
+        cold.add(*once(config, directory / f"{label}-cold{index}.log", cold=True))
+        warm.add(*once(config, directory / f"{label}-warm{index}.log", cold=False))
+    return [*rows_of(f"{label}, cold (--cold)", cold, None), *rows_of(label, warm, goals)]
 
 
 def run(quick: bool) -> list[dict[str, Any]]:
