@@ -6,8 +6,9 @@ For a single-arm and a four-group cell, each run spawns ``motocell up`` (through
 harness, ``testing.running_cell.start_cell``) and waits until it is motion-ready: every service
 alive and START_TRAJ_MODE answered SUCCESS. Two ways, alternating: as ``motocell up`` starts
 by default, every service a fork of the launcher's warm parent (docs/startup.md), and with
-``--cold``, every service a fresh interpreter, as every start was before the warm parent. At that instant it reads, for every process of the
-cell (the launcher with its router, every service, and whatever else the launcher started):
+``--cold``, every service a fresh interpreter, as every start was before the warm parent.
+Once motion-ready it reads, for every process of the cell (the launcher with its router, the
+zygote, every service):
 
 - CPU: utime + stime, plus what the process's reaped children used (cutime + cstime), summed
   over the cell; also by kind of process;
