@@ -15,9 +15,10 @@ what can be checked before any child starts (the ports, the names ``--skip`` giv
 user's mistake costs one line.
 Once the cell is whole and its ports listen, one INFO line says so (``ready_line``).
 
-``core`` decides (children, ports, router endpoints, restarts); ``loop`` supervises the
-children; ``processes``, ``router``, ``ports``, ``ready_line`` and ``realtime_line`` do the
-I/O; this module puts them together for the two commands.
+``core`` decides (children, ports, router endpoints, restarts, the warm parent's messages);
+``loop`` supervises the children; ``processes``, ``warm`` (the services forked from the warm
+parent, ``zygote``: docs/startup.md), ``router``, ``ports``, ``ready_line`` and
+``realtime_line`` do the I/O; this module puts them together for the two commands.
 """
 
 from __future__ import annotations
