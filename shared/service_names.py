@@ -17,6 +17,9 @@ PER_GROUP = "interpolator"
 """The service that runs once per control group, its group as its instance."""
 ROS2_FACE = "ros2"
 """MotoROS2's ROS 2 API (``services/ros2``): only in a cell whose file has ``[ros2]``."""
+WARM_PARENT_MODULE = "motocell.services.launcher.zygote"
+"""The launcher's warm parent, which the services are forked from (docs/startup.md): a process
+of the cell beside them, but no service."""
 SERVICES = ("controller", "executor", "broadcaster", PER_GROUP, "gateway", ROS2_FACE)
 """Every kind of service, in the order a launcher starts them."""
 

@@ -46,7 +46,9 @@ def cmdline(pid: int) -> list[str]:
         raw = Path(f"/proc/{pid}/cmdline").read_bytes()
     except OSError:
         return []
-    return raw.decode(errors="replace").split("\0")[:-1]
+    # A service forked by its launcher's warm parent rewrote its arguments in the room that
+    # parent's held (services/launcher/zygote.py): the rest of that room reads as NULs.
+    return raw.rstrip(b"\0").decode(errors="replace").split("\0") if raw else []
 
 
 def connectable(host: str, port: int) -> bool:

@@ -42,7 +42,12 @@ from motocell.shared.ports import free_port, free_port_block, port_free
 from motocell.shared.protocol.codec import ByteOrder
 from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
-from motocell.shared.service_names import ROS2_FACE, cell_services, parse_service
+from motocell.shared.service_names import (
+    ROS2_FACE,
+    WARM_PARENT_MODULE,
+    cell_services,
+    parse_service,
+)
 from motocell.testing.client import MotionClient, StateListener, smooth_move, stream
 from motocell.testing.ports import PortTakenError, on_free_port
 from motocell.testing.processes import alive, cmdline, connectable, descendants, wait_until
@@ -125,6 +130,10 @@ class RunningCell:
         self._seen |= current
         return current
 
+    def services(self) -> set[int]:
+        """The cell's service processes now: the launcher's, but its warm parent."""
+        return {pid for pid in self.children() if WARM_PARENT_MODULE not in cmdline(pid)}
+
     def service_pids(self, module: str, group: int | None = None) -> set[int]:
         """The cell's processes running ``services.<module>`` (only ``group``'s, if given)."""
         found = set()
@@ -143,7 +152,7 @@ class RunningCell:
         def started() -> bool:
             if self.process.poll() is not None:
                 raise ChildProcessError(f"the launcher exited with {self.process.returncode}")
-            return len(self.children()) >= self.expected_children
+            return len(self.services()) >= self.expected_children
 
         wait_until(started, timeout, "every service process to start")
 
@@ -197,13 +206,15 @@ def start_cell(
     log_level: str = LOG_LEVEL,
     scratch: Sequence[Path] = (),
     port_base: int | None = None,
+    cold: bool = False,
 ) -> RunningCell:
     """Spawn the launcher on free ports (``port_base``: on that one and the two after it) and
     return at once. It runs its own router, or joins
     ``router`` (secured: with ``credentials``); ``skip``ped services are the caller's to run.
     ``log``: the launcher's and its services' output goes there (appended) instead of this
     process's. ``scratch``: directories the caller made for this cell alone, which the
-    launcher removes if this process dies with the cell running.
+    launcher removes if this process dies with the cell running. ``cold``: every service a fresh
+    interpreter instead of a fork of the launcher's warm parent (``motocell up --cold``).
 
     The cell dies with this process, however it ends (SIGKILL, the OOM killer included): the
     launcher holds the read end of a pipe whose write end only this process holds
@@ -225,6 +236,8 @@ def start_cell(
         command += ["--credentials", str(credentials)]
     if cell_file is not None:
         command += ["--config", cell_file]
+    if cold:
+        command.append("--cold")
     # Named after this process: should the launcher too be killed outright, the next test run
     # can tell the directory is left over (the test suite's tests/leftovers.py).
     runtime_dir = Path(tempfile.mkdtemp(prefix=f"motocell-cell-{os.getpid()}-"))

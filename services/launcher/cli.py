@@ -70,6 +70,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="no credentials and no access control: anyone who reaches the router can move "
         "the robot. Only for a trusted lab network (see docs/security.md)",
     )
+    parser.add_argument(
+        "--cold",
+        action="store_true",
+        help="start every service as a fresh interpreter instead of a fork of the warm parent "
+        "that has imported them (slower; for comparison and debugging, docs/startup.md)",
+    )
     add_lifeline_argument(parser, "cell")
     parser.add_argument(
         "--lifeline-scratch",

@@ -10,9 +10,10 @@ import os
 import signal
 import subprocess
 import time
+from collections.abc import Callable, Sequence
 
 from motocell.services.launcher.core.children import CONTROLLER, ChildSpec
-from motocell.shared.service import PARENT_PID_ENV
+from motocell.services.launcher.warm import Process, spawn
 
 log = logging.getLogger("motocell")
 
@@ -23,9 +24,12 @@ CONTROLLER_FIRST_S = 1.0
 
 
 class Child:
-    def __init__(self, spec: ChildSpec) -> None:
+    def __init__(self, spec: ChildSpec, start: Callable[[Sequence[str]], Process] = spawn) -> None:
+        """``start``: how its command line becomes a process (``warm.Starter``: a fork of the
+        warm parent, or a process of its own)."""
         self.spec = spec
-        self.process: subprocess.Popen[bytes] | None = None
+        self._start = start
+        self.process: Process | None = None
         self.exited: int | None = None
         """A descriptor that becomes readable when the process exits (a pidfd)."""
 
@@ -35,13 +39,9 @@ class Child:
 
     def start(self) -> None:
         # The child arranges to get SIGTERM if the launcher dies (shared.service), so no
-        # half cell outlives a killed launcher. It runs in a process group of its own: a
-        # Ctrl-C at the terminal reaches the launcher alone, which stops the children in
-        # order (the controller first), and no child is interrupted mid start-up (a
-        # KeyboardInterrupt traceback from its imports).
-        env = {**os.environ, PARENT_PID_ENV: str(os.getpid())}
+        # half cell outlives a killed launcher.
         self.forget()
-        self.process = subprocess.Popen(self.spec.argv, env=env, process_group=0)
+        self.process = self._start(self.spec.argv)
         self.exited = os.pidfd_open(self.process.pid)
 
     @property

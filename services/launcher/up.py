@@ -15,9 +15,10 @@ what can be checked before any child starts (the ports, the names ``--skip`` giv
 user's mistake costs one line.
 Once the cell is whole and its ports listen, one INFO line says so (``ready_line``).
 
-``core`` decides (children, ports, router endpoints, restarts); ``loop`` supervises the
-children; ``processes``, ``router``, ``ports``, ``ready_line`` and ``realtime_line`` do the
-I/O; this module puts them together for the two commands.
+``core`` decides (children, ports, router endpoints, restarts, the warm parent's messages);
+``loop`` supervises the children; ``processes``, ``warm`` (the services forked from the warm
+parent, ``zygote``: docs/startup.md), ``router``, ``ports``, ``ready_line`` and
+``realtime_line`` do the I/O; this module puts them together for the two commands.
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ from motocell.services.launcher.core.children import (
     EXECUTOR,
     UpOptions,
     child_specs,
+    service_module,
     services_here,
 )
 from motocell.services.launcher.core.restarts import RestartPolicy
@@ -49,6 +51,7 @@ from motocell.services.launcher.processes import Child, stop_children
 from motocell.services.launcher.ready_line import ReadyNotice
 from motocell.services.launcher.realtime_line import RealtimeNotice
 from motocell.services.launcher.router import cell_router_endpoints, open_cell_router, serve_router
+from motocell.services.launcher.warm import Starter, Zygote, become_subreaper
 from motocell.shared import registry
 from motocell.shared.bus.access import Identity, cell_identities
 from motocell.shared.bus.catalog import Role
@@ -75,17 +78,22 @@ def run(args: argparse.Namespace) -> int:
         cell = load_cell(args.config, args.name)
         this_host = ThisHost(cell, args)
         check_lifeline(args.lifeline, args.lifeline_scratch)
-        # Before the router opens, so that its threads inherit it; then this thread, which
-        # starts the services, leaves it, so that their imports do not run at it.
-        realtime = enter_service_priority(log, quiet=True)
-        with (
-            stop_on_signals() as stop,
-            lifeline(args.lifeline, args.lifeline_scratch, stop),
-            _cell_bus(cell, args, this_host, stop) as bus,
-        ):
-            if realtime:
-                leave_service_priority()
-            return run_children(cell, args, this_host, bus, stop, realtime=realtime)
+        # First, so that its imports run while the router opens; and before this process
+        # takes the services' priority, which the zygote's imports must not run at.
+        with warm_starter(this_host.services, cold=args.cold) as starter:
+            # Before the router opens, so that its threads inherit it; then this thread, which
+            # starts the services, leaves it, so that their imports do not run at it.
+            realtime = enter_service_priority(log, quiet=True)
+            with (
+                stop_on_signals() as stop,
+                lifeline(args.lifeline, args.lifeline_scratch, stop),
+                _cell_bus(cell, args, this_host, stop) as bus,
+            ):
+                if realtime:
+                    leave_service_priority()
+                return run_children(
+                    cell, args, this_host, bus, stop, starter=starter, realtime=realtime
+                )
     except StoppedWaiting:
         return 0  # stopped before the router it joins came
     except (
@@ -226,9 +234,11 @@ def run_children(
     bus: CellBus,
     stop: StopFlag,
     *,
+    starter: Starter,
     realtime: bool,
 ) -> int:
-    """``realtime``: whether this launcher got the services' priority (and so its children)."""
+    """``starter``: how a service's command line becomes a process (``warm_starter``);
+    ``realtime``: whether this launcher got the services' priority (and so its children)."""
     options = UpOptions(
         config=args.config,
         name=args.name,
@@ -238,7 +248,7 @@ def run_children(
         byte_order=args.byte_order,
     )
     specs = child_specs(this_host.services, options, bus.endpoints, [sys.executable, "-m"])
-    children = [Child(spec) for spec in specs]
+    children = [Child(spec, starter) for spec in specs]
     skipped = set(cell_services(cell)) - {spec.service for spec in specs}
     awaited = sorted(str(name) for name in skipped if name.service != ROS2_FACE)
     if awaited:
@@ -275,6 +285,22 @@ def run_children(
         stop_children(children)
         log.info("cell %s stopped", cell.name)
     return status
+
+
+@contextmanager
+def warm_starter(services: list[ServiceName], *, cold: bool) -> Iterator[Starter]:
+    """Forks of a warm parent for every service but the ROS 2 face (rclpy would double the
+    parent's size, for one process), unless ``cold`` or this system cannot make the launcher
+    the forks' parent (docs/startup.md); the warm parent ends with the block."""
+    modules = sorted({service_module(name) for name in services if name.service != ROS2_FACE})
+    if cold or not modules or not become_subreaper():
+        starter = Starter(None)
+    else:
+        starter = Starter(Zygote(modules))
+    try:
+        yield starter
+    finally:
+        starter.close()
 
 
 OPEN_BUS_WARNING = (

@@ -1,8 +1,8 @@
 """Who runs at which priority in a running cell (docs/realtime.md): every service's threads at
 the services' SCHED_RR, the executor's clock at SCHED_FIFO, the launcher's router threads at
-SCHED_RR, and the launcher's main thread, which starts the services, at ordinary priority, so
-that a starting (or restarting) service's imports never run at the priority of the running
-cells' threads."""
+SCHED_RR, and the launcher's main thread, which starts the services, and its warm parent, which
+has imported them, at ordinary priority, so that a starting (or restarting) service's imports
+never run at the priority of the running cells' threads."""
 
 from __future__ import annotations
 
@@ -43,13 +43,16 @@ def test_the_launchers_main_thread_is_ordinary_and_its_router_threads_are_not(
     assert launcher.pop(cell.process.pid) == (os.SCHED_OTHER, 0)
     assert launcher, "the router's threads"
     assert set(launcher.values()) == {(os.SCHED_RR, SERVICE_PRIORITY)}
+    for zygote in cell.children() - cell.services():
+        # The services' imports are its own: they must not run at the cells' priority.
+        assert set(policies(zygote).values()) == {(os.SCHED_OTHER, 0)}
 
 
 def test_every_service_thread_runs_at_the_services_priority_but_the_clock(
     cell: RunningCell,
 ) -> None:
     clocks = 0
-    for pid in cell.children():
+    for pid in cell.services():
         for policy in policies(pid).values():
             if policy == (os.SCHED_FIFO, RT_PRIORITY):
                 clocks += 1

@@ -20,7 +20,8 @@ def thread_names(pid: int) -> set[str]:
 
 
 def test_services_receive_on_zenoh_s_application_thread(cell: RunningCell) -> None:
-    services = {pid: kind for pid, kind in process_kinds(cell).items() if kind != "launcher+router"}
+    kinds = process_kinds(cell)
+    services = {pid: kinds[pid] for pid in cell.services()}
     assert {"controller", "executor", "broadcaster", "gateway", "interpolator"} <= set(
         services.values()
     )

@@ -207,6 +207,7 @@ def rss_mib(pid: int) -> float | None:
 
 PROCESS_KINDS = (
     "launcher+router",
+    "zygote",
     "controller",
     "executor",
     "broadcaster",
@@ -217,10 +218,12 @@ PROCESS_KINDS = (
 
 
 def process_kinds(cell: RunningCell) -> dict[int, str]:
-    """Every process of the cell: the launcher (which runs the router), and each service by
-    its module (executor, gateway, interpolator, ...)."""
+    """Every process of the cell: the launcher (which runs the router), its warm parent (the
+    zygote), and each service by its module (executor, gateway, interpolator, ...)."""
     kinds = {cell.process.pid: "launcher+router"}
-    for pid in cell.children():
+    zygotes = cell.children() - cell.services()
+    kinds.update(dict.fromkeys(zygotes, "zygote"))
+    for pid in cell.services():
         modules = [word for word in cmdline(pid) if word.startswith("motocell.services.")]
         kinds[pid] = modules[0].removeprefix("motocell.services.") if modules else "gone"
     return kinds

@@ -20,6 +20,8 @@ Figures (goals are for a 2-core machine running the whole cell):
     neighbour cell, alternating                               (bench.bench_headroom)
 12. ROS 2 face: its CPU idle and moving, joint_states rate
     and age at an rclpy subscriber                            (bench.bench_ros2)
+13. cell start cost: CPU, wall and memory of a cell from spawn
+    to motion-ready, single-arm and four-group                (bench.bench_start_cost)
 
 Every figure is the median and [min-max] of at least 3 runs. Benchmarks report; they never fail
 on a time. The clients that measure are processes of their own (``tools.bench.clients``: the state
@@ -61,6 +63,7 @@ from motocell.tools.bench import (
     bench_ros2,
     bench_roundtrip,
     bench_scale,
+    bench_start_cost,
     bench_startup,
     bench_state,
     bench_streaming,
@@ -85,6 +88,7 @@ FIGURES: dict[int, tuple[str, Callable[[bool], Results]]] = {
     10: ("cost", bench_cost.run),
     11: ("headroom beside a neighbour", bench_headroom.run),
     12: ("ROS 2 face", bench_ros2.run),
+    13: ("cell start cost", bench_start_cost.run),
 }
 
 

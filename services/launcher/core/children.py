@@ -47,6 +47,11 @@ CONTROLLER = str(ServiceName("controller", "0"))
 EXECUTOR = str(ServiceName("executor", "0"))
 
 
+def service_module(name: ServiceName) -> str:
+    """What ``python -m`` runs for the service."""
+    return f"motocell.services.{name.service}"
+
+
 def services_here(cell: Cell, skip: Sequence[str]) -> list[ServiceName]:
     """The services of ``cell`` this host runs, in start order: all but those ``skip`` names
     (``interpolator/1``, ``gateway``); UnknownServiceError for a name the cell lacks."""
@@ -81,9 +86,7 @@ def child_specs(
             extra = _port_options(options)
         else:
             extra = []
-        specs.append(
-            ChildSpec(name, (*python, f"motocell.services.{name.service}", *common, *extra))
-        )
+        specs.append(ChildSpec(name, (*python, service_module(name), *common, *extra)))
     return specs
 
 

@@ -1,0 +1,187 @@
+"""The warm parent (a zygote): one process per launcher that has imported every service's
+modules, so that each service starts as a fork of it instead of a fresh interpreter that
+imports them again (docs/startup.md).
+
+    python -m motocell.services.launcher.zygote --channel FD --room PADDING MODULE,MODULE...
+
+It opens no Zenoh session and starts no thread (``OPENBLAS_NUM_THREADS=1``, set by
+``motocell.services``, keeps numpy's worker away), so a fork of it is as safe as a fork of a
+fresh interpreter, and a service opens its own session after the fork, as it would after
+``python -m``. It serves the launcher's requests (``core.forks``) on the socket ``FD`` until
+that closes, and dies with the launcher (``die_with_launcher``).
+
+Each service is forked twice: the first child forks the service and exits at once, so the
+service is re-parented to the launcher, which has made itself a subreaper
+(PR_SET_CHILD_SUBREAPER): the launcher, not the zygote, is its parent, reaps it and reads its
+exit status, and its PR_SET_PDEATHSIG (``shared.service``) follows the launcher, as for a
+service started with ``python -m``. A zygote that dies takes no service with it.
+
+``PADDING`` is room: the service rewrites its command line (``/proc/<pid>/cmdline``, what
+``ps``, the tests and the benchmarks read) to the ``python -m`` line it stands for, in the
+memory of the zygote's own arguments, which must be long enough to hold it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ctypes
+import gc
+import importlib
+import os
+import select
+import socket
+import sys
+from collections.abc import Callable, Iterator, Sequence
+from pathlib import Path
+from typing import Protocol
+
+from motocell.services.launcher.core.forks import (
+    Forked,
+    ForkProtocolError,
+    ForkRefused,
+    ForkRequest,
+    command_line,
+    decode_request,
+    encode,
+)
+from motocell.shared.service import die_with_launcher
+
+ARG_START_FIELD = 45
+ARG_END_FIELD = 46
+"""arg_start and arg_end, fields 48 and 49 of /proc/<pid>/stat (stat(5)), counted from the
+field after the command's name."""
+
+Fork = Callable[[ForkRequest], Forked | ForkRefused | None]
+"""Forks the service of a request: in the zygote, what to reply; in the service, None."""
+
+
+class Channel(Protocol):
+    """The zygote's end of its socket, as lines."""
+
+    def __iter__(self) -> Iterator[bytes]: ...
+
+    def write(self, data: bytes, /) -> int: ...
+
+    def flush(self) -> None: ...
+
+
+def arguments_area() -> tuple[int, int]:
+    """Where this process's arguments are in its memory: the first byte and one past the last."""
+    fields = Path("/proc/self/stat").read_text().rsplit(")", 1)[-1].split()
+    return int(fields[ARG_START_FIELD]), int(fields[ARG_END_FIELD])
+
+
+def room() -> int:
+    start, end = arguments_area()
+    return end - start
+
+
+def rewrite_command_line(words: bytes) -> None:
+    """Make ``/proc/self/cmdline`` read ``words`` (NUL-ended words, no longer than ``room``),
+    the rest of the area zeroed. The interpreter keeps copies of its arguments (``sys.argv``),
+    nothing reads the originals again."""
+    start, end = arguments_area()
+    filled = words.ljust(end - start, b"\0")
+    ctypes.memmove(start, filled, len(filled))
+
+
+def serve(channel: Channel, fork: Fork, space: int, python: str) -> ForkRequest | None:
+    """Answer requests on ``channel`` until it closes (None); in a forked service, its request.
+
+    A request whose command line would not fit in ``space`` bytes is refused, as is a line
+    that is not a request: the launcher starts that one as a process of its own."""
+    for line in channel:
+        try:
+            request = decode_request(line)
+        except ForkProtocolError as exc:
+            channel.write(encode(ForkRefused(str(exc))))
+            channel.flush()
+            continue
+        if len(command_line(python, request)) > space:
+            reply: Forked | ForkRefused | None = ForkRefused(
+                f"its command line is longer than {space} bytes"
+            )
+        else:
+            reply = fork(request)
+        if reply is None:
+            return request
+        channel.write(encode(reply))
+        channel.flush()
+    return None
+
+
+def fork_service(request: ForkRequest) -> Forked | ForkRefused | None:
+    """Fork twice (see the module's text): in the zygote, the service's pid once it is the
+    launcher's child; in the service, None, once its first parent is gone."""
+    del request  # the service reads it from ``serve``'s return
+    pid_read, pid_write = os.pipe()
+    first = os.fork()
+    if first == 0:
+        os.close(pid_read)
+        _fork_again(pid_write)  # returns only in the service
+        return None
+    os.close(pid_write)
+    with os.fdopen(pid_read, "rb") as said:
+        text = said.read().decode()
+    os.waitpid(first, 0)  # gone: the service's parent is now the launcher
+    if not text.isdecimal():
+        return ForkRefused(f"fork failed: {text}")
+    return Forked(int(text))
+
+
+def _fork_again(pid_write: int) -> None:
+    """In the first child: fork the service, tell the zygote its pid, and end; returns only in
+    the service, once this first child is gone (its pidfd, inherited, says when)."""
+    try:
+        first_gone = os.pidfd_open(os.getpid())
+        service = os.fork()
+    except OSError as exc:
+        os.write(pid_write, str(exc).encode())
+        os._exit(1)
+    if service != 0:
+        os.write(pid_write, str(service).encode())
+        os._exit(0)
+    os.close(pid_write)
+    poller = select.poll()
+    poller.register(first_gone, select.POLLIN)
+    poller.poll()
+    os.close(first_gone)
+
+
+def become(request: ForkRequest, python: str) -> None:
+    """In a forked service: what ``python -m request.module *request.args`` would do from here
+    (a process group of its own, as the launcher gives a spawned one; its command line)."""
+    os.setpgid(0, 0)
+    rewrite_command_line(command_line(python, request))
+    service = sys.modules[f"{request.module}.__main__"]  # imported by ``warm_up``
+    sys.argv = [service.__file__ or request.module, *request.args]
+    service.main()
+
+
+def warm_up(modules: Sequence[str]) -> None:
+    """Import every service's modules, then take them out of the garbage collector's sight:
+    a collection in a service would otherwise write to every object's header and copy the
+    pages the forks share (docs/startup.md)."""
+    for module in modules:
+        importlib.import_module(f"{module}.__main__")
+    gc.freeze()
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(prog="motocell zygote", allow_abbrev=False)
+    parser.add_argument("--channel", type=int, required=True)
+    parser.add_argument("--room", default="", help="padding: room for a service's arguments")
+    # One word: a list of modules in the zygote's command line is not taken for the services
+    # (``testing.running_cell.service_pids`` looks for a word that names one).
+    parser.add_argument("modules", type=lambda text: text.split(","))
+    args = parser.parse_args(argv)
+    die_with_launcher()
+    warm_up(args.modules)
+    with socket.socket(fileno=args.channel) as channel, channel.makefile("rwb") as lines:
+        request = serve(lines, fork_service, room(), sys.executable)
+    if request is not None:
+        become(request, sys.executable)
+
+
+if __name__ == "__main__":
+    main()
