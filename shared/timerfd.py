@@ -41,7 +41,8 @@ def _checked(result: int) -> int:
 
 class DeadlineTimer:
     """One deadline at a time, on CLOCK_MONOTONIC; readable (``fileno``) once it has passed,
-    until ``take``. Not periodic: each deadline fires once."""
+    until ``take``. Not periodic: each deadline fires once. ``set`` from one thread at a time
+    (it fills one setting it keeps, rather than making one per call)."""
 
     def __init__(self) -> None:
         self._fd = _checked(

@@ -154,7 +154,6 @@ class FaceNode:
         self._joint_spans = [(0, spans[-1][1]), *spans]
         self._joint_messages = [JointStateCdr(_flat(names)), *map(JointStateCdr, names)]
         """Each topic's message as bytes: its names laid out once (``core.joint_state_cdr``)."""
-        """The positions each message holds (the values' own tuple)."""
         self._robot_status = self.node.create_publisher(
             RobotStatus, ROBOT_STATUS, qos, event_callbacks=self._readers.events(ROBOT_STATUS)
         )

@@ -70,7 +70,8 @@ class Waker:
 
     def wake_at(self, deadline: float | None) -> None:
         """Ring at ``deadline`` (CLOCK_MONOTONIC seconds; None: only at stop) instead of the
-        deadline set before; from any thread, waking nobody."""
+        deadline set before, waking nobody; from the owner's thread alone (the timer's one
+        setting is not guarded)."""
         self._timer.set(None if deadline is None else round(deadline * 1e9))
 
     def _run(self) -> None:

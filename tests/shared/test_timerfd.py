@@ -55,10 +55,10 @@ def test_a_deadline_replaced_before_it_is_taken_is_not_seen(timer: DeadlineTimer
 
 def test_a_deadline_moved_later_fires_at_the_later_one(timer: DeadlineTimer) -> None:
     start = time.monotonic_ns()
-    timer.set(start + 10 * MS)
-    timer.set(start + 40 * MS)
+    timer.set(start + 200 * MS)
+    timer.set(start + 400 * MS)
     assert readable(timer, BOUND_MS)
-    assert time.monotonic_ns() >= start + 40 * MS  # the kernel never fires early
+    assert time.monotonic_ns() >= start + 400 * MS  # the kernel never fires early
     assert timer.take()
 
 
@@ -75,10 +75,12 @@ def test_the_waker_rings_at_its_deadline_and_once_more_at_stop() -> None:
     waker.start()
     try:
         start = time.monotonic_ns()
-        waker.wake_at((start + 10 * MS) / 1e9)
-        waker.wake_at((start + 40 * MS) / 1e9)  # later: no ring at the first
+        # Far enough apart that a test preempted between the two calls still moves the
+        # first before it passes.
+        waker.wake_at((start + 200 * MS) / 1e9)
+        waker.wake_at((start + 400 * MS) / 1e9)  # later: no ring at the first
         assert ring_seen.wait(BOUND_MS / 1000)
-        assert len(rung) == 1 and rung[0] >= start + 40 * MS
+        assert len(rung) == 1 and rung[0] >= start + 400 * MS
     finally:
         stop.set()
         waker.close()

@@ -77,6 +77,10 @@ class JointStateCdr:
         self, stamp: tuple[int, int], positions: Sequence[float], velocities: Sequence[float]
     ) -> bytes:
         """``stamp``: (seconds, nanoseconds); one position and one velocity per name."""
+        if len(positions) != self.joints or len(velocities) != self.joints:
+            raise ValueError(
+                f"{self.joints} names, {len(positions)} positions, {len(velocities)} velocities"
+            )
         sec, nanosec = stamp
         return self._layout.pack(
             ENCAPSULATION, sec, nanosec, self._fixed, *positions, self.joints, *velocities, 0

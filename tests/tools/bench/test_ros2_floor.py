@@ -25,7 +25,8 @@ def test_it_measures_a_message_spaced_and_back_to_back() -> None:
     )
     assert done.returncode == 0, done.stderr
     said = re.fullmatch(
-        r"rclpy alone, 15-joint JointState to one reader: (\d+) us CPU a message every 10 ms "
+        r"rclpy alone, 15-joint JointState as CDR bytes to one reader: (\d+) us CPU a message "
+        r"every 10 ms "
         r"\(\d+\.\d % of one core\), (\d+) us back to back\n",
         done.stdout,
     )

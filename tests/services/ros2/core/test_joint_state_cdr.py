@@ -104,3 +104,8 @@ def test_rclpy_reads_each_message_as_the_one_it_would_have_sent() -> None:
     )
     assert checked.returncode == 0, checked.stderr
     assert checked.stdout.strip() == "same"
+
+
+def test_arrays_that_do_not_fit_the_names_are_refused() -> None:
+    with pytest.raises(ValueError, match="2 names, 1 positions"):
+        JointStateCdr(["a", "b"]).encode((0, 0), [1.0], [1.0, 2.0])
