@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import os
 import socket
 import time
 from collections.abc import Callable
@@ -12,9 +13,13 @@ from pathlib import Path
 def children(pid: int) -> set[int]:
     """The processes ``pid`` started (and that have not been reparented since)."""
     found: set[int] = set()
-    for task in Path(f"/proc/{pid}/task").glob("*"):
+    try:
+        tasks = os.listdir(f"/proc/{pid}/task")
+    except OSError:
+        return found  # gone meanwhile (a warm parent's first child lives a moment)
+    for task in tasks:
         try:
-            found.update(map(int, (task / "children").read_text().split()))
+            found.update(map(int, Path(f"/proc/{pid}/task/{task}/children").read_text().split()))
         except OSError:
             continue
     return found
