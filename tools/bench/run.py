@@ -22,6 +22,7 @@ Figures (goals are for a 2-core machine running the whole cell):
     and age at an rclpy subscriber                            (bench.bench_ros2)
 13. cell start cost: CPU, wall and memory of a cell from spawn
     to motion-ready, single-arm and four-group                (bench.bench_start_cost)
+14. a cell per test: 50 plugin tests, each its own cell       (bench.bench_plugin)
 
 Every figure is the median and [min-max] of at least 3 runs. Benchmarks report; they never fail
 on a time. The clients that measure are processes of their own (``tools.bench.clients``: the state
@@ -60,6 +61,7 @@ from motocell.tools.bench import (
     bench_executor,
     bench_headroom,
     bench_interpolation,
+    bench_plugin,
     bench_ros2,
     bench_roundtrip,
     bench_scale,
@@ -89,6 +91,7 @@ FIGURES: dict[int, tuple[str, Callable[[bool], Results]]] = {
     11: ("headroom beside a neighbour", bench_headroom.run),
     12: ("ROS 2 face", bench_ros2.run),
     13: ("cell start cost", bench_start_cost.run),
+    14: ("a cell per test", bench_plugin.run),
 }
 
 
