@@ -16,7 +16,7 @@ harness (Zenoh, numpy) only when a fixture first asks for a cell.
 from __future__ import annotations
 
 from collections.abc import Generator, Iterator
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import pytest
 
@@ -63,18 +63,20 @@ def pytest_unconfigure(config: pytest.Config) -> None:
     config.stash[KEEPER].stop(ask_a_person(config))
 
 
-@pytest.hookimpl(wrapper=True)
+# The old-style wrapper: a user's pytest 7 (pluggy before 1.2) has no ``wrapper=True``, and
+# pytest loads this plugin in every run wherever motocell is installed.
+@pytest.hookimpl(hookwrapper=True)
 def pytest_runtest_makereport(
     item: pytest.Item, call: pytest.CallInfo[None]
-) -> Generator[None, pytest.TestReport, pytest.TestReport]:
+) -> Generator[None, Any, None]:
     """A failed test's (or its set-up's) report gets a section on each cell it used, which its
     fixtures still run; a cell its tear-down failed to stop was stopped already."""
-    report = yield
+    outcome = yield
+    report: pytest.TestReport = outcome.get_result()
     if report.failed and report.when != "teardown":
         keeper = item.config.stash[KEEPER]
         for cell in cells_of(item):
             report.sections.append(section(cell, keeper.failed_with(cell)))
-    return report
 
 
 def cells_of(item: pytest.Item) -> list[Reported]:
