@@ -206,7 +206,8 @@ def _positions(cell: Cell, group: Group) -> dict[str, Any]:
         series.append(
             _series(f"{joints}.command_positions[{axis}]", f"{name} commanded", colour, "dashed")
         )
-    title = f"{cell.name} {group.name} position: solid feedback, dashed commanded"
+    # Lichtblick 1.28.1 draws every line solid (seen there): only Foxglove tells the two apart.
+    title = f"{cell.name} {group.name} position: feedback, commanded (dashed in Foxglove)"
     return _titled(_plot(series, "rad, m", legend=False), title)
 
 
