@@ -46,10 +46,10 @@ ROOM = 8192
 """Bytes of command line the zygote holds for a service's (``zygote.rewrite_command_line``):
 a cell's longest, with its paths, is a few hundred."""
 REPLY_S = 5.0
-"""How long a fork may take to be answered, the zygote's imports included (0.3 s of CPU, a
-second of wall on a loaded 2-core machine): longer, and the zygote is taken for stuck and
-every start is a plain one. A plain start costs a few tenths of a second more; a stuck zygote
-held each start (restarts too) for as long as this."""
+"""How long a fork may take to be answered, the zygote's imports included (0.2-0.3 s, also on
+a loaded machine: docs/startup.md): longer, and the zygote is taken for stuck and every start
+is a plain one, which costs a few tenths of a second more; a stuck zygote holds each start
+(restarts too) this long at most."""
 
 
 class Process(Protocol):
