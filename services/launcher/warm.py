@@ -35,6 +35,7 @@ from motocell.services.launcher.core.forks import (
     decode_reply,
     encode,
 )
+from motocell.services.launcher.loop import Stop
 from motocell.shared.bus.session import StoppedWaiting
 from motocell.shared.service import PARENT_PID_ENV
 from motocell.shared.service_names import WARM_PARENT_MODULE
@@ -120,16 +121,6 @@ class ZygoteGoneError(Exception):
 
 class NotForkedError(Exception):
     """The zygote refused this one request (``ForkRefused``); it serves the others."""
-
-
-class Stop(Protocol):
-    """The launcher's stop (``shared.service.StopFlag``)."""
-
-    def is_set(self) -> bool: ...
-
-    def fileno(self) -> int:
-        """Readable once set."""
-        ...
 
 
 class ZygoteChannel:

@@ -169,9 +169,7 @@ def fork_service(
             os.close(fd)
         return ForkRefused(f"fork failed: {exc}")
     if first == 0:
-        os.close(pid_read)
-        os.close(go_write)
-        _fork_again(pid_write, go_read, fork, end)  # returns only in the service
+        _fork_again((pid_read, go_write), pid_write, go_read, fork, end)  # only the service
         return None
     os.close(pid_write)
     os.close(go_read)
@@ -185,14 +183,21 @@ def fork_service(
 
 
 def _fork_again(
-    pid_write: int, go_read: int, fork: Callable[[], int], end: Callable[[int], object]
+    zygotes: tuple[int, int],
+    pid_write: int,
+    go_read: int,
+    fork: Callable[[], int],
+    end: Callable[[int], object],
 ) -> None:
-    """In the first child: fork the service, tell the zygote its pid, and end, whatever
-    happens (a zygote gone makes the write raise BrokenPipeError): nothing of the zygote's own
-    code (its ``with`` blocks, its atexit handlers) may run here. Returns only in the service,
-    once the zygote lets it go; a service whose zygote is gone first ends at once."""
+    """In the first child: close the zygote's ends of the pipes, fork the service, tell the
+    zygote its pid, and end, whatever happens (a zygote gone makes the write raise
+    BrokenPipeError): nothing of the zygote's own code (its ``with`` blocks, its atexit
+    handlers) may run here. Returns only in the service, once the zygote lets it go; a
+    service whose zygote is gone first ends at once."""
     in_service = False
     try:
+        for fd in zygotes:
+            os.close(fd)
         try:
             service = fork()
         except OSError as exc:
