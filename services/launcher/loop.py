@@ -59,19 +59,22 @@ def supervise(
     policy: RestartPolicy,
     stop: Stop,
     look: Callable[[], float | None],
+    reap: Callable[[], None] | None = None,
 ) -> int:
     """Start every child at once, then restart those that die, until ``stop`` (status 0) or
-    until one cannot start as configured (EXIT_CONFIG: it has said why on stderr).
+    until one cannot start as configured (EXIT_CONFIG: it has said why on stderr). ``reap``,
+    after each wake-up's restarts: what else the caller tends (the launcher reaps the
+    processes it adopted and no child knows).
 
     Sleeps until a child exits, a restart is due, ``stop``, or the time ``look`` asked to run
     again: it runs once at the start and returns the next time.monotonic() it wants, or None
     when it has nothing more to watch. A cell that runs wakes its launcher for nothing."""
     if stop.is_set():  # stopped while the router started: nothing to start
         return 0
-    for child in children:
-        child.start()
-    next_look = look()
     try:
+        for child in children:
+            child.start()  # a start a stop interrupts raises (StoppedWaiting)
+        next_look = look()
         while True:
             _sleep(children, stop, [next_look, policy.next_restart()])
             if stop.is_set():
@@ -81,6 +84,8 @@ def supervise(
                 next_look = look()
             if _tend(children, policy, now) is Restart.GIVE_UP:
                 return EXIT_CONFIG
+            if reap is not None:
+                reap()
     finally:
         for child in children:
             child.forget()

@@ -51,7 +51,7 @@ from motocell.services.launcher.processes import Child, stop_children
 from motocell.services.launcher.ready_line import ReadyNotice
 from motocell.services.launcher.realtime_line import RealtimeNotice
 from motocell.services.launcher.router import cell_router_endpoints, open_cell_router, serve_router
-from motocell.services.launcher.warm import Starter, Zygote, become_subreaper
+from motocell.services.launcher.warm import Starter, Zygote, become_subreaper, reap_strays
 from motocell.shared import registry
 from motocell.shared.bus.access import Identity, cell_identities
 from motocell.shared.bus.catalog import Role
@@ -78,14 +78,16 @@ def run(args: argparse.Namespace) -> int:
         cell = load_cell(args.config, args.name)
         this_host = ThisHost(cell, args)
         check_lifeline(args.lifeline, args.lifeline_scratch)
-        # First, so that its imports run while the router opens; and before this process
-        # takes the services' priority, which the zygote's imports must not run at.
-        with warm_starter(this_host.services, cold=args.cold) as starter:
+        # The zygote first, so that its imports run while the router opens; and before this
+        # process takes the services' priority, which the zygote's imports must not run at.
+        with (
+            stop_on_signals() as stop,
+            warm_starter(this_host.services, stop, cold=args.cold) as starter,
+        ):
             # Before the router opens, so that its threads inherit it; then this thread, which
             # starts the services, leaves it, so that their imports do not run at it.
             realtime = enter_service_priority(log, quiet=True)
             with (
-                stop_on_signals() as stop,
                 lifeline(args.lifeline, args.lifeline_scratch, stop),
                 _cell_bus(cell, args, this_host, stop) as bus,
             ):
@@ -278,17 +280,30 @@ def run_children(
         executor_here=any(child.name == EXECUTOR for child in children),
     )
     try:
-        status = supervise(children, RestartPolicy(), stop, lambda: _look(ready, notice))
+        status = supervise(
+            children,
+            RestartPolicy(),
+            stop,
+            lambda: _look(ready, notice),
+            lambda: _reap_strays(children, starter),
+        )
     finally:
         ready.close()
         notice.close()
         stop_children(children)
+        _reap_strays(children, starter)
         log.info("cell %s stopped", cell.name)
     return status
 
 
+def _reap_strays(children: list[Child], starter: Starter) -> None:
+    """Reap what the launcher adopted as a subreaper and no child is (``warm.reap_strays``)."""
+    known = {child.process.pid for child in children if child.process is not None}
+    reap_strays(known | starter.pids())
+
+
 @contextmanager
-def warm_starter(services: list[ServiceName], *, cold: bool) -> Iterator[Starter]:
+def warm_starter(services: list[ServiceName], stop: StopFlag, *, cold: bool) -> Iterator[Starter]:
     """Forks of a warm parent for every service but the ROS 2 face (rclpy would double the
     parent's size, for one process), unless ``cold`` or this system cannot make the launcher
     the forks' parent (docs/startup.md); the warm parent ends with the block."""
@@ -296,7 +311,7 @@ def warm_starter(services: list[ServiceName], *, cold: bool) -> Iterator[Starter
     if cold or not modules or not become_subreaper():
         starter = Starter(None)
     else:
-        starter = Starter(Zygote(modules))
+        starter = Starter(Zygote(modules, stop))
     try:
         yield starter
     finally:

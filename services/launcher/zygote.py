@@ -14,7 +14,9 @@ Each service is forked twice: the first child forks the service and exits at onc
 service is re-parented to the launcher, which has made itself a subreaper
 (PR_SET_CHILD_SUBREAPER): the launcher, not the zygote, is its parent, reaps it and reads its
 exit status, and its PR_SET_PDEATHSIG (``shared.service``) follows the launcher, as for a
-service started with ``python -m``. A zygote that dies takes no service with it.
+service started with ``python -m``. A zygote that dies takes no running service with it. The
+service waits for the zygote's go (a byte on a pipe), written only once the launcher has its
+pid; a zygote gone before that closes the pipe, and the service, which nobody recorded, ends.
 
 ``PADDING`` is room: the service rewrites its command line (``/proc/<pid>/cmdline``, what
 ``ps``, the tests and the benchmarks read) to the ``python -m`` line it stands for, in the
@@ -24,11 +26,11 @@ memory of the zygote's own arguments, which must be long enough to hold it.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import ctypes
 import gc
 import importlib
 import os
-import select
 import socket
 import sys
 from collections.abc import Callable, Iterator, Sequence
@@ -51,7 +53,27 @@ ARG_END_FIELD = 46
 """arg_start and arg_end, fields 48 and 49 of /proc/<pid>/stat (stat(5)), counted from the
 field after the command's name."""
 
-Fork = Callable[[ForkRequest], Forked | ForkRefused | None]
+
+class Held:
+    """In the zygote: a service forked and waiting for its go (``await_go``), which it gets
+    once the launcher has been told its pid."""
+
+    def __init__(self, pid: int, go: int) -> None:
+        self.reply = Forked(pid)
+        self._go = go
+
+    def release(self) -> None:
+        """The launcher has the pid: let the service run."""
+        with contextlib.suppress(BrokenPipeError):  # it died meanwhile: the launcher sees it
+            os.write(self._go, b"!")
+        os.close(self._go)
+
+    def abandon(self) -> None:
+        """The launcher never learnt the pid: the service ends on end of file."""
+        os.close(self._go)
+
+
+Fork = Callable[[ForkRequest], Held | ForkRefused | None]
 """Forks the service of a request: in the zygote, what to reply; in the service, None."""
 
 
@@ -89,63 +111,116 @@ def serve(channel: Channel, fork: Fork, space: int, python: str) -> ForkRequest 
     """Answer requests on ``channel`` until it closes (None); in a forked service, its request.
 
     A request whose command line would not fit in ``space`` bytes is refused, as is a line
-    that is not a request: the launcher starts that one as a process of its own."""
+    that is not a request: the launcher starts that one as a process of its own. A forked
+    service is released only once its reply is flushed; a launcher that no longer reads (it
+    gave up on this zygote) ends the loop, and the service with it."""
     for line in channel:
         try:
             request = decode_request(line)
         except ForkProtocolError as exc:
-            channel.write(encode(ForkRefused(str(exc))))
-            channel.flush()
+            if not _answer(channel, ForkRefused(str(exc))):
+                return None
             continue
         if len(command_line(python, request)) > space:
-            reply: Forked | ForkRefused | None = ForkRefused(
+            forked: Held | ForkRefused | None = ForkRefused(
                 f"its command line is longer than {space} bytes"
             )
         else:
-            reply = fork(request)
-        if reply is None:
+            forked = fork(request)
+        if forked is None:
             return request
-        channel.write(encode(reply))
-        channel.flush()
+        if isinstance(forked, ForkRefused):
+            if not _answer(channel, forked):
+                return None
+        elif _answer(channel, forked.reply):
+            forked.release()
+        else:
+            forked.abandon()
+            return None
     return None
 
 
-def fork_service(request: ForkRequest) -> Forked | ForkRefused | None:
-    """Fork twice (see the module's text): in the zygote, the service's pid once it is the
-    launcher's child; in the service, None, once its first parent is gone."""
+def _answer(channel: Channel, reply: Forked | ForkRefused) -> bool:
+    """Whether the reply reached the socket (not when the launcher closed it)."""
+    try:
+        channel.write(encode(reply))
+        channel.flush()
+    except OSError:
+        return False
+    return True
+
+
+def fork_service(
+    request: ForkRequest,
+    *,
+    fork: Callable[[], int] = os.fork,
+    end: Callable[[int], object] = os._exit,
+) -> Held | ForkRefused | None:
+    """Fork twice (see the module's text): in the zygote, the service, held, once it is the
+    launcher's child; in the service, None, once it has its go. ``fork`` and ``end`` are
+    ``os.fork`` and ``os._exit``, which a test makes fail or record."""
     del request  # the service reads it from ``serve``'s return
     pid_read, pid_write = os.pipe()
-    first = os.fork()
+    go_read, go_write = os.pipe()
+    try:
+        first = fork()
+    except OSError as exc:  # EAGAIN, ENOMEM: this one is spawned, the zygote goes on
+        for fd in (pid_read, pid_write, go_read, go_write):
+            os.close(fd)
+        return ForkRefused(f"fork failed: {exc}")
     if first == 0:
-        os.close(pid_read)
-        _fork_again(pid_write)  # returns only in the service
+        _fork_again((pid_read, go_write), pid_write, go_read, fork, end)  # only the service
         return None
     os.close(pid_write)
+    os.close(go_read)
     with os.fdopen(pid_read, "rb") as said:
         text = said.read().decode()
     os.waitpid(first, 0)  # gone: the service's parent is now the launcher
     if not text.isdecimal():
+        os.close(go_write)
         return ForkRefused(f"fork failed: {text}")
-    return Forked(int(text))
+    return Held(int(text), go_write)
 
 
-def _fork_again(pid_write: int) -> None:
-    """In the first child: fork the service, tell the zygote its pid, and end; returns only in
-    the service, once this first child is gone (its pidfd, inherited, says when)."""
+def _fork_again(
+    zygotes: tuple[int, int],
+    pid_write: int,
+    go_read: int,
+    fork: Callable[[], int],
+    end: Callable[[int], object],
+) -> None:
+    """In the first child: close the zygote's ends of the pipes, fork the service, tell the
+    zygote its pid, and end, whatever happens (a zygote gone makes the write raise
+    BrokenPipeError): nothing of the zygote's own code (its ``with`` blocks, its atexit
+    handlers) may run here. Returns only in the service, once the zygote lets it go; a
+    service whose zygote is gone first ends at once."""
+    in_service = False
     try:
-        first_gone = os.pidfd_open(os.getpid())
-        service = os.fork()
-    except OSError as exc:
-        os.write(pid_write, str(exc).encode())
-        os._exit(1)
-    if service != 0:
-        os.write(pid_write, str(service).encode())
-        os._exit(0)
+        for fd in zygotes:
+            os.close(fd)
+        try:
+            service = fork()
+        except OSError as exc:
+            os.write(pid_write, str(exc).encode())
+        else:
+            in_service = service == 0
+            if not in_service:
+                os.write(pid_write, str(service).encode())
+    finally:
+        if not in_service:
+            end(0)
     os.close(pid_write)
-    poller = select.poll()
-    poller.register(first_gone, select.POLLIN)
-    poller.poll()
-    os.close(first_gone)
+    if not await_go(go_read):
+        end(0)
+
+
+def await_go(go: int) -> bool:
+    """In a forked service: whether the zygote let it go (False: the zygote is gone, and the
+    launcher never learnt this process's pid)."""
+    try:
+        return os.read(go, 1) != b""
+    finally:
+        os.close(go)
 
 
 def become(request: ForkRequest, python: str) -> None:

@@ -1,26 +1,42 @@
 """Services forked from the launcher's warm parent (docs/startup.md) are supervised as spawned
 ones were: each is the launcher's child with its ``python -m`` command line; a killed zygote
 takes no service with it, and a service killed after it is restarted as a process of its own;
-a killed launcher takes the services and the zygote with it."""
+a killed launcher takes the services and the zygote with it; a SIGTERM while the launcher waits
+for a stopped zygote stops everything at once."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
+import subprocess
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
+from motocell.services.launcher.warm import REPLY_S
+from motocell.shared.config import PORT_COUNT
+from motocell.shared.ports import free_port, free_port_block
 from motocell.shared.protocol.constants import Command, Result
+from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
 from motocell.testing.client import MotionClient
-from motocell.testing.processes import alive, cmdline, wait_until
+from motocell.testing.processes import alive, cmdline, descendants, wait_until
 from motocell.testing.running_cell import running_cell
 
 pytestmark = pytest.mark.cell
 
 ZYGOTE = "launcher.zygote"
 SERVICES = ("controller", "executor", "broadcaster", "gateway", "interpolator")
+HOST = "127.0.0.1"
+DEADLINE_S = 60.0
+"""For a hang, not a timing: a start takes a second or two."""
+STOP_BOUND_S = 3.0
+"""Within this, a SIGTERM has ended every process; shorter than REPLY_S, after which the
+launcher would give the zygote up anyway."""
+OPEN_BUS = "runs on an open bus"
+"""The launcher's warning, the last it says before it starts the services."""
 
 
 def parent(pid: int) -> int:
@@ -65,3 +81,53 @@ def test_a_killed_launcher_takes_its_services_and_its_zygote_with_it() -> None:
         assert len(cell.service_pids(ZYGOTE)) == 1
         cell.process.kill()
         wait_until(lambda: not any(alive(pid) for pid in processes), 5.0, "every process to end")
+
+
+@contextlib.contextmanager
+def motocell_up(tmp_path: Path) -> Iterator[tuple[subprocess.Popen[bytes], Path]]:
+    """``motocell up --open-bus`` on free ports, its output to a file; whatever it started is
+    killed if the test leaves it running."""
+    port_base = free_port_block(PORT_COUNT, HOST)
+    zenoh_port = free_port(HOST)
+    output = tmp_path / "up.log"
+    command = [
+        *(sys.executable, "-m", "motocell.tools", "up", "--open-bus"),
+        *("--port-base", str(port_base), "--zenoh-listen", f"tcp/{HOST}:{zenoh_port}"),
+    ]
+    env = {**os.environ, RUNTIME_DIR_ENV: str(tmp_path / "run"), "PYTHONUNBUFFERED": "1"}
+    with output.open("wb") as out:
+        up = subprocess.Popen(command, stdout=out, stderr=subprocess.STDOUT, env=env)
+    started: set[int] = set()
+    try:
+        yield up, output
+    finally:
+        started |= descendants(up.pid)
+        for pid in started | ({up.pid} if up.poll() is None else set()):
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, signal.SIGKILL)
+        up.wait()
+
+
+def zygote_of(up: subprocess.Popen[bytes]) -> int | None:
+    found = [pid for pid in descendants(up.pid) if ZYGOTE in " ".join(cmdline(pid))]
+    return found[0] if found else None
+
+
+def test_a_sigterm_while_the_launcher_waits_for_a_stopped_zygote_stops_everything(
+    tmp_path: Path,
+) -> None:
+    assert STOP_BOUND_S < REPLY_S
+    with motocell_up(tmp_path) as (up, output):
+        wait_until(lambda: zygote_of(up) is not None, DEADLINE_S, "the zygote")
+        zygote = zygote_of(up)
+        assert zygote is not None
+        os.kill(zygote, signal.SIGSTOP)
+        # Nothing forked yet (a fork in progress would show its first child or its service):
+        # every start from here on waits for a zygote that cannot answer.
+        assert descendants(up.pid) == {zygote}, "the zygote was stopped before it forked"
+        wait_until(lambda: OPEN_BUS in output.read_text(), DEADLINE_S, "the services' start")
+        processes = descendants(up.pid) | {up.pid}
+        up.send_signal(signal.SIGTERM)
+        wait_until(lambda: not any(alive(pid) for pid in processes), STOP_BOUND_S, "every process")
+        assert up.wait(DEADLINE_S) == 0, output.read_text()
+        assert "Traceback" not in output.read_text()

@@ -1,15 +1,18 @@
 """The launcher's loop with scripted children, no processes: each child's exit descriptor is a
 pipe the test makes readable when it "dies". The loop starts every child, sleeps until an exit,
-restarts by the policy, gives up on EXIT_CONFIG, calls ``look`` only while it asks to be, and
-leaves no descriptor open."""
+restarts by the policy, gives up on EXIT_CONFIG, calls ``look`` only while it asks to be, calls
+``reap`` after each wake-up, and leaves no descriptor open, a start a stop interrupts too."""
 
 from __future__ import annotations
 
 import os
 from collections.abc import Callable
 
+import pytest
+
 from motocell.services.launcher.core.restarts import RestartPolicy
 from motocell.services.launcher.loop import supervise
+from motocell.shared.bus.session import StoppedWaiting
 from motocell.shared.config import EXIT_CONFIG
 from motocell.shared.service import StopFlag
 
@@ -135,3 +138,30 @@ def test_look_runs_again_each_time_it_is_due() -> None:
     assert supervise(children, RestartPolicy(), stop, look) == 0
     assert looks == [0, 1, 2]
     assert children[0].starts == 1
+
+
+def test_reap_runs_after_each_wake_ups_restarts() -> None:
+    stop = StopFlag()
+    reaped_at: list[int] = []
+    children = [
+        ScriptedChild("gateway/0", lambda child: child.die(1) if child.starts < 3 else None)
+    ]
+
+    def reap() -> None:
+        reaped_at.append(children[0].starts)
+        if children[0].starts == 3:
+            stop.set()
+
+    assert supervise(children, RestartPolicy(delay_s=0.0), stop, lambda: None, reap) == 0
+    # Each death: a wake-up that notices it, one that restarts it; reap sees the restart.
+    assert reaped_at == [1, 2, 2, 3]
+
+
+def test_a_start_a_stop_interrupts_leaves_no_descriptor_open() -> None:
+    def interrupted(child: ScriptedChild) -> None:
+        raise StoppedWaiting
+
+    children = [ScriptedChild("controller/0"), ScriptedChild("gateway/0", interrupted)]
+    with pytest.raises(StoppedWaiting):
+        supervise(children, RestartPolicy(), StopFlag(), lambda: None)
+    assert all(child.closed == child.opened for child in children)

@@ -1,11 +1,13 @@
 """The launcher's children as real processes under its loop: one that cannot start as
 configured stops the cell (exit status 2, not a restart loop); each runs in a process group of
-its own, so a terminal's Ctrl-C reaches the launcher alone; one that dies is restarted."""
+its own, so a terminal's Ctrl-C reaches the launcher alone; one that dies is restarted. An
+exited child nobody knows (an orphan the launcher adopted) is reaped, a known one is not."""
 
 from __future__ import annotations
 
 import itertools
 import os
+import select
 import sys
 import time
 from pathlib import Path
@@ -16,11 +18,14 @@ from motocell.services.launcher.core.children import ChildSpec
 from motocell.services.launcher.core.restarts import RestartPolicy
 from motocell.services.launcher.loop import supervise
 from motocell.services.launcher.processes import Child, stop_children
+from motocell.services.launcher.warm import reap_strays
 from motocell.shared.config import EXIT_CONFIG
 from motocell.shared.service import StopFlag
 from motocell.shared.service_names import ServiceName
 
 SLEEPER = (sys.executable, "-c", "import time; time.sleep(60)")
+DEADLINE_MS = 10_000
+"""For a process that exits at once: a hang, not a timing."""
 
 
 def child(name: str, *argv: str) -> Child:
@@ -93,3 +98,38 @@ def test_a_child_that_dies_is_restarted_and_looks_come_only_when_asked(tmp_path:
         stop_children(children)
     assert len(pids) == 2, "restarted once"
     assert all(b - a >= 0.045 for a, b in itertools.pairwise(looks)), "only when asked"
+
+
+class AllBut:
+    """Every pid but one is known: the test reaps its own child and no other's."""
+
+    def __init__(self, stray: int) -> None:
+        self.stray = stray
+
+    def __contains__(self, pid: object) -> bool:
+        return pid != self.stray
+
+
+def exited_unreaped(pid: int) -> None:
+    """Until ``pid`` has exited (its status still there to take)."""
+    exited = os.pidfd_open(pid)
+    try:
+        poller = select.poll()
+        poller.register(exited, select.POLLIN)
+        assert poller.poll(DEADLINE_MS), f"{pid} did not exit"
+    finally:
+        os.close(exited)
+
+
+@pytest.mark.cell
+def test_an_exited_child_nobody_knows_is_reaped_and_a_known_one_left_to_its_owner() -> None:
+    stray = os.posix_spawnp("true", ["true"], os.environ)
+    exited_unreaped(stray)
+    reap_strays(AllBut(stray))
+    with pytest.raises(ChildProcessError):
+        os.waitpid(stray, os.WNOHANG)
+
+    known = os.posix_spawnp("true", ["true"], os.environ)
+    exited_unreaped(known)
+    reap_strays({known})
+    assert os.waitpid(known, os.WNOHANG)[0] == known, "its status was still there"

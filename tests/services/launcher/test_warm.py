@@ -1,6 +1,8 @@
 """The launcher's side of its warm parent, no process started: the channel over a socket pair
-whose other end the test plays; the starter with a scripted zygote: it forks what the zygote
-holds, starts the rest plainly, and once the zygote fails starts everything plainly."""
+whose other end the test plays (a stop ends its wait, so does a zygote that does not answer
+in time, and a reply that came after it stopped waiting is found); the starter with a
+scripted zygote: it forks what the zygote holds, starts the rest plainly, once the zygote
+fails starts everything plainly, and on a stop gives the zygote up and starts nothing."""
 
 from __future__ import annotations
 
@@ -9,6 +11,7 @@ from collections.abc import Iterator, Sequence
 
 import pytest
 
+from motocell.services.launcher import warm
 from motocell.services.launcher.core.forks import (
     Forked,
     ForkRefused,
@@ -23,15 +26,22 @@ from motocell.services.launcher.warm import (
     ZygoteChannel,
     ZygoteGoneError,
 )
+from motocell.shared.bus.session import StoppedWaiting
+from motocell.shared.service import StopFlag
 
 GATEWAY = "motocell.services.gateway"
 FACE = "motocell.services.ros2"
 
 
 @pytest.fixture
-def pair() -> Iterator[tuple[ZygoteChannel, socket.socket]]:
+def stop() -> StopFlag:
+    return StopFlag()
+
+
+@pytest.fixture
+def pair(stop: StopFlag) -> Iterator[tuple[ZygoteChannel, socket.socket]]:
     ours, theirs = socket.socketpair()
-    channel = ZygoteChannel(ours)
+    channel = ZygoteChannel(ours, stop)
     try:
         yield channel, theirs
     finally:
@@ -71,6 +81,55 @@ def test_an_answer_that_is_no_reply_is_a_zygote_gone(
         channel.fork(GATEWAY, [])
 
 
+def test_a_stop_ends_the_wait_for_a_zygote_that_does_not_answer(
+    pair: tuple[ZygoteChannel, socket.socket], stop: StopFlag
+) -> None:
+    channel, _ = pair
+    stop.set()  # as the SIGTERM handler does; the zygote, stuck, never answers
+    with pytest.raises(StoppedWaiting):
+        channel.fork(GATEWAY, [])
+
+
+def test_no_answer_in_time_is_a_zygote_gone(
+    pair: tuple[ZygoteChannel, socket.socket], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(warm, "REPLY_S", 0.01)
+    channel, _ = pair
+    with pytest.raises(ZygoteGoneError, match="no answer"):
+        channel.fork(GATEWAY, [])
+
+
+def test_a_reply_split_across_reads_is_one_line(
+    pair: tuple[ZygoteChannel, socket.socket],
+) -> None:
+    channel, zygote = pair
+    reply = encode(Forked(4242))
+    zygote.sendall(reply[:3])
+    zygote.sendall(reply[3:])
+    assert channel.fork(GATEWAY, []) == 4242
+
+
+def test_a_reply_after_the_launcher_stopped_waiting_is_found_once(
+    pair: tuple[ZygoteChannel, socket.socket], stop: StopFlag
+) -> None:
+    channel, zygote = pair
+    stop.set()
+    with pytest.raises(StoppedWaiting):
+        channel.fork(GATEWAY, [])
+    zygote.sendall(encode(Forked(4242)))  # the zygote answered, then was killed
+    zygote.close()
+    assert channel.late_reply() == 4242
+    assert channel.late_reply() is None
+
+
+def test_no_late_reply_when_the_zygote_said_nothing(
+    pair: tuple[ZygoteChannel, socket.socket],
+) -> None:
+    channel, zygote = pair
+    zygote.sendall(b'{"type":"Forked"')  # cut off mid-line by its death
+    assert channel.late_reply() is None
+
+
 class Started:
     """A ``Process`` that only names how it was started."""
 
@@ -98,6 +157,9 @@ class ScriptedZygote:
         self.modules = frozenset({GATEWAY})
         self.failures = list(failures)
         self.closed = False
+
+    def pids(self) -> set[int]:
+        return set() if self.closed else {7}
 
     def close(self) -> None:
         self.closed = True
@@ -144,6 +206,16 @@ def test_once_the_zygote_is_gone_everything_is_spawned(caplog: pytest.LogCapture
     assert how(start(command(GATEWAY))) == "spawned"
     assert "the warm parent failed (it exited)" in caplog.text
     assert zygote.closed  # asked once, then never again
+
+
+def test_a_stop_while_waiting_gives_the_zygote_up_and_starts_nothing() -> None:
+    zygote = ScriptedZygote(StoppedWaiting())
+    start = Starter(zygote, plain)
+    assert start.pids() == {7}
+    with pytest.raises(StoppedWaiting):
+        start(command(GATEWAY))
+    assert zygote.closed
+    assert start.pids() == set()
 
 
 def test_without_a_zygote_everything_is_spawned() -> None:
