@@ -119,35 +119,59 @@ def by_kind(mappings: Sequence[Mapping]) -> dict[str, KindTotal]:
     return totals
 
 
-def read_process(pid: int | str) -> dict[str, KindTotal]:
-    return by_kind(parse_smaps(Path(f"/proc/{pid}/smaps").read_text()))
+def inherited_kib(mappings: Iterable[Mapping], parent: Iterable[Mapping]) -> int:
+    """Private KiB of a forked process in the mappings it has from its parent (those starting
+    where one of the parent's does): pages it shared with the parent at the fork and has
+    written since (copy on write), or new blocks in memory it inherited (a free slot of an
+    inherited Python arena, of the heap)."""
+    starts = {mapping.start for mapping in parent}
+    return sum(mapping.private_kib for mapping in mappings if mapping.start in starts)
 
 
-def table(rows: Iterable[tuple[str, dict[str, KindTotal]]]) -> str:
-    """Private MiB per kind (dirty in brackets), then private and PSS in all, a line each."""
-    heading = ["process", *KINDS, "private", "PSS"]
+@dataclass(frozen=True)
+class ProcessMap:
+    name: str
+    totals: dict[str, KindTotal]
+    inherited_kib: int | None = None
+    """Of its private pages, those in mappings from the zygote (``inherited_kib``); None for
+    a process that is not a fork of it."""
+
+
+def read_mappings(pid: int | str) -> list[Mapping]:
+    return parse_smaps(Path(f"/proc/{pid}/smaps").read_text())
+
+
+def table(rows: Iterable[ProcessMap]) -> str:
+    """Private MiB per kind (dirty in brackets), then private and PSS in all, and the private
+    MiB in mappings inherited from the zygote, a line each."""
+    heading = ["process", *KINDS, "private", "PSS", "from zygote"]
     lines = [" ".join(f"{word:>13}" for word in heading)]
-    for name, totals in rows:
+    for row in rows:
         cells = [
             f"{t.private_kib / 1024:5.1f} ({t.private_dirty_kib / 1024:4.1f})"
-            for t in totals.values()
+            for t in row.totals.values()
         ]
-        whole = sum(totals.values(), KindTotal())
-        cells += [f"{whole.private_kib / 1024:13.1f}", f"{whole.pss_kib / 1024:13.1f}"]
-        lines.append(" ".join(f"{cell:>13}" for cell in [name, *cells]))
+        whole = sum(row.totals.values(), KindTotal())
+        inherited = "" if row.inherited_kib is None else f"{row.inherited_kib / 1024:.1f}"
+        cells += [f"{whole.private_kib / 1024:.1f}", f"{whole.pss_kib / 1024:.1f}", inherited]
+        lines.append(" ".join(f"{cell:>13}" for cell in [row.name, *cells]))
     return "\n".join(lines)
 
 
-def as_json(rows: Iterable[tuple[str, dict[str, KindTotal]]]) -> str:
+def as_json(rows: Iterable[ProcessMap]) -> str:
     return json.dumps(
         [
-            {"process": name, **{kind: vars(total) for kind, total in totals.items()}}
-            for name, totals in rows
+            {
+                "process": row.name,
+                **{kind: vars(total) for kind, total in row.totals.items()},
+                "inherited_kib": row.inherited_kib,
+            }
+            for row in rows
         ]
     )
 
 
-def cell_rows(label: str) -> list[tuple[str, dict[str, KindTotal]]]:
+def cell_rows(label: str) -> list[ProcessMap]:
     """Start a cell as figure 13 does, motion-ready, and map each of its processes."""
     # The harness only for --cell: mapping given pids needs none of it.
     from motocell.testing.running_cell import start_cell  # noqa: PLC0415
@@ -165,9 +189,24 @@ def cell_rows(label: str) -> list[tuple[str, dict[str, KindTotal]]]:
         try:
             motion_ready(cell)
             kinds = sorted(process_kinds(cell).items(), key=lambda item: item[1])
-            return [(kind, read_process(pid)) for pid, kind in kinds]
+            maps = [(kind, read_mappings(pid)) for pid, kind in kinds]
         finally:
             cell.stop()
+    zygote = next((mappings for kind, mappings in maps if kind == "zygote"), None)
+    return [
+        ProcessMap(
+            kind,
+            by_kind(mappings),
+            None
+            if zygote is None or kind in ("zygote", "launcher+router")
+            else inherited_kib(mappings, zygote),
+        )
+        for kind, mappings in maps
+    ]
+
+
+def given(pid: int) -> ProcessMap:
+    return ProcessMap(str(pid), by_kind(read_mappings(pid)))
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -179,7 +218,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if bool(args.pids) == bool(args.cell):
         parser.error("give either PIDs or --cell")
     try:
-        rows = cell_rows(args.cell) if args.cell else [(str(p), read_process(p)) for p in args.pids]
+        rows = cell_rows(args.cell) if args.cell else [given(pid) for pid in args.pids]
     except OSError as exc:
         print(f"memory_map: cannot read {exc.filename}: {exc.strerror}", file=sys.stderr)
         return 2

@@ -14,10 +14,11 @@ from motocell.tools.bench.memory_map import (
     KindTotal,
     Mapping,
     by_kind,
+    inherited_kib,
     kind_of,
     main,
     parse_smaps,
-    read_process,
+    read_mappings,
 )
 
 SMAPS = """\
@@ -105,7 +106,7 @@ def test_this_process_mapped_by_kind_adds_up_to_what_the_kernel_counts() -> None
     thread.start()
     try:
         started.wait()
-        totals = read_process(os.getpid())
+        totals = by_kind(read_mappings(os.getpid()))
         whole = sum(totals.values(), KindTotal()).private_kib
         rollup = rollup_private_kib()
     finally:
@@ -126,3 +127,9 @@ def test_a_process_that_is_not_there_is_one_line(capsys: pytest.CaptureFixture[s
 def test_pids_and_a_cell_are_not_asked_together() -> None:
     with pytest.raises(SystemExit):
         main(["1", "--cell", "single-arm"])
+
+
+def test_what_a_fork_holds_privately_in_its_parents_mappings_is_inherited() -> None:
+    parent = [anon(0x7F0000000000, 1 << 20, private=100), anon(0x7F0000200000, 1 << 20)]
+    child = [anon(0x7F0000000000, 1 << 20, private=300), anon(0x7F0000400000, 1 << 20, private=7)]
+    assert inherited_kib(child, parent) == 300
