@@ -4,17 +4,17 @@
 
 This process does what the launcher's zygote does before it forks (imports every forked
 service's ``__main__`` module, then ``gc.freeze()``), then forks once per probe. Each child
-does one thing and waits; this process then reads, from the child's smaps, its private MiB in
-the mappings it has from this process (``memory_map.inherited_kib``: pages it copied on
-writing them) and in all. The probes:
+does one thing and waits; this process then reads, from the child's smaps, its private dirty
+MiB in the mappings it has from this process (``memory_map.inherited_kib``: pages it copied on
+writing them) and its private MiB in all. The probes:
 
 - ``idle``: nothing (what a fork costs by itself);
 - ``gc.collect``: a full collection (the frozen objects are not walked);
 - ``read every module global``: takes a reference to every value of every loaded module's
   namespace once, and drops it: what CPython's reference counts alone write;
 - ``zenoh.open``: a peer session with scouting off, joining nothing. Zenoh's code pages the
-  child is the first to read count as its private pages here; in a cell every service reads
-  them, so they are shared there.
+  child is the first to read count in its private pages in all (clean ones); in a cell every
+  service reads them, so they are shared there.
 """
 
 from __future__ import annotations
@@ -73,7 +73,7 @@ def warm_up() -> None:
 
 
 def probe(run: Callable[[], None], parent: list[Mapping]) -> tuple[float, float]:
-    """The child's private MiB in mappings from ``parent``, and in all."""
+    """The child's private dirty MiB in mappings from ``parent``, and its private MiB in all."""
     done_read, done_write = os.pipe()
     child = os.fork()
     if child == 0:

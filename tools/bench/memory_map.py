@@ -120,12 +120,13 @@ def by_kind(mappings: Sequence[Mapping]) -> dict[str, KindTotal]:
 
 
 def inherited_kib(mappings: Iterable[Mapping], parent: Iterable[Mapping]) -> int:
-    """Private KiB of a forked process in the mappings it has from its parent (those starting
-    where one of the parent's does): pages it shared with the parent at the fork and has
-    written since (copy on write), or new blocks in memory it inherited (a free slot of an
-    inherited Python arena, of the heap)."""
+    """Private dirty KiB of a forked process in the mappings it has from its parent (those
+    starting where one of the parent's does): pages it shared with the parent at the fork and
+    has written since (copy on write), or new blocks in memory it inherited (a free slot of an
+    inherited Python arena; the heap, grown since, counts whole). Clean pages are left out: a
+    library's code that only this process has read yet is private but not a copy."""
     starts = {mapping.start for mapping in parent}
-    return sum(mapping.private_kib for mapping in mappings if mapping.start in starts)
+    return sum(mapping.private_dirty_kib for mapping in mappings if mapping.start in starts)
 
 
 @dataclass(frozen=True)
@@ -133,8 +134,8 @@ class ProcessMap:
     name: str
     totals: dict[str, KindTotal]
     inherited_kib: int | None = None
-    """Of its private pages, those in mappings from the zygote (``inherited_kib``); None for
-    a process that is not a fork of it."""
+    """Of its private dirty pages, those in mappings from the zygote (``inherited_kib``); None
+    for a process that is not a fork of it."""
 
 
 def read_mappings(pid: int | str) -> list[Mapping]:

@@ -129,7 +129,8 @@ def test_pids_and_a_cell_are_not_asked_together() -> None:
         main(["1", "--cell", "single-arm"])
 
 
-def test_what_a_fork_holds_privately_in_its_parents_mappings_is_inherited() -> None:
+def test_what_a_fork_wrote_in_its_parents_mappings_is_inherited() -> None:
     parent = [anon(0x7F0000000000, 1 << 20, private=100), anon(0x7F0000200000, 1 << 20)]
-    child = [anon(0x7F0000000000, 1 << 20, private=300), anon(0x7F0000400000, 1 << 20, private=7)]
-    assert inherited_kib(child, parent) == 300
+    code = Mapping(0x7F0000200000, 0x7F0000300000, "r-xp", "/lib/x.so", 50, 0, 50)
+    child = [anon(0x7F0000000000, 1 << 20, private=300), code, anon(0x7F0000400000, 1 << 20)]
+    assert inherited_kib(child, parent) == 300  # not the code only it has read, nor the new
