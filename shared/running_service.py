@@ -2,11 +2,13 @@
 its description and its liveliness token (``running_service``).
 
 Apart from ``shared.service`` (arguments, signals, what the launcher uses too) because it does
-at import what only a service needs: reading motocell's version (``SERVICE_VERSION``), which
-imports ``importlib.metadata`` and through it the email package. The launcher's warm parent
-imports this module with the services' own, so each fork of it starts with the version and
-those modules in the pages it shares with the others (docs/startup.md, "Where a cell's
-memory is"), and the launcher itself, which imports ``shared.service``, never pays for it.
+at import what every service would otherwise do after it is forked: read motocell's version
+(``SERVICE_VERSION``), which imports ``importlib.metadata`` and through it the email package,
+and the robot models' catalogue (``config.load_catalogue``, read once per process), which its
+cell file's loading needs. The launcher's warm parent imports this module with the services'
+own, so each fork of it starts with both in the pages it shares with the others instead of
+copies of its own (docs/startup.md, "Where a cell's memory is"), and the launcher itself,
+which imports ``shared.service``, never reads the version.
 """
 
 from __future__ import annotations
@@ -37,7 +39,7 @@ from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.runtime import zenoh_runtime
 from motocell.shared.bus.schemas import Listening, ServiceInfo, encode
 from motocell.shared.bus.session import ENCODING, StoppedWaiting, open_session
-from motocell.shared.config import EXIT_CONFIG, Cell, ConfigError, load_cell
+from motocell.shared.config import EXIT_CONFIG, Cell, ConfigError, load_catalogue, load_cell
 from motocell.shared.realtime import enter_service_priority
 from motocell.shared.service import (
     PARENT_PID_ENV,
@@ -53,6 +55,7 @@ from motocell.shared.service_names import ServiceName, UnknownServiceError, pars
 SERVICE_VERSION = version()
 """motocell's version, as every service's description gives it: read once, at import (see the
 module's text)."""
+load_catalogue()
 
 
 class Description:

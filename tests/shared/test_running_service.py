@@ -1,5 +1,6 @@
-"""Where a service's version is read: once, by whoever imports a service's modules (the
-launcher's warm parent, for all its forks), never by the launcher's own modules."""
+"""Where a service's version and the robot models are read: once, by whoever imports a
+service's modules (the launcher's warm parent, for all its forks); the version never by the
+launcher's own modules."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ from pathlib import Path
 
 import pytest
 
+from motocell.shared.config import RobotModel, load_catalogue
 from motocell.shared.running_service import SERVICE_VERSION
 from motocell.shared.service import version
 
@@ -19,6 +21,14 @@ READ_AT_IMPORT = {"importlib.metadata", "motocell.shared.running_service"}
 
 def test_the_version_a_service_describes_itself_with_is_the_installed_one() -> None:
     assert version() == SERVICE_VERSION
+
+
+def test_the_catalogue_is_read_once_and_shared_read_only() -> None:
+    catalogue = load_catalogue()
+    assert catalogue is load_catalogue()
+    assert "arm6" in catalogue
+    with pytest.raises(TypeError):
+        catalogue["arm6"] = RobotModel.__new__(RobotModel)  # type: ignore[index]
 
 
 def loaded_after(code: str, cwd: Path) -> list[str]:
