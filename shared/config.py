@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
+import functools
 import math
 import re
 import tomllib
@@ -335,9 +336,14 @@ class Cell:
         )
 
 
-def load_catalogue() -> dict[str, RobotModel]:
+@functools.cache
+def load_catalogue() -> types.MappingProxyType[str, RobotModel]:
+    """The robot models motocell ships (``models.toml``), read once per process: a fact of the
+    installation. Read-only, as every caller gets the same one."""
     text = resources.files("motocell.shared").joinpath("models.toml").read_text()
-    return _decode_models(tomllib.loads(text).get("models", {}), "models.toml")
+    return types.MappingProxyType(
+        _decode_models(tomllib.loads(text).get("models", {}), "models.toml")
+    )
 
 
 def _decode_models(raw: object, where: str) -> dict[str, RobotModel]:

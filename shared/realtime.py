@@ -89,8 +89,8 @@ def leave_service_priority() -> None:
     """The calling thread back to ordinary scheduling; the threads it already started keep
     theirs. For the launcher's main thread once its router runs: the processes it starts then
     begin at ordinary priority, and a service takes its own only once its imports are done
-    (``shared.service``). Imports at SCHED_RR 10, a starting cell's eight interpreters loading
-    numpy and Zenoh, would hold the CPUs in 100 ms round-robin slices against the running
+    (``shared.running_service``). Imports at SCHED_RR 10, a starting cell's eight interpreters
+    loading numpy and Zenoh, would hold the CPUs in 100 ms round-robin slices against the running
     cells' threads of the same priority, long enough for a moving neighbour's controller to go
     unheard and its trajectory to stop with alarm 4200 (measured: docs/realtime.md, The other
     threads)."""

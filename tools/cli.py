@@ -95,7 +95,7 @@ class ShowVersion(argparse.Action):
         values: object,
         option_string: str | None = None,
     ) -> None:
-        # shared.service brings the cell file's loader and Zenoh: only when asked.
+        # shared.service brings the cell file's loader: only when asked.
         from motocell.shared.service import version  # noqa: PLC0415
 
         print(f"motocell {version()}")

@@ -19,12 +19,8 @@ from motocell.services.broadcaster.reports import StatePortReports
 from motocell.services.broadcaster.state_port import Acceptor, StatePort
 from motocell.services.broadcaster.ticks import TickSource
 from motocell.shared.protocol.codec import ByteOrder
-from motocell.shared.service import (
-    add_listening_arguments,
-    argument_parser,
-    listen,
-    running_service,
-)
+from motocell.shared.running_service import running_service
+from motocell.shared.service import add_listening_arguments, argument_parser, listen
 
 log = logging.getLogger("broadcaster")
 

@@ -11,7 +11,8 @@ from motocell.services.controller.core.io_table import IoTable
 from motocell.services.controller.core.model import Controller
 from motocell.services.controller.inbox import ReplyTo
 from motocell.services.controller.loop import ControllerLoop, first_status_seq
-from motocell.shared.service import argument_parser, running_service
+from motocell.shared.running_service import running_service
+from motocell.shared.service import argument_parser
 
 
 def main(argv: Sequence[str] | None = None) -> None:

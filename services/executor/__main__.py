@@ -11,7 +11,8 @@ from motocell.services.executor.core.start import core_for_cell
 from motocell.services.executor.inputs import Inputs
 from motocell.services.executor.loop import Clock
 from motocell.services.executor.outputs import Outputs
-from motocell.shared.service import argument_parser, running_service
+from motocell.shared.running_service import running_service
+from motocell.shared.service import argument_parser
 
 
 def main(argv: Sequence[str] | None = None) -> None:

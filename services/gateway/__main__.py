@@ -23,12 +23,8 @@ from motocell.services.gateway.reporter import Reporter
 from motocell.services.gateway.tcp import RequestServer, SocketListener
 from motocell.services.gateway.zenoh_cell import ZenohCell
 from motocell.shared.protocol.codec import ByteOrder
-from motocell.shared.service import (
-    add_listening_arguments,
-    argument_parser,
-    listen,
-    running_service,
-)
+from motocell.shared.running_service import running_service
+from motocell.shared.service import add_listening_arguments, argument_parser, listen
 
 log = logging.getLogger("gateway")
 

@@ -19,7 +19,8 @@ from motocell.services.interpolator.inputs import Inputs
 from motocell.services.interpolator.loop import FeederLoop
 from motocell.services.interpolator.reports import Reports
 from motocell.shared.bus.schemas import encode
-from motocell.shared.service import argument_parser, running_service
+from motocell.shared.running_service import running_service
+from motocell.shared.service import argument_parser
 
 
 def main(argv: Sequence[str] | None = None) -> None:

@@ -24,7 +24,8 @@ from motocell.shared.config import EXIT_CONFIG
 from motocell.shared.protocol.codec import ByteOrder
 from motocell.shared.ros2.extra import missing_ros2
 from motocell.shared.ros2.interfaces import BuildError, NotInstalledError, ensure
-from motocell.shared.service import argument_parser, running_service
+from motocell.shared.running_service import running_service
+from motocell.shared.service import argument_parser
 
 log = logging.getLogger("ros2")
 

@@ -16,13 +16,8 @@ from pathlib import Path
 
 import pytest
 
-from motocell.shared.service import (
-    StartError,
-    StopFlag,
-    freeze_what_lives_forever,
-    listen,
-    stop_on_signals,
-)
+from motocell.shared.running_service import freeze_what_lives_forever
+from motocell.shared.service import StartError, StopFlag, listen, stop_on_signals
 from motocell.testing.processes import wait_until
 
 REPO = Path(__file__).resolve().parents[2]
