@@ -4,9 +4,6 @@ launcher's own modules."""
 
 from __future__ import annotations
 
-import ast
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -14,6 +11,7 @@ import pytest
 from motocell.shared.config import RobotModel, load_catalogue
 from motocell.shared.running_service import SERVICE_VERSION
 from motocell.shared.service import version
+from tests.tools.test_cli import loaded_after
 
 FORKED = ("broadcaster", "controller", "executor", "gateway", "interpolator")
 READ_AT_IMPORT = {"importlib.metadata", "motocell.shared.running_service"}
@@ -31,24 +29,10 @@ def test_the_catalogue_is_read_once_and_shared_read_only() -> None:
         catalogue["arm6"] = RobotModel.__new__(RobotModel)  # type: ignore[index]
 
 
-def loaded_after(code: str, cwd: Path) -> list[str]:
-    probe = f"{code}\nimport sys\nprint(sorted(set(sys.modules) & {READ_AT_IMPORT!r}))\n"
-    done = subprocess.run(
-        [sys.executable, "-c", probe],
-        cwd=cwd,
-        capture_output=True,
-        text=True,
-        timeout=60,
-        check=False,
-    )
-    assert done.returncode == 0, done.stderr
-    return list(ast.literal_eval(done.stdout.splitlines()[-1]))
-
-
 @pytest.mark.cell
 def test_the_launchers_modules_do_not_read_it_and_each_services_do(tmp_path: Path) -> None:
     launcher = "import motocell.services.launcher.__main__, motocell.services.launcher.up"
-    assert loaded_after(launcher, tmp_path) == []
+    assert loaded_after(launcher, READ_AT_IMPORT, tmp_path) == []
     for service in FORKED:
         code = f"import motocell.services.{service}.__main__"
-        assert loaded_after(code, tmp_path) == sorted(READ_AT_IMPORT), service
+        assert loaded_after(code, READ_AT_IMPORT, tmp_path) == sorted(READ_AT_IMPORT), service
