@@ -41,6 +41,7 @@ from motocell.tools.bench.measuring import (
     CLK_TCK,
     GROUP_MODELS,
     figure_result,
+    memory_rollup_mib,
     process_kinds,
     workdir,
     write_cell_file,
@@ -71,16 +72,13 @@ def read_process(pid: int, kind: str) -> ProcessRead | None:
     """None once it is gone."""
     try:
         stat = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[-1].split()
-        rollup = Path(f"/proc/{pid}/smaps_rollup").read_text()
     except OSError:
+        return None
+    memory = memory_rollup_mib(pid)
+    if memory is None:
         return None
     # After the ")" field 0 is stat(5)'s field 3; utime, stime, cutime, cstime are 14-17.
     ticks = sum(int(value) for value in stat[11:15])
-    memory = {}
-    for line in rollup.splitlines():
-        words = line.split()
-        if len(words) == 3 and words[2] == "kB":
-            memory[words[0].rstrip(":")] = int(words[1]) / 1024
     private = memory.get("Private_Clean", 0.0) + memory.get("Private_Dirty", 0.0)
     return ProcessRead(
         kind, ticks / CLK_TCK, memory.get("Pss", 0.0), private, memory.get("Rss", 0.0)

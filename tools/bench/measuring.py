@@ -297,16 +297,26 @@ def usage_between(before: Mapping[int, Usage], after: Mapping[int, Usage]) -> Us
     return total
 
 
+def memory_rollup_mib(pid: int) -> dict[str, float] | None:
+    """Every size ``/proc/<pid>/smaps_rollup`` gives (``Rss``, ``Pss``, ``Private_Dirty``...),
+    in MiB; None once the process is gone."""
+    try:
+        text = Path(f"/proc/{pid}/smaps_rollup").read_text()
+    except OSError:
+        return None
+    sizes = {}
+    for line in text.splitlines():
+        words = line.split()
+        if len(words) == 3 and words[2] == "kB":
+            sizes[words[0].rstrip(":")] = int(words[1]) / 1024
+    return sizes
+
+
 def pss_mib(pid: int) -> float | None:
     """Proportional set size: the process's own pages plus its share of pages it shares (the
     interpreter, numpy, Zenoh), so the sum over many processes is the memory they take."""
-    try:
-        for line in Path(f"/proc/{pid}/smaps_rollup").read_text().splitlines():
-            if line.startswith("Pss:"):
-                return int(line.split()[1]) / 1024
-    except OSError:
-        return None
-    return None
+    sizes = memory_rollup_mib(pid)
+    return None if sizes is None else sizes.get("Pss")
 
 
 @dataclass(frozen=True)
