@@ -2,7 +2,7 @@
 
 A property runs its examples in this process, computing: it starts no process and waits on
 nothing. Its wall time is its CPU time times the machine's load: the deep profile's 300
-examples of the costliest ones take 10 to 25 CPU seconds under ``scripts/check``'s coverage,
+examples of the costliest ones took 10 to 25 CPU seconds under coverage,
 which at load 20 on two cores is past pytest-timeout's 120 s, though nothing hangs. What can go
 wrong in a property is a loop that does not end, and that spends CPU: so for a property the
 timeout (``timeout`` in pyproject.toml, or the test's mark) counts this process's CPU time

@@ -62,7 +62,7 @@ def test_of_the_cell_lane():
 @pytest.fixture
 def inner(pytester: pytest.Pytester, monkeypatch: pytest.MonkeyPatch) -> pytest.Pytester:
     """A suite of its own, run in this process: untraced as far as the budget knows, so the
-    check runs under ``scripts/check``'s coverage too."""
+    check runs under coverage or a debugger too."""
     monkeypatch.setattr(budget, "traced", lambda config: False)
     pytester.makeini("[pytest]\nmarkers =\n    cell: the slow lane\n")
     pytester.makepyfile(test_inner=textwrap.dedent(INNER))
