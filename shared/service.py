@@ -22,13 +22,12 @@ from motocell.shared.bus.keys import CellKeys
 from motocell.shared.config import Cell
 from motocell.shared.ports import port_base_argument
 from motocell.shared.service_names import (
+    PARENT_PID_ENV,
     ROS2_FACE,
     cell_services,
 )
 from motocell.shared.signals import STOP_SIGNALS
 
-PARENT_PID_ENV = "MOTOCELL_PARENT_PID"
-"""Set by ``motocell up`` for its children: they stop when that process goes away."""
 PR_SET_PDEATHSIG = 1
 
 

@@ -7,7 +7,8 @@ import argparse
 import importlib
 import logging
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from typing import Any, cast
 
 from motocell.shared.signals import release_stop_signals
@@ -120,8 +121,28 @@ OWN_SIGNALS = frozenset({"up", "router", "watch", "echo", "hz", "record", "servi
 stay held (``tools.__main__``), so one that comes while they start stops them there, cleanly."""
 
 
+@contextmanager
+def warm_parent(words: Sequence[str]) -> Iterator[object]:
+    """``motocell up``'s warm parent, started before the launcher loads
+    (``services.launcher.warm_parent``); None for every other command."""
+    if list(words[:1]) != ["up"]:
+        yield None
+        return
+    from motocell.services.launcher.warm_parent import started_zygote  # noqa: PLC0415
+
+    with started_zygote(words[1:]) as zygote:
+        yield zygote
+
+
 def main(argv: Sequence[str] | None = None) -> None:
-    args = build_parser().parse_args(argv)
+    words = sys.argv[1:] if argv is None else argv
+    with warm_parent(words) as zygote:
+        _main(words, zygote)
+
+
+def _main(words: Sequence[str], zygote: object) -> None:
+    args = build_parser().parse_args(words)
+    args.warm_parent = zygote  # ``up`` takes it (services.launcher.cli)
     if args.command not in OWN_SIGNALS:
         # Held while the command loaded (tools.__main__); it stops on them from here on.
         release_stop_signals()

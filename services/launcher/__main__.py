@@ -10,6 +10,7 @@ import logging
 import sys
 from collections.abc import Sequence
 
+from motocell.services.launcher.warm_parent import started_zygote
 from motocell.shared.signals import hold_stop_signals
 
 
@@ -25,19 +26,25 @@ def main(argv: Sequence[str] | None = None) -> None:
 
 
 def _main(argv: Sequence[str] | None) -> None:
-    # Zenoh and the launcher load only once the signals are held.
-    from motocell.services.launcher.cli import add_arguments  # noqa: PLC0415
-    from motocell.services.launcher.up import run  # noqa: PLC0415
+    words = sys.argv[1:] if argv is None else argv
+    # The warm parent first, so that its imports run beside the launcher's (warm_parent).
+    with started_zygote(words) as zygote:
+        # Zenoh and the launcher load only once the signals are held.
+        from motocell.services.launcher.cli import add_arguments  # noqa: PLC0415
+        from motocell.services.launcher.up import run  # noqa: PLC0415
 
-    parser = argparse.ArgumentParser(
-        prog="python -m motocell.services.launcher",
-        description="Run a whole cell.",
-        allow_abbrev=False,
-    )
-    add_arguments(parser)
-    args = parser.parse_args(argv)
-    logging.basicConfig(level=logging.INFO, format="%(asctime)s motocell %(levelname)s %(message)s")
-    sys.exit(run(args))
+        parser = argparse.ArgumentParser(
+            prog="python -m motocell.services.launcher",
+            description="Run a whole cell.",
+            allow_abbrev=False,
+        )
+        add_arguments(parser)
+        args = parser.parse_args(words)
+        args.warm_parent = zygote
+        logging.basicConfig(
+            level=logging.INFO, format="%(asctime)s motocell %(levelname)s %(message)s"
+        )
+        sys.exit(run(args))
 
 
 if __name__ == "__main__":

@@ -76,6 +76,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="start every service as a fresh interpreter instead of a fork of the warm parent "
         "that has imported them (slower; for comparison and debugging, docs/startup.md)",
     )
+    # The warm parent, started before this parser existed (``warm_parent.started_zygote``):
+    # the command's ``main`` puts it here, and ``up.run`` takes it; None runs the cell cold.
+    parser.set_defaults(warm_parent=None)
     add_lifeline_argument(parser, "cell")
     parser.add_argument(
         "--lifeline-scratch",

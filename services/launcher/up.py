@@ -39,7 +39,6 @@ from motocell.services.launcher.core.children import (
     EXECUTOR,
     UpOptions,
     child_specs,
-    service_module,
     services_here,
 )
 from motocell.services.launcher.core.restarts import RestartPolicy
@@ -52,6 +51,7 @@ from motocell.services.launcher.ready_line import ReadyNotice
 from motocell.services.launcher.realtime_line import RealtimeNotice
 from motocell.services.launcher.router import cell_router_endpoints, open_cell_router, serve_router
 from motocell.services.launcher.warm import Starter, Zygote, become_subreaper, reap_strays
+from motocell.services.launcher.warm_parent import StartedZygote
 from motocell.shared import registry
 from motocell.shared.bus.access import Identity, cell_identities
 from motocell.shared.bus.catalog import Role
@@ -82,7 +82,7 @@ def run(args: argparse.Namespace) -> int:
         # process takes the services' priority, which the zygote's imports must not run at.
         with (
             stop_on_signals() as stop,
-            warm_starter(this_host.services, stop, cold=args.cold) as starter,
+            warm_starter(args.warm_parent, stop) as starter,
         ):
             # Before the router opens, so that its threads inherit it; then this thread, which
             # starts the services, leaves it, so that their imports do not run at it.
@@ -303,15 +303,14 @@ def _reap_strays(children: list[Child], starter: Starter) -> None:
 
 
 @contextmanager
-def warm_starter(services: list[ServiceName], stop: StopFlag, *, cold: bool) -> Iterator[Starter]:
-    """Forks of a warm parent for every service but the ROS 2 face (rclpy would double the
-    parent's size, for one process), unless ``cold`` or this system cannot make the launcher
-    the forks' parent (docs/startup.md); the warm parent ends with the block."""
-    modules = sorted({service_module(name) for name in services if name.service != ROS2_FACE})
-    if cold or not modules or not become_subreaper():
+def warm_starter(started: StartedZygote | None, stop: StopFlag) -> Iterator[Starter]:
+    """Forks of the warm parent ``started`` for the services it holds, unless there is none
+    (``--cold``) or this system cannot make the launcher the forks' parent (docs/startup.md);
+    the warm parent ends with the block."""
+    if started is None or not become_subreaper():
         starter = Starter(None)
     else:
-        starter = Starter(Zygote(modules, stop))
+        starter = Starter(Zygote(started, stop))
     try:
         yield starter
     finally:

@@ -36,16 +36,13 @@ from motocell.services.launcher.core.forks import (
     encode,
 )
 from motocell.services.launcher.loop import Stop
+from motocell.services.launcher.warm_parent import WARM_MODULES, StartedZygote
 from motocell.shared.bus.session import StoppedWaiting
-from motocell.shared.service import PARENT_PID_ENV
-from motocell.shared.service_names import WARM_PARENT_MODULE
+from motocell.shared.service_names import PARENT_PID_ENV
 
 log = logging.getLogger("motocell")
 
 PR_SET_CHILD_SUBREAPER = 36
-ROOM = 8192
-"""Bytes of command line the zygote holds for a service's (``zygote.rewrite_command_line``):
-a cell's longest, with its paths, is a few hundred."""
 REPLY_S = 5.0
 """How long a fork may take to be answered, the zygote's imports included (0.2-0.3 s, also on
 a loaded machine: docs/startup.md): longer, and the zygote is taken for stuck and every start
@@ -195,27 +192,13 @@ class ZygoteChannel:
 
 
 class Zygote:
-    """A running zygote, which holds ``modules``; ``stop`` ends a wait for it."""
+    """A running zygote (``warm_parent``), which holds ``WARM_MODULES``; ``stop`` ends a wait
+    for it."""
 
-    def __init__(self, modules: Sequence[str], stop: Stop) -> None:
-        self.modules = frozenset(modules)
-        ours, theirs = socket.socketpair()
-        env = {**os.environ, PARENT_PID_ENV: str(os.getpid())}
-        command = [
-            *(sys.executable, "-m", WARM_PARENT_MODULE),
-            *("--channel", str(theirs.fileno()), "--room", " " * ROOM, ",".join(modules)),
-        ]
-        try:
-            # A process group of its own, as every service has: a Ctrl-C reaches the launcher.
-            self.process = subprocess.Popen(
-                command, env=env, pass_fds=(theirs.fileno(),), process_group=0
-            )
-        except BaseException:
-            ours.close()
-            raise
-        finally:
-            theirs.close()
-        self._channel = ZygoteChannel(ours, stop)
+    def __init__(self, started: StartedZygote, stop: Stop) -> None:
+        self.modules = frozenset(WARM_MODULES)
+        self.process = started.process
+        self._channel = ZygoteChannel(started.channel, stop)
 
     def fork(self, module: str, args: Sequence[str]) -> Process:
         try:

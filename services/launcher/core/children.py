@@ -12,6 +12,7 @@ from motocell.shared.service_names import (
     UnknownServiceError,
     cell_services,
     parse_service,
+    service_module,
 )
 
 TCP_SERVICES = ("broadcaster", "gateway")
@@ -45,11 +46,6 @@ class ChildSpec:
 
 CONTROLLER = str(ServiceName("controller", "0"))
 EXECUTOR = str(ServiceName("executor", "0"))
-
-
-def service_module(name: ServiceName) -> str:
-    """What ``python -m`` runs for the service."""
-    return f"motocell.services.{name.service}"
 
 
 def services_here(cell: Cell, skip: Sequence[str]) -> list[ServiceName]:
@@ -86,7 +82,7 @@ def child_specs(
             extra = _port_options(options)
         else:
             extra = []
-        specs.append(ChildSpec(name, (*python, service_module(name), *common, *extra)))
+        specs.append(ChildSpec(name, (*python, service_module(name.service), *common, *extra)))
     return specs
 
 
