@@ -29,14 +29,13 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
-import time
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from motocell.shared.protocol.constants import Command, Result
-from motocell.testing.running_cell import RunningCell, start_cell, wait_for_whole_cell
+from motocell.testing.running_cell import RunningCell, start_cell
+from motocell.tools.bench.bench_startup import milestones
 from motocell.tools.bench.measuring import (
     CLK_TCK,
     GROUP_MODELS,
@@ -90,27 +89,19 @@ def read_cell(cell: RunningCell) -> list[ProcessRead]:
     return [read for read in reads if read is not None]
 
 
-def motion_ready(cell: RunningCell) -> None:
-    wait_for_whole_cell(cell.host, cell.port_base, cell.byte_order, TIMEOUT_S)
-    with cell.motion() as motion:
-        reply = motion.command(Command.START_TRAJ_MODE)
-    if reply.result != Result.SUCCESS:
-        raise RuntimeError(f"START_TRAJ_MODE refused: {reply}")
-
-
 def once(
     config: Path, log: Path, *, cold: bool
-) -> tuple[float, list[ProcessRead], dict[str, float]]:
-    """Wall seconds to motion-ready, every process read then, and one service's phases."""
+) -> tuple[dict[str, float], list[ProcessRead], dict[str, float]]:
+    """The way to motion-ready (figure 9's milestones, ms), every process read then, and one
+    service's phases."""
     cell = start_cell(config, log=log, cold=cold)
     try:
-        motion_ready(cell)
-        wall = (time.monotonic_ns() - cell.spawned_ns) / 1e9
+        times = milestones(cell)
         reads = read_cell(cell)
         phases = start_phases(cell) if cold else {}
     finally:
         cell.stop()
-    return wall, reads, phases
+    return times, reads, phases
 
 
 def start_phases(cell: RunningCell) -> dict[str, float]:
@@ -142,6 +133,9 @@ class Runs:
     """One way of starting one cell, over the runs."""
 
     walls: list[float] = field(default_factory=list)
+    first_status: list[float] = field(default_factory=list)
+    all_alive: list[float] = field(default_factory=list)
+    start_traj_mode: list[float] = field(default_factory=list)
     cpus: list[float] = field(default_factory=list)
     pss: list[float] = field(default_factory=list)
     private: list[float] = field(default_factory=list)
@@ -150,8 +144,13 @@ class Runs:
     phases: dict[str, list[float]] = field(default_factory=dict)
     processes: int = 0
 
-    def add(self, wall: float, reads: list[ProcessRead], phases: dict[str, float]) -> None:
-        self.walls.append(wall * 1000)
+    def add(
+        self, times: dict[str, float], reads: list[ProcessRead], phases: dict[str, float]
+    ) -> None:
+        self.walls.append(times["motion_ready"])
+        self.first_status.append(times["first_status"])
+        self.all_alive.append(times["all_alive"])
+        self.start_traj_mode.append(times["start_traj_mode"])
         self.cpus.append(sum(r.cpu_s for r in reads) * 1000)
         self.pss.append(sum(r.pss_mib for r in reads))
         self.private.append(sum(r.private_mib for r in reads))
@@ -177,6 +176,16 @@ def rows_of(label: str, runs: Runs, goals: tuple[float, ...] | None) -> list[dic
         row("CPU of every process to motion-ready", "ms", runs.cpus, cpu_goal and cpu_goal * 1000),
     ]
     rows[0]["note"] = f"{runs.processes} processes"
+    rows += [
+        row("spawn -> first ROBOT_STATUS", "ms", runs.first_status, None),
+        row("spawn -> every service alive (no 5012)", "ms", runs.all_alive, None),
+        row(
+            "START_TRAJ_MODE's reply (servo on and INIT_ROS timer: 100 ms)",
+            "ms",
+            runs.start_traj_mode,
+            None,
+        ),
+    ]
     rows += [
         row(f"CPU, {kind} (all of them)", "ms", values, None)
         for kind, values in sorted(runs.kinds.items())

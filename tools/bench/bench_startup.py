@@ -46,39 +46,45 @@ def note_executor_mode(cell: RunningCell) -> None:
 def once(directory: Path, index: int) -> dict[str, float]:
     config = write_cell_file(directory, f"bench9x{index}")
     cell = start_cell(config, log=directory / f"startup{index}.log")
-    spawned = cell.spawned_ns
     try:
-        wait_until(lambda: connectable(cell.host, cell.port_base + 1), TIMEOUT_S, "state port")
-        with StateListener(cell.host, cell.port_base + 1, cell.byte_order).start() as state:
-            first = state.wait_for(lambda f: f.status is not None, TIMEOUT_S)
-        first_status = (first.received_ns - spawned) / 1e6
-        wait_until(lambda: connectable(cell.host, cell.port_base), TIMEOUT_S, "motion port")
-        with MotionClient(cell.host, cell.port_base, cell.byte_order) as motion:
-            while True:
-                reply = motion.command(Command.CHECK_MOTION_READY)
-                if reply.subcode != NotReadySubcode.INC_MOVE_ERROR:
-                    break
-                if time.monotonic_ns() - spawned > TIMEOUT_S * 1e9:
-                    raise TimeoutError("the cell's services did not all come up")
-                time.sleep(0.005)
-            all_alive = (time.monotonic_ns() - spawned) / 1e6
-            sent = time.monotonic_ns()
-            reply = motion.command(Command.START_TRAJ_MODE)
-            done = time.monotonic_ns()
-            if reply.result != Result.SUCCESS:
-                raise RuntimeError(f"START_TRAJ_MODE refused: {reply}")
+        times = milestones(cell)
         if index == 0:
             note_executor_mode(cell)
         stopping = time.monotonic_ns()
     finally:
         cell.stop()
     stopped = time.monotonic_ns()
+    return {**times, "stop": (stopped - stopping) / 1e6}
+
+
+def milestones(cell: RunningCell) -> dict[str, float]:
+    """From the spawn to motion-ready, ms: the first ROBOT_STATUS, every service alive,
+    START_TRAJ_MODE's own reply time and its SUCCESS (figures 9 and 13)."""
+    spawned = cell.spawned_ns
+    wait_until(lambda: connectable(cell.host, cell.port_base + 1), TIMEOUT_S, "state port")
+    with StateListener(cell.host, cell.port_base + 1, cell.byte_order).start() as state:
+        first = state.wait_for(lambda f: f.status is not None, TIMEOUT_S)
+    first_status = (first.received_ns - spawned) / 1e6
+    wait_until(lambda: connectable(cell.host, cell.port_base), TIMEOUT_S, "motion port")
+    with MotionClient(cell.host, cell.port_base, cell.byte_order) as motion:
+        while True:
+            reply = motion.command(Command.CHECK_MOTION_READY)
+            if reply.subcode != NotReadySubcode.INC_MOVE_ERROR:
+                break
+            if time.monotonic_ns() - spawned > TIMEOUT_S * 1e9:
+                raise TimeoutError("the cell's services did not all come up")
+            time.sleep(0.005)
+        all_alive = (time.monotonic_ns() - spawned) / 1e6
+        sent = time.monotonic_ns()
+        reply = motion.command(Command.START_TRAJ_MODE)
+        done = time.monotonic_ns()
+        if reply.result != Result.SUCCESS:
+            raise RuntimeError(f"START_TRAJ_MODE refused: {reply}")
     return {
         "first_status": first_status,
         "all_alive": all_alive,
         "start_traj_mode": (done - sent) / 1e6,
         "motion_ready": (done - spawned) / 1e6,
-        "stop": (stopped - stopping) / 1e6,
     }
 
 

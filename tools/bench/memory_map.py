@@ -176,7 +176,8 @@ def cell_rows(label: str) -> list[ProcessMap]:
     """Start a cell as figure 13 does, motion-ready, and map each of its processes."""
     # The harness only for --cell: mapping given pids needs none of it.
     from motocell.testing.running_cell import start_cell  # noqa: PLC0415
-    from motocell.tools.bench.bench_start_cost import CELLS, motion_ready  # noqa: PLC0415
+    from motocell.tools.bench.bench_start_cost import CELLS  # noqa: PLC0415
+    from motocell.tools.bench.bench_startup import milestones  # noqa: PLC0415
     from motocell.tools.bench.measuring import (  # noqa: PLC0415
         process_kinds,
         workdir,
@@ -188,7 +189,7 @@ def cell_rows(label: str) -> list[ProcessMap]:
         config = write_cell_file(directory, f"memorymap{label.replace('-', '')}", models=models)
         cell = start_cell(config, log=directory / "cell.log")
         try:
-            motion_ready(cell)
+            milestones(cell)
             kinds = sorted(process_kinds(cell).items(), key=lambda item: item[1])
             maps = [(kind, read_mappings(pid)) for pid, kind in kinds]
         finally:
