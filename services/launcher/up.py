@@ -65,7 +65,13 @@ from motocell.shared.realtime import enter_service_priority, leave_service_prior
 from motocell.shared.registry import CellEntry, CellNameTakenError
 from motocell.shared.ros2.extra import missing_ros2
 from motocell.shared.service import StopFlag, stop_on_signals
-from motocell.shared.service_names import ROS2_FACE, ServiceName, UnknownServiceError, cell_services
+from motocell.shared.service_names import (
+    ROS2_FACE,
+    WARM_SERVICES,
+    ServiceName,
+    UnknownServiceError,
+    cell_services,
+)
 
 log = logging.getLogger("motocell")
 
@@ -78,11 +84,11 @@ def run(args: argparse.Namespace) -> int:
         cell = load_cell(args.config, args.name)
         this_host = ThisHost(cell, args)
         check_lifeline(args.lifeline, args.lifeline_scratch)
-        # The zygote first, so that its imports run while the router opens; and before this
-        # process takes the services' priority, which the zygote's imports must not run at.
+        # The warm parent, started as this process's first act (``warm_parent``), so before
+        # it takes the services' priority, which the warm parent's imports must not run at.
         with (
             stop_on_signals() as stop,
-            warm_starter(args.warm_parent, stop) as starter,
+            warm_starter(args.warm_parent, this_host.services, stop) as starter,
         ):
             # Before the router opens, so that its threads inherit it; then this thread, which
             # starts the services, leaves it, so that their imports do not run at it.
@@ -303,14 +309,20 @@ def _reap_strays(children: list[Child], starter: Starter) -> None:
 
 
 @contextmanager
-def warm_starter(started: StartedZygote | None, stop: StopFlag) -> Iterator[Starter]:
+def warm_starter(
+    started: StartedZygote | None, services: list[ServiceName], stop: StopFlag
+) -> Iterator[Starter]:
     """Forks of the warm parent ``started`` for the services it holds, unless there is none
-    (``--cold``) or this system cannot make the launcher the forks' parent (docs/startup.md);
-    the warm parent ends with the block."""
-    if started is None or not become_subreaper():
-        starter = Starter(None)
-    else:
+    (``--cold``), this host runs none of them, or this system cannot make the launcher the
+    forks' parent (docs/startup.md); the warm parent ends with the block, or at once where it
+    is not used."""
+    warm = started is not None and any(name.service in WARM_SERVICES for name in services)
+    if started is not None and warm and become_subreaper():
         starter = Starter(Zygote(started, stop))
+    else:
+        if started is not None:
+            started.close()
+        starter = Starter(None)
     try:
         yield starter
     finally:

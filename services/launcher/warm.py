@@ -1,14 +1,16 @@
-"""The launcher's side of its warm parent (``launcher.zygote``): start it, ask it for services,
-and fall back to a plain ``python -m`` start for what it cannot fork (docs/startup.md).
+"""The launcher's side of its warm parent (``launcher.zygote``, started by ``warm_parent``): ask
+it for services, and fall back to a plain ``python -m`` start for what it cannot fork
+(docs/startup.md).
 
-The launcher makes itself a subreaper (PR_SET_CHILD_SUBREAPER) first: a forked service is then
-its child, as a spawned one is, so the launcher reaps it and learns its exit status itself,
-and a zygote that dies takes nothing with it. The zygote is asked only while it answers; once
-it does not (killed, or gone for any reason), every later start, restarts included, is a
-plain one, which costs what every start cost before there was a zygote. A stop asked while
-the launcher waits for the zygote ends that wait at once (``StoppedWaiting``): the zygote is
-killed, and a service it forked meanwhile with it. Being a subreaper adopts every orphan of
-the launcher's descendants, not only the forked services: ``reap_strays`` reaps those.
+The launcher makes itself a subreaper (PR_SET_CHILD_SUBREAPER) before its first request: a
+forked service is then its child, as a spawned one is, so the launcher reaps it and learns its
+exit status itself, and a zygote that dies takes nothing with it. The zygote is asked only
+while it answers; once it does not (killed, or gone for any reason), every later start,
+restarts included, is a plain one, which costs what every start cost before there was a zygote.
+A stop asked while the launcher waits for the zygote ends that wait at once
+(``StoppedWaiting``): the zygote is killed, and a service it forked meanwhile with it. Being a
+subreaper adopts every orphan of the launcher's descendants, not only the forked services:
+``reap_strays`` reaps those.
 """
 
 from __future__ import annotations

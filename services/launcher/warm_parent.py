@@ -1,11 +1,11 @@
 """The warm parent's process (``launcher.zygote``), started as the launcher's first act.
 
-The zygote's imports take 0.2-0.3 s; the launcher's own (Zenoh, its cell file's loader) take
+The zygote's imports take 0.15-0.3 s; the launcher's own (Zenoh, its cell file's loader) take
 0.1-0.2 s and its router opens after them. Started before those, on a machine of two cores or
-more, the zygote imports beside them instead of after them, which takes that much off the
-time to a ready cell (docs/startup.md). So this module imports the standard library and the
-services' names alone, and the zygote holds every service it can fork (``WARM_SERVICES``)
-whatever the cell turns out to run: the cell's file is not read yet.
+more, the zygote imports beside them instead of after them (measured in docs/startup.md). So
+this module imports the standard library and the services' names alone, and the zygote holds
+every service it can fork (``WARM_SERVICES``) whatever the cell turns out to run: the cell's
+file is not read yet.
 """
 
 from __future__ import annotations
@@ -70,7 +70,12 @@ def started_zygote(words: Sequence[str]) -> Iterator[StartedZygote | None]:
     if NOTHING_TO_FORK.intersection(words):
         yield None
         return
-    zygote = StartedZygote()
+    try:
+        zygote = StartedZygote()
+    except OSError as exc:  # no process to be had (EAGAIN, ENOMEM): the cell starts cold
+        print(f"motocell up: no warm parent ({exc}); services start cold", file=sys.stderr)
+        yield None
+        return
     try:
         yield zygote
     finally:

@@ -47,6 +47,7 @@ from motocell.services.launcher.core.forks import (
     encode,
 )
 from motocell.shared.service import die_with_launcher
+from motocell.shared.signals import release_stop_signals
 
 ARG_START_FIELD = 45
 ARG_END_FIELD = 46
@@ -250,6 +251,10 @@ def main(argv: Sequence[str] | None = None) -> None:
     # (``testing.running_cell.service_pids`` looks for a word that names one).
     parser.add_argument("modules", type=lambda text: text.split(","))
     args = parser.parse_args(argv)
+    # The launcher starts it with SIGINT and SIGTERM held (``warm_parent``: before its own
+    # handlers exist), and a blocked mask survives the exec: released, SIGTERM ends it, the
+    # one its PR_SET_PDEATHSIG sends when the launcher dies.
+    release_stop_signals()
     die_with_launcher()
     warm_up(args.modules)
     with socket.socket(fileno=args.channel) as channel, channel.makefile("rwb") as lines:

@@ -3,14 +3,22 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import cast
 
 import pytest
 
-from motocell.services.launcher.warm_parent import WARM_MODULES, started_zygote
+from motocell.services.launcher.up import warm_starter
+from motocell.services.launcher.warm_parent import WARM_MODULES, StartedZygote, started_zygote
+from motocell.shared.service import StopFlag
+from motocell.shared.service_names import ROS2_FACE, ServiceName
+from motocell.shared.signals import STOP_SIGNALS, hold_stop_signals, release_stop_signals
+from motocell.testing.processes import wait_until
 from tests.tools.test_cli import loaded_after
 
 HEAVY = {"zenoh", "msgspec", "numpy", "motocell.shared.config", "motocell.shared.service"}
 """What the launcher loads after the zygote has started: loaded before, it would delay it."""
+DEADLINE_S = 30.0
+"""For a hang: the zygote releases them within a few tenths of a second."""
 
 
 @pytest.mark.parametrize("word", ["--cold", "--help", "-h", "--version"])
@@ -29,3 +37,49 @@ def test_the_zygote_holds_every_service_but_the_ros2_face() -> None:
 def test_starting_it_loads_nothing_heavy(tmp_path: Path) -> None:
     code = "import motocell.services.launcher.warm_parent"
     assert loaded_after(code, HEAVY, tmp_path) == []
+
+
+def blocked_signals(pid: int) -> int:
+    status = Path(f"/proc/{pid}/status").read_text()
+    return int(
+        next(line for line in status.splitlines() if line.startswith("SigBlk:")).split()[1], 16
+    )
+
+
+@pytest.mark.cell
+def test_the_zygote_takes_back_the_signals_its_launcher_held() -> None:
+    """Started while the launcher holds SIGINT and SIGTERM, it releases them, so that the
+    SIGTERM its PR_SET_PDEATHSIG sends when the launcher dies ends it."""
+    stop_bits = sum(1 << (sig - 1) for sig in STOP_SIGNALS)
+    hold_stop_signals()
+    try:
+        zygote = StartedZygote()
+    finally:
+        release_stop_signals()
+    try:
+        assert blocked_signals(zygote.process.pid) & stop_bits == stop_bits  # as it started
+        wait_until(
+            lambda: blocked_signals(zygote.process.pid) & stop_bits == 0,
+            DEADLINE_S,
+            "the zygote to release SIGINT and SIGTERM",
+        )
+    finally:
+        zygote.close()
+
+
+class UnusedZygote:
+    """A started zygote's stand-in: whether it was closed."""
+
+    def __init__(self) -> None:
+        self.closed = False
+
+    def close(self) -> None:
+        self.closed = True
+
+
+def test_a_host_that_runs_nothing_it_forks_closes_the_zygote_at_once() -> None:
+    started = UnusedZygote()
+    only_the_face = [ServiceName(ROS2_FACE, "0")]
+    with warm_starter(cast(StartedZygote, started), only_the_face, StopFlag()) as starter:
+        assert started.closed
+        assert starter.pids() == set()
