@@ -20,7 +20,7 @@ import zenoh
 
 from motocell.shared.bus.access import Identity, Party, access_control, cell_parties
 from motocell.shared.bus.credentials import CA_FILE, USERS_FILE, Credentials
-from motocell.shared.bus.session import LEASE_MS
+from motocell.shared.bus.session import LEASE_MS, SHARED_MEMORY
 
 ROUTER_CERTIFICATE, ROUTER_KEY = "router.pem", "router.key"
 
@@ -92,7 +92,10 @@ def _open_settings(listen: Sequence[str], connect: Sequence[str]) -> dict[str, A
             "gossip": {"enabled": False},
         },
         "adminspace": {"enabled": False},
-        "transport": {"link": {"tx": {"lease": LEASE_MS}}},
+        "transport": {
+            "link": {"tx": {"lease": LEASE_MS}},
+            "shared_memory": {"enabled": SHARED_MEMORY},
+        },
     }
 
 
