@@ -9,20 +9,22 @@ them, docs/site.md; open, without credentials). Each floor:
 
 1. **Start.** 100 single-arm cells (quick: 4), each a whole ``motocell up`` with its own name,
    TCP ports and runtime directory (``testing.running_cell``, ports picked free at the start),
-   started ``AT_ONCE`` at a time. A cell is ready once it is motion-ready: every service alive,
-   its ports answering and START_TRAJ_MODE answered SUCCESS (figure 13's rule); then the
-   client goes, which gives trajectory mode up. Reported: the wall time from the first spawn to
-   the last cell ready, and each cell's own start. Goal: all ready within 2 minutes.
+   started ``AT_ONCE`` at a time. A cell is ready once it can be driven: every service alive,
+   state flowing, its motion port answering and CHECK_MOTION_READY no longer reporting a
+   missing service (``running_cell``'s rule); START_TRAJ_MODE would then succeed. Not asked
+   for, since a cell that was made motion-ready stays so, and announces its heartbeats ten
+   times a second (docs/benchmarks.md, figure 15). Reported: the wall time from the first
+   spawn to the last cell ready, and each cell's own start. Goal: all ready within 2 minutes.
 2. **At rest.** Nothing connected, nobody subscribed: 3 windows of 10 s (quick 2 s) over every
    process of every cell (and the floor's router), as figure 7 measures (``CostSampler``): CPU
    in % of one core and wake-ups, all together; then PSS, private pages and RSS of every
    process, in total and per cell. Goals: <= 50 % of one core, <= 6 GiB PSS.
-3. **Streaming.** 8 of the cells are driven as figure 7 drives its cells (``DemoCell``: a state
-   client and a motion client each, 2 s demo moves back to back), the others idle beside them;
-   3 windows of 20 s (quick 2 s): the minute of the goal. Every trajectory is judged as in
-   figure 7: aborted when a point is refused or the robot does not come to rest exactly at
-   its last point. Goals: 0 aborted, every goal reached; missed periods are reported against
-   the machine's floor (docs/realtime.md).
+3. **Streaming.** 8 of the cells are made motion-ready and driven as figure 7 drives its
+   cells (``DemoCell``: a state client and a motion client each, 2 s demo moves back to back),
+   the others idle beside them; 3 windows of 20 s (quick 2 s): the minute of the goal. Every
+   trajectory is judged as in figure 7: aborted when a point is refused or the robot does not
+   come to rest exactly at its last point. Goals: 0 aborted, every goal reached; missed
+   periods are reported against the machine's floor (docs/realtime.md).
 
 Every process of every cell is stopped and reaped at the end of each floor, also on failure or
 Ctrl-C (the cells' stacks close; a start under way is waited for first), and each cell dies
@@ -51,7 +53,7 @@ from motocell.tools.bench.bench_scale import (
     ended_within,
     measure_moving,
 )
-from motocell.tools.bench.bench_start_cost import ProcessRead, motion_ready, read_process
+from motocell.tools.bench.bench_start_cost import ProcessRead, read_process
 from motocell.tools.bench.measuring import (
     START_TIMEOUT_S,
     Window,
@@ -98,9 +100,9 @@ class Floor:
     """The shared router's pid and endpoint; None: each cell runs its own."""
     cells: list[RunningCell] = field(default_factory=list)
     start_s: list[float] = field(default_factory=list)
-    """Each cell's own start, spawn -> whole, in the order they became whole."""
-    whole_s: float = 0.0
-    """The first spawn -> the last cell whole."""
+    """Each cell's own start, spawn -> ready, in the order they became ready."""
+    ready_s: float = 0.0
+    """The first spawn -> the last cell ready."""
 
     def pids(self) -> dict[int, str]:
         """Every process of the floor, by kind."""
@@ -118,13 +120,8 @@ class Measured:
     count: int
     at_once: int
     start_s: list[float]
-    whole_s: float
     ready_s: float
-    """``whole_s``, then every cell asked to become motion-ready, ``at_once`` at a time."""
-    idle: list[Window]
-    """At rest, never asked to move."""
     rest: list[Window]
-    """At rest, motion-ready (nobody connected)."""
     memory: list[ProcessRead]
     moving: list[MovingWindow]
     trajectories: list[Trajectory]
@@ -138,8 +135,8 @@ def cell_name(number: int) -> str:
 def floor_cell(
     directory: Path, number: int, router: str | None, started: list[float]
 ) -> Iterator[RunningCell]:
-    """Cell ``number`` of the floor, whole; its start (spawn -> whole) appended to
-    ``started``."""
+    """Cell ``number`` of the floor, ready to be driven; its start (spawn -> ready) appended
+    to ``started``."""
     name = cell_name(number)
     config = write_cell_file(directory, name, models=("arm6",))
     with running_cell(
@@ -208,17 +205,8 @@ def floor(directory: Path, count: int, at_once: int, shared: bool) -> Iterator[F
             found.cells = list(pool.map(start, range(1, count + 1)))
         finally:
             pool.shutdown(wait=True, cancel_futures=True)
-        found.whole_s = time.monotonic() - begun
+        found.ready_s = time.monotonic() - begun
         yield found
-
-
-def make_ready(found: Floor, at_once: int) -> float:
-    """Every cell motion-ready (START_TRAJ_MODE answered SUCCESS, then the client gone),
-    ``at_once`` at a time: how long it took."""
-    begun = time.monotonic()
-    with ThreadPoolExecutor(max_workers=at_once, thread_name_prefix="floor-ready") as pool:
-        list(pool.map(motion_ready, found.cells))
-    return time.monotonic() - begun
 
 
 @contextmanager
@@ -235,12 +223,8 @@ def shared_router() -> Iterator[tuple[int, str]]:
 
 # -- measuring ---------------------------------------------------------------------------------
 def measure_floor(found: Floor, label: str, quick: bool, directory: Path) -> Measured:
-    """The floor at rest, idle, then motion-ready, then with ``STREAMING`` of its cells
-    driven."""
+    """The floor at rest, then with ``STREAMING`` of its cells driven."""
     rest_s = QUICK_REST_WINDOW_S if quick else REST_WINDOW_S
-    time.sleep(REST_SETTLE_S)
-    idle = [cost_window(found.pids(), rest_s) for _ in range(REST_WINDOWS)]
-    ready_s = found.whole_s + make_ready(found, AT_ONCE)
     time.sleep(REST_SETTLE_S)
     rest = [cost_window(found.pids(), rest_s) for _ in range(REST_WINDOWS)]
     memory = [read for pid, kind in found.pids().items() if (read := read_process(pid, kind))]
@@ -250,9 +234,7 @@ def measure_floor(found: Floor, label: str, quick: bool, directory: Path) -> Mea
         len(found.cells),
         AT_ONCE,
         sorted(found.start_s),
-        found.whole_s,
-        ready_s,
-        idle,
+        found.ready_s,
         rest,
         memory,
         moving,
@@ -324,23 +306,19 @@ def start_rows(m: Measured) -> list[dict[str, Any]]:
     return [
         figure_result(
             FIGURE,
-            f"{tag} first spawn -> every cell motion-ready",
+            f"{tag} first spawn -> every cell ready",
             "s",
             [m.ready_s],
             goal=("<=", READY_GOAL_S),
-            note=f"{m.at_once} at once; the idle windows between whole and motion-ready left out",
+            note=f"{m.at_once} started at once",
         ),
-        figure_result(FIGURE, f"{tag} first spawn -> every cell whole", "s", [m.whole_s]),
-        figure_result(FIGURE, f"{tag} one cell's start, spawn -> whole", "s", m.start_s),
+        figure_result(FIGURE, f"{tag} one cell's start, spawn -> ready", "s", m.start_s),
     ]
 
 
 def rest_rows(m: Measured) -> list[dict[str, Any]]:
-    rows = [
-        *cost_rows(f"[{m.count} cells, {m.label}] idle", m.idle, m.count, REST_CPU_GOAL),
-        *cost_rows(f"[{m.count} cells, {m.label}] motion-ready", m.rest, m.count, REST_CPU_GOAL),
-    ]
     tag = f"[{m.count} cells, {m.label}] at rest"
+    rows = cost_rows(tag, m.rest, m.count, REST_CPU_GOAL)
     memory = memory_totals(m.memory)
     rows.append(
         figure_result(
@@ -358,9 +336,7 @@ def rest_rows(m: Measured) -> list[dict[str, Any]]:
     return rows
 
 
-def cost_rows(
-    tag: str, windows: Sequence[Window], cells: int, goal: float | None
-) -> list[dict[str, Any]]:
+def cost_rows(tag: str, windows: Sequence[Window], cells: int, goal: float) -> list[dict[str, Any]]:
     totals = [total("all", w.rows) for w in windows]
     cpu = [t.cpu_percent for t in totals]
     return [
@@ -369,7 +345,7 @@ def cost_rows(
             f"{tag}: CPU, every process",
             "% of 1 core",
             cpu,
-            goal=None if goal is None else ("<=", goal),
+            goal=("<=", goal),
         ),
         figure_result(FIGURE, f"{tag}: CPU per cell", "% of 1 core", per_cell(cpu, cells)),
         figure_result(

@@ -35,10 +35,8 @@ def measured(**changes: Any) -> Measured:
         "count": 100,
         "at_once": 2,
         "start_s": [0.9, 1.1],
-        "whole_s": 50.0,
         "ready_s": 52.0,
-        "idle": [window(40.0)] * 3,
-        "rest": [window(45.0)] * 3,
+        "rest": [window(40.0)] * 3,
         "memory": [ProcessRead("executor", 0.1, 50.0, 40.0, 300.0)] * 100,
         "moving": [MovingWindow(window(90.0, 0, 100), 0, 80.0, 8)] * 3,
         "trajectories": [trajectory(50), trajectory(60)],
@@ -69,8 +67,8 @@ def test_memory_totals_add_every_process() -> None:
 def test_a_floor_within_every_goal_meets_them_all() -> None:
     rows = floor_results(measured())
     judged = {r["name"]: r["met"] for r in rows if "met" in r}
-    assert len(judged) == 6 and all(judged.values())
-    assert row(rows, "idle: CPU per cell")["median"] == pytest.approx(0.4)
+    assert len(judged) == 5 and all(judged.values())
+    assert row(rows, "at rest: CPU per cell")["median"] == pytest.approx(0.4)
     assert row(rows, "PSS per cell")["median"] == pytest.approx(50.0)
 
 
@@ -85,8 +83,8 @@ def test_a_floor_over_its_goals_says_which() -> None:
     )
     missed = {r["name"].split("] ", 1)[1] for r in rows if r.get("met") is False}
     assert missed == {
-        "first spawn -> every cell motion-ready",
-        "motion-ready: CPU, every process",
+        "first spawn -> every cell ready",
+        "at rest: CPU, every process",
         "at rest: PSS, every process",
         "8 streaming: trajectories aborted, the whole figure",
         "8 streaming: goals reached, the whole figure",
