@@ -387,6 +387,13 @@ def moving_rows(m: Measured) -> list[dict[str, Any]]:
         ),
         figure_result(
             FIGURE,
+            f"{tag}: window, as long as it took",
+            "s",
+            [(w.window.end_ns - w.window.start_ns) / 1e9 for w in m.moving],
+            note="longer than asked when reading /proc waits for a busy machine",
+        ),
+        figure_result(
+            FIGURE,
             f"{tag}: missed periods, the streaming cells",
             "periods",
             [w.missed for w in m.moving],
