@@ -8,6 +8,7 @@ these explicit endpoints.
 from __future__ import annotations
 
 import logging
+import resource
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -62,6 +63,8 @@ def serve_router(
     or exactly as ``config_file`` says (``zenohd -c``)."""
     listen = list(listen) or [WELL_KNOWN_ENDPOINT]
     settings = router_settings(listen, connect)
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    resource.setrlimit(resource.RLIMIT_NOFILE, (open_files_limit(soft, hard), hard))
     where = config_file or ", ".join(listen)
     try:
         config = zenoh.Config.from_file(config_file) if config_file else zenoh_config(settings)
@@ -74,3 +77,17 @@ def serve_router(
     log.info("Zenoh router running (%s)", where)
     stop.wait()
     session.close()
+
+
+OPEN_FILES_CAP = 1 << 20
+"""Descriptors ``motocell router`` asks for when its hard limit is unlimited."""
+
+
+def open_files_limit(soft: int, hard: int) -> int:
+    """The soft open-files limit a standalone router takes: its hard limit, or
+    ``OPEN_FILES_CAP`` where that is unlimited. Each session it serves holds a socket, and the
+    soft limit many systems start a process with (1024) is 165 single-arm cells on a site's
+    router."""
+    if hard != resource.RLIM_INFINITY:
+        return hard
+    return soft if soft == resource.RLIM_INFINITY else max(soft, OPEN_FILES_CAP)

@@ -20,9 +20,14 @@ import zenoh
 
 from motocell.shared.bus.access import Identity, Party, access_control, cell_parties
 from motocell.shared.bus.credentials import CA_FILE, USERS_FILE, Credentials
-from motocell.shared.bus.session import LEASE_MS
+from motocell.shared.bus.session import LEASE_MS, SHARED_MEMORY
 
 ROUTER_CERTIFICATE, ROUTER_KEY = "router.pem", "router.key"
+MAX_SESSIONS = 10_000
+"""Sessions a router admits at once. Zenoh's default, 1000, is 166 single-arm cells on one
+router (six sessions each: five services and the launcher; docs/benchmarks.md, figure 15); a
+site's router is bounded by its open-files limit instead (``motocell router`` raises its own
+to the hard limit, one descriptor per session)."""
 
 
 def router_settings(
@@ -92,7 +97,11 @@ def _open_settings(listen: Sequence[str], connect: Sequence[str]) -> dict[str, A
             "gossip": {"enabled": False},
         },
         "adminspace": {"enabled": False},
-        "transport": {"link": {"tx": {"lease": LEASE_MS}}},
+        "transport": {
+            "link": {"tx": {"lease": LEASE_MS}},
+            "shared_memory": {"enabled": SHARED_MEMORY},
+            "unicast": {"max_sessions": MAX_SESSIONS},
+        },
     }
 
 

@@ -48,6 +48,12 @@ BLOCK_WAIT_US = 500_000
 """A link whose queue stays full this long is closed: one stalled observer (a suspended
 `motocell watch`, a slow callback) must not hold back the cell's BLOCK streams for Zenoh's
 default 5 s."""
+SHARED_MEMORY = False
+"""Zenoh's shared-memory transport, off in every session and router of a cell. A cell's
+payloads are small and go over loopback TCP (nothing here allocates from a shared-memory
+provider), and with it on every session keeps a hand-off task that wakes its network thread
+ten times a second for nothing: half of an idle cell's wake-ups and CPU (docs/timing.md,
+"At rest")."""
 
 
 def bus_config(
@@ -63,6 +69,7 @@ def bus_config(
     config.insert_json5("listen/endpoints", json.dumps(list(listen)))
     config.insert_json5("scouting/multicast/enabled", "false")
     config.insert_json5("transport/link/tx/lease", str(LEASE_MS))
+    config.insert_json5("transport/shared_memory/enabled", json.dumps(SHARED_MEMORY))
     config.insert_json5(
         "transport/link/tx/queue/congestion_control/block/wait_before_close", str(BLOCK_WAIT_US)
     )

@@ -45,6 +45,7 @@ import os
 import threading
 import time
 from collections.abc import Mapping, Sequence
+from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -265,26 +266,30 @@ def aborted_by_kind(trajectories: Sequence[Trajectory]) -> dict[str, int]:
 
 
 class DemoCell:
-    """A four-group cell with a state client, driven like ``motocell demo`` in a thread of its
-    own until ``stop``."""
+    """A cell (``cell``: entered here, left on ``close``; its log ``directory/<name>.log``)
+    with a state client, driven like ``motocell demo`` in a thread of its own until ``stop``."""
 
-    def __init__(self, directory: Path, name: str, seconds: float) -> None:
-        self.name = name
+    def __init__(
+        self, directory: Path, cell: AbstractContextManager[RunningCell], seconds: float
+    ) -> None:
         self.done: list[Trajectory] = []
         self.failure: BaseException | None = None
         self.stack = contextlib.ExitStack()
         self._stopping = threading.Event()
         try:
-            self._start(directory, seconds)
+            self._start(directory, cell, seconds)
         except BaseException:
             self.stack.close()
             raise
-        self.thread = threading.Thread(target=self._drive, name=f"drive-{name}", daemon=True)
+        self.thread = threading.Thread(target=self._drive, name=f"drive-{self.name}", daemon=True)
         self.thread.start()
 
-    def _start(self, directory: Path, seconds: float) -> None:
+    def _start(
+        self, directory: Path, cell: AbstractContextManager[RunningCell], seconds: float
+    ) -> None:
         stack = self.stack
-        self.cell = stack.enter_context(bench_cell(directory, self.name))
+        self.cell = stack.enter_context(cell)
+        self.name = self.cell.cell.name
         self.observer = stack.enter_context(Observer(self.cell))
         self.observer.record_ticks()
         state = StateClientProcess(self.cell, directory / f"{self.name}-state.npz", seconds)
@@ -379,9 +384,16 @@ class MovingWindow:
     cells: int
 
 
-def measure_moving(cells: Sequence[DemoCell], seconds: float) -> MovingWindow:
+def measure_moving(
+    cells: Sequence[DemoCell], seconds: float, pids: Mapping[int, str] | None = None
+) -> MovingWindow:
+    """The driven ``cells`` over the next ``seconds``: their missed periods and lateness, and
+    the cost of ``pids`` (pid: kind; by default every process of ``cells``)."""
     marks = [c.observer.mark() for c in cells]
-    window = measure([c.cell for c in cells], seconds)
+    if pids is None:
+        window = measure([c.cell for c in cells], seconds)
+    else:
+        window = cost_window(pids, seconds)
     missed = 0
     lateness: list[float] = []
     for c, mark in zip(cells, marks, strict=True):
@@ -411,7 +423,8 @@ def drive_moving(directory: Path, quick: bool) -> Moving:
     try:
         with gc_paused():
             while len(cells) < count:
-                cells.append(DemoCell(directory, f"scale{len(cells) + 1}", seconds))
+                four_groups = bench_cell(directory, f"scale{len(cells) + 1}")
+                cells.append(DemoCell(directory, four_groups, seconds))
                 time.sleep(SETTLE_S)
                 if len(cells) < count:
                     found.probes[len(cells)] = measure_moving(cells, probe_s)

@@ -217,7 +217,9 @@ class StreamClientProcess:
 
     def _out(self) -> str:
         self.jobs += 1
-        return str(self.directory / f"{os.getpid()}-job{self.jobs}.npz")
+        # Named by the client's pid: a figure's clients (figure 7's four, figure 15's eight)
+        # share a directory, and the benchmark's own pid would give them all the same file.
+        return str(self.directory / f"{self.child.process.pid}-job{self.jobs}.npz")
 
     def _finish(self, out: str, timeout: float) -> dict[str, np.ndarray]:
         line = self.child.read_line(timeout)

@@ -23,6 +23,8 @@ Figures (goals are for a 2-core machine running the whole cell):
 13. cell start cost: CPU, wall and memory of a cell from spawn
     to motion-ready, single-arm and four-group                (bench.bench_start_cost)
 14. a cell per test: 50 plugin tests, each its own cell       (bench.bench_plugin)
+15. a factory floor: 100 single-arm cells ready, at rest, and
+    8 of them streaming side by side                          (bench.bench_floor)
 
 Every figure is the median and [min-max] of at least 3 runs. Benchmarks report; they never fail
 on a time. The clients that measure are processes of their own (``tools.bench.clients``: the state
@@ -59,6 +61,7 @@ from motocell.tools.bench import (
     bench_codec,
     bench_cost,
     bench_executor,
+    bench_floor,
     bench_headroom,
     bench_interpolation,
     bench_plugin,
@@ -92,6 +95,7 @@ FIGURES: dict[int, tuple[str, Callable[[bool], Results]]] = {
     12: ("ROS 2 face", bench_ros2.run),
     13: ("cell start cost", bench_start_cost.run),
     14: ("a cell per test", bench_plugin.run),
+    15: ("a factory floor", bench_floor.run),
 }
 
 
