@@ -67,25 +67,27 @@ def probing(count: int) -> Iterator[dict[str, Any]]:
     env = interfaces.environment({**os.environ, "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"})
     options = ["--count", str(count), "--timeout", str(PROBE_TIMEOUT_S)]
     seen: dict[str, Any] = {}
+    # Unbuffered: ``readline`` then takes "ready" alone, byte by byte. A buffered one reads
+    # ahead, and ``communicate``, which reads the pipe itself, would lose what it took.
     with subprocess.Popen(
         [sys.executable, str(PROBE), str(DOMAIN), NAMESPACE, *TOPICS, *options],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
-        text=True,
+        bufsize=0,
         env=env,
     ) as process:
         assert process.stdout is not None
         try:
-            assert process.stdout.readline() == "ready\n", "the probe saw no message"
+            assert process.stdout.readline() == b"ready\n", "the probe saw no message"
             yield seen
             out, err = process.communicate(timeout=PROBE_TIMEOUT_S + 30)
         finally:
             if process.poll() is None:
                 process.kill()
-    assert process.returncode == 0, err
+    assert process.returncode == 0, err.decode()
     seen.update(json.loads(out))
     for topic in TOPICS:
-        assert len(seen["seen"][topic]) >= count, (topic, err)
+        assert len(seen["seen"][topic]) >= count, (topic, err.decode())
 
 
 def probe(count: int) -> dict[str, Any]:
