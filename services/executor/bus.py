@@ -67,6 +67,10 @@ class InputPort(Protocol):
         ``deadline_s`` (CLOCK_MONOTONIC) passes, or the service stops."""
         ...
 
+    def awake(self) -> None:
+        """The rest is over: the clock runs."""
+        ...
+
     def statuses(self) -> Iterable[tuple[int, ControllerStatus]]:
         """Every controller status since the last call, in order, with when it arrived."""
         ...

@@ -6,8 +6,11 @@ runs on Zenoh's threads for them. A Python callback holding the GIL on an ordina
 make the real-time clock thread wait for it (up to the interpreter's 5 ms switch interval); a
 batch per tick per group would do that often.
 
-While the clock rests it blocks in the point channel's ``recv()``: every trajectory starts with
-a point the gateway publishes (and the executor counts), before any of its increments exist.
+While the clock rests it waits for the point channel: every trajectory starts with a point the
+gateway publishes (and the executor counts), before any of its increments exist. It waits
+parked (``shared.bus.channels.Parking``): a callback on the point key, declared for the rest
+only, tells a pipe the thread polls, since the channel's own ``recv()`` would wake it 10 times
+a second for nothing.
 Two rarer inputs must wake it too: a controller status whose readiness is not the executor's
 own (the gateway waits for the executor's ``ready`` after START_TRAJ_MODE; a controller back
 after a router restart says ready unchanged, but the executor lost it meanwhile), and
@@ -30,7 +33,7 @@ import msgspec
 from motocell.services.executor.bus import Bus, Query, Sample
 from motocell.services.executor.controller_token import ControllerToken
 from motocell.shared.bus import ignored
-from motocell.shared.bus.channels import StopSignal, Waker
+from motocell.shared.bus.channels import Parking, StopSignal, Waker
 from motocell.shared.bus.ignored import decoded_payload
 from motocell.shared.bus.keys import CellKeys, group_of
 from motocell.shared.bus.liveness import QUERY_TIMEOUT_S
@@ -71,6 +74,9 @@ class Inputs:
         self._stop_queries = bus.queryable(keys.executor_cmd("stop"), self._on_stop)
         self.controller = ControllerToken(bus, keys.alive("controller", "0"))
         self._doorbell = bus.doorbell(keys.group_point(0))
+        self._parking = Parking(
+            lambda on_sample: bus.subscribe(keys.group_point_all, on_sample), stop
+        )
         self._waker = Waker(self._doorbell.ring, stop, "executor-waker")
         self._resting = False
         self.executor_ready = False
@@ -84,6 +90,7 @@ class Inputs:
         """Once stopped: the waker ends with the stop flag."""
         self._waker.close()
         self._doorbell.close()
+        self._parking.close()
 
     def remembered_positions(self) -> CommandReply | None:
         """The broadcaster's answer to ``positions``: the commanded pulses of the newest tick
@@ -112,9 +119,16 @@ class Inputs:
             if self._statuses or self._stops:
                 return  # arrived before the flag was up
             self._waker.wake_at(deadline_s)
-            self._woken_by = self._points.recv()
+            self._parking.park()
+            self._woken_by = self._points.try_recv()  # it may have come before the parking
+            if self._woken_by is None:
+                self._parking.wait()
         finally:
             self._resting = False
+
+    def awake(self) -> None:
+        """The clock runs again: no Python on Zenoh's threads for points while it does."""
+        self._parking.unpark()
 
     def statuses(self) -> Iterator[tuple[int, ControllerStatus]]:
         """Every status since the last call, in order, with when it arrived."""

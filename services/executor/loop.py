@@ -106,6 +106,7 @@ class Clock:
                 self._rest()
                 if rest.resting or self.stop.is_set():
                     continue
+                self.inputs.awake()
                 deadline = next_on_grid(origin, period, self._monotonic_ns())
             now = self._sleep_until(deadline)
             lateness = now - deadline

@@ -53,6 +53,10 @@ class Bus(Protocol):
 
     def doorbell(self, key: str) -> Doorbell: ...
 
+    def subscribe(self, key: str, on_sample: Callable[[object], None]) -> Declared:
+        """``on_sample`` runs on the bus's threads, once per sample: it must only hand it on."""
+        ...
+
     def publisher(self, key: str, *, realtime: bool = False, latest: bool = False) -> Publication:
         """As ``shared.bus.session.publisher``."""
         ...
@@ -91,6 +95,11 @@ class ZenohBus:
 
     def doorbell(self, key: str) -> Doorbell:
         return ZenohDoorbell(self._session, key)
+
+    def subscribe(self, key: str, on_sample: Callable[[object], None]) -> Declared:
+        return self._session.declare_subscriber(
+            key, zenoh.handlers.Callback(on_sample, indirect=False)
+        )
 
     def publisher(self, key: str, *, realtime: bool = False, latest: bool = False) -> Publication:
         return ZenohPublication(publisher(self._session, key, realtime=realtime, latest=latest))

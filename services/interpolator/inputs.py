@@ -14,15 +14,21 @@ zenoh-python 1.10 has no ``select`` over channels and no ``recv`` with a timeout
   it go on, and a cleared ring (STOP_MOTION waits 50 ms for the slots to free) is seen at once;
 - its metrics and stopping: a ``Waker`` puts an empty sample on the key the thread waits on, at
   the deadline the thread sets and once at stop. It never leaves this session (a doorbell).
+
+The point channel's ``recv()`` waits in slices of 100 ms, 10 wake-ups a second for nothing at
+rest. So once no point has come for ``PARK_AFTER_S`` the thread waits parked instead
+(``shared.bus.channels.Parking``: a callback on the point key tells a pipe it polls), until the
+next point; the first point of a trajectory after a rest then costs one hand-off more.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+import time
+from collections.abc import Callable, Iterator
 
 from motocell.services.interpolator.bus import Bus
 from motocell.shared.bus import ignored
-from motocell.shared.bus.channels import StopSignal, Waker
+from motocell.shared.bus.channels import Parking, StopSignal, Waker
 from motocell.shared.bus.ignored import decoded_payload
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import (
@@ -38,6 +44,10 @@ POINT_CHANNEL_SIZE = 1024
 have outstanding (``Cell.points_outstanding``), so Zenoh never blocks on it: the bound that
 counts is ``queue_point``'s."""
 
+PARK_AFTER_S = 1.0
+"""How long without a point before the thread waits parked: points come at least every few
+hundred milliseconds while a trajectory streams, so a stream never waits parked."""
+
 MISFIT = "point of the wrong shape"
 """What a point that decodes but no gateway would send is noted as."""
 
@@ -47,7 +57,16 @@ _status_decoder = Decoder(ControllerStatus)
 
 
 class Inputs:
-    def __init__(self, bus: Bus, keys: CellKeys, group: int, axes: int, stop: StopSignal) -> None:
+    def __init__(
+        self,
+        bus: Bus,
+        keys: CellKeys,
+        group: int,
+        axes: int,
+        stop: StopSignal,
+        *,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
         self._axes = axes
         self._point_key = keys.group_point(group)
         self._queue_key = keys.group_queue(group)
@@ -59,6 +78,9 @@ class Inputs:
         self._queue_bell = bus.doorbell(self._queue_key)
         self._waiting_on = self._point_bell
         self._waker = Waker(self._ring_waiting, stop, "interpolator-waker")
+        self._parking = Parking(lambda on_sample: bus.subscribe(self._point_key, on_sample), stop)
+        self._clock = clock
+        self._last_point = clock()
         self._woken_by: bytes | None = None
         self._queue_woken_by: bytes | None = None
 
@@ -74,6 +96,7 @@ class Inputs:
         self._waker.close()
         self._point_bell.close()
         self._queue_bell.close()
+        self._parking.close()
         for channel in (self._points, self._queues, self._statuses):
             channel.undeclare()
 
@@ -84,10 +107,18 @@ class Inputs:
             self._waiting_on = self._queue_bell
             self._waker.wake_at(deadline)
             self._queue_woken_by = self._queues.recv()
-        else:
-            self._waiting_on = self._point_bell
-            self._waker.wake_at(deadline)
+            return
+        self._waiting_on = self._point_bell
+        park_at = self._last_point + PARK_AFTER_S
+        if self._clock() < park_at:
+            self._waker.wake_at(min(deadline, park_at))
             self._woken_by = self._points.recv()
+            return
+        self._waker.wake_at(deadline)
+        self._parking.park()
+        self._woken_by = self._points.try_recv()  # it may have come before the parking
+        if self._woken_by is None:
+            self._parking.wait()
 
     def status(self) -> ControllerStatus | None:
         """The controller's newest status since the last call, if any."""
@@ -112,5 +143,7 @@ class Inputs:
             if point is not None and not point_fits(point, self._axes):
                 ignored.note(self._point_key, MISFIT)
             elif point is not None:
+                self._last_point = self._clock()
+                self._parking.unpark()
                 yield point
             payload = self._points.try_recv()

@@ -8,16 +8,21 @@ non-empty msgpack array, so an empty sample can only be a doorbell.
 
 from __future__ import annotations
 
+import contextlib
+import os
 import select
 import threading
 from collections.abc import Callable
-from typing import Protocol, TypeVar
+from typing import TYPE_CHECKING, Protocol, TypeVar
 
 import zenoh
 
 from motocell.shared.bus.ignored import decoded_payload
 from motocell.shared.bus.schemas import Decoder
 from motocell.shared.timerfd import DeadlineTimer
+
+if TYPE_CHECKING:
+    from motocell.shared.bus.adapters import Declared
 
 T = TypeVar("T")
 
@@ -88,6 +93,69 @@ class Waker:
         """After the stop flag is set: the thread ends, having rung once more."""
         self._thread.join()
         self._timer.close()
+
+
+class Parking:
+    """A thread's wait for the samples on a key while it expects none for a while, without
+    waking: zenoh-python 1.10's blocking ``recv()`` waits in slices of 100 ms to run Python's
+    signal handlers, 10 wake-ups a second of a thread with nothing to do (docs/timing.md, At
+    rest).
+
+    Parked, the thread polls a pipe instead, to which a callback subscriber on the same key
+    writes a byte per sample (doorbells included); the samples themselves still wait in the
+    thread's own channel, read as before. The subscriber is declared only while parked, so no
+    Python runs on Zenoh's threads while the key is busy (docs/conventions.md, The bus): the
+    owner parks when it has had nothing for a while and unparks when something comes.
+
+    ``subscribe`` declares a callback subscriber on the key. The owner, after ``park``, reads
+    its channel once more (a sample may have come before the subscriber) and only then
+    ``wait``s. A byte left by a sample already read wakes the next wait once, for nothing.
+    """
+
+    def __init__(
+        self, subscribe: Callable[[Callable[[object], None]], Declared], stop: StopSignal
+    ) -> None:
+        self._subscribe = subscribe
+        self._stop = stop
+        self._read, self._write = os.pipe()
+        for fd in (self._read, self._write):
+            os.set_blocking(fd, False)
+        self._subscription: Declared | None = None
+
+    @property
+    def parked(self) -> bool:
+        return self._subscription is not None
+
+    def park(self) -> None:
+        if self._subscription is None:
+            self._subscription = self._subscribe(self._on_sample)
+
+    def _on_sample(self, _sample: object) -> None:
+        with contextlib.suppress(BlockingIOError):  # a byte is waiting already
+            os.write(self._write, b"\0")
+
+    def wait(self) -> None:
+        """Until a sample came since the last wait (or while parked before it), or the stop."""
+        poller = select.poll()
+        poller.register(self._stop.fileno(), select.POLLIN)
+        poller.register(self._read, select.POLLIN)
+        poller.poll()
+        self._drain()
+
+    def unpark(self) -> None:
+        if self._subscription is not None:
+            self._subscription.undeclare()
+            self._subscription = None
+        self._drain()
+
+    def _drain(self) -> None:
+        with contextlib.suppress(BlockingIOError):
+            os.read(self._read, 64)
+
+    def close(self) -> None:
+        self.unpark()
+        os.close(self._read)
+        os.close(self._write)
 
 
 def is_doorbell(sample: zenoh.Sample) -> bool:

@@ -78,6 +78,7 @@ class Broadcaster:
         self.beats = {
             Beat.STATE_PERIOD: self.state_period_s,
             Beat.REST_HEARTBEAT: AT_REST_HEARTBEAT_S,
+            Beat.REST_SILENCE: AT_REST_HEARTBEAT_S + self.silence_s,
             Beat.SILENCE: self.silence_s,
         }
         self.pacing = Pacing.WAITING
@@ -90,6 +91,8 @@ class Broadcaster:
         (tool 0 until a status says otherwise)."""
         self._next_beat: float | None = None
         """When a wake-up without a tick is due to do what ``PACING`` says; None: never."""
+        self._sent_at = 0.0
+        """When the newest snapshot was made."""
         self._groups_of: tuple[Tick | None, list[GroupState]] = (None, [])
 
     @property
@@ -107,7 +110,7 @@ class Broadcaster:
         if sends is _SENDS_TICK or (
             sends is _SENDS_ON_SCHEDULE and self.schedule.due(tick.deadline_ns)
         ):
-            return self._snapshot(tick)
+            return self._snapshot(tick, now)
         return None
 
     def on_wake(self, now: float, clients: bool) -> State | None:
@@ -119,12 +122,12 @@ class Broadcaster:
         due = self._next_beat
         if due is None:
             return None
-        if step.due_within is not None and due > now + self.beats[step.due_within]:
-            due = now
+        if step.due_within is not None:
+            due = min(due, self._sent_at + self.beats[step.due_within])
         if now < due:
             return None
         self._take(step, now, due)
-        return self._snapshot(self.last)
+        return self._snapshot(self.last, now)
 
     def next_wake(self, now: float, clients: bool) -> float | None:
         """When the caller must wake if no tick comes first (None: only for a tick)."""
@@ -133,7 +136,7 @@ class Broadcaster:
             return None
         if step.due_within is None:
             return self._next_beat
-        return min(self._next_beat, now + self.beats[step.due_within])
+        return min(self._next_beat, max(now, self._sent_at + self.beats[step.due_within]))
 
     def _take(self, step: PacingStep, now: float, due: float) -> None:
         """Into ``step``'s pacing, its next beat counted from ``now`` or from ``due``; a beat
@@ -168,8 +171,9 @@ class Broadcaster:
         groups = self.joints.groups(tick)
         return self.poses.add(msgspec.structs.replace(state, groups=groups), self.tools)
 
-    def _snapshot(self, tick: Tick) -> State:
+    def _snapshot(self, tick: Tick, now: float) -> State:
         self.seq += 1
+        self._sent_at = now
         status = self.controller.status()
         if status is not None:
             self.tools = status.tools

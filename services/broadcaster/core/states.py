@@ -55,6 +55,7 @@ class Beat(_Member):
 
     STATE_PERIOD = "the cell's state period"
     REST_HEARTBEAT = "AT_REST_HEARTBEAT_S"
+    REST_SILENCE = "AT_REST_HEARTBEAT_S plus silence_s: the executor's next resting tick overdue"
     SILENCE = "silence_s: ticks unheard this long while the executor's clock runs"
 
 
@@ -73,12 +74,17 @@ class PacingStep:
     """How long until the next beat without a tick; None: nothing until a tick."""
     counted_from: BeatFrom = BeatFrom.NOW
     due_within: Beat | None = None
-    """A beat due later than this from now is due now: a client that comes while only
-    observers are paced gets a state at once."""
+    """A beat due later than this after the newest snapshot is due then: a client gets a
+    state at least this often, and one that comes while only observers are paced gets one at
+    once."""
 
 
 _ON_TICK = PacingStep(Pacing.TICKS, Sends.TICK_ON_SCHEDULE, Beat.SILENCE)
-_ON_RESTING_TICK = PacingStep(Pacing.AT_REST, Sends.TICK, Beat.STATE_PERIOD)
+# The executor sends its resting tick again every AT_REST_HEARTBEAT_S, which is the beat for
+# observers; the broadcaster's own beat is for a resting tick that does not come (an executor
+# gone at rest), or else the two would send twice a second. A client is still paced at the
+# state period: the (AT_REST, WAKE_WITH_CLIENTS) row's due_within brings the beat in.
+_ON_RESTING_TICK = PacingStep(Pacing.AT_REST, Sends.TICK, Beat.REST_SILENCE)
 _NOTHING_YET = PacingStep(Pacing.WAITING, Sends.NOTHING, None)
 _SILENCE_FOUND = PacingStep(Pacing.SILENT, Sends.LAST_TICK_ON_BEAT, Beat.SILENCE, BeatFrom.NOW)
 _SILENT_BEAT = PacingStep(Pacing.SILENT, Sends.LAST_TICK_ON_BEAT, Beat.SILENCE, BeatFrom.DUE_TIME)

@@ -97,12 +97,14 @@ class FakeChannel:
 
 
 class FakeDeclared:
-    def __init__(self, key: str) -> None:
+    def __init__(self, key: str, on_undeclare: Callable[[], None] = lambda: None) -> None:
         self.key = key
         self.undeclared = False
+        self._on_undeclare = on_undeclare
 
     def undeclare(self) -> None:
         self.undeclared = True
+        self._on_undeclare()
 
 
 @dataclass
@@ -154,8 +156,9 @@ class FakeBus:
         return channel
 
     def subscribe(self, key: str, on_sample: Callable[[FakeSample], None]) -> FakeDeclared:
-        self.callbacks.setdefault(key, []).append(on_sample)
-        return FakeDeclared(key)
+        callbacks = self.callbacks.setdefault(key, [])
+        callbacks.append(on_sample)
+        return FakeDeclared(key, lambda: callbacks.remove(on_sample))
 
     def queryable(self, key: str, on_query: Callable[[Query], None]) -> FakeDeclared:
         self.queryables[key] = on_query
@@ -212,6 +215,10 @@ class FakeBus:
         for channel in self.token_channels:
             if matches(channel.key, key):
                 channel.put(event)
+
+    def subscribed(self, key: str) -> int:
+        """How many callbacks are subscribed to exactly ``key`` now."""
+        return len(self.callbacks.get(key, []))
 
     def channel_of(self, key: str) -> FakeChannel:
         [channel] = [channel for channel in self.channels if channel.key == key]

@@ -49,13 +49,22 @@ class Harness:
         self.bus.publish(KEYS.controller_status, encode(status(ready)))
 
     def rest(self, deadline_s: float | None = None) -> None:
-        """``Inputs.rest`` on a thread of its own, as the clock's; returns once it blocks (with
-        no deadline) or at once (with one, which may have passed by then)."""
+        """``Inputs.rest`` on a thread of its own, as the clock's; returns once it is parked
+        (with no deadline) or at once (with one, which may have passed by then)."""
         deadline = time.monotonic() + 60 if deadline_s is None else deadline_s
         self._resting = threading.Thread(target=self.inputs.rest, args=(deadline,))
         self._resting.start()
         if deadline_s is None:
-            self.points.wait_for_reader()
+            self.wait_parked()
+
+    def parked(self) -> bool:
+        return self.bus.subscribed(KEYS.group_point_all) == 1
+
+    def wait_parked(self) -> None:
+        deadline = time.monotonic() + WAIT_S
+        while not self.parked():
+            assert time.monotonic() < deadline, "the resting clock never parked"
+            time.sleep(0.001)
 
     def woken(self) -> bool:
         """Whether the rest ended (waiting up to ``WAIT_S`` for it)."""
@@ -65,7 +74,7 @@ class Harness:
 
     def still_resting(self) -> bool:
         assert self._resting is not None
-        return self._resting.is_alive() and self.points.waiting == 1
+        return self._resting.is_alive() and self.parked()
 
 
 @pytest.fixture
@@ -197,6 +206,29 @@ def test_stop_motion_ends_a_rest(harness: Harness) -> None:
     query = harness.bus.ask(KEYS.executor_cmd("stop"))
     assert harness.woken()
     assert list(harness.inputs.stop_queries()) == [query]
+
+
+def test_a_rest_waits_parked_and_the_clock_running_again_unparks(harness: Harness) -> None:
+    """A rest polls a pipe, never the channel's recv (whose 100 ms slices would wake it), and
+    the callback that tells the pipe stays declared across rests, until the clock runs."""
+    harness.rest()
+    assert harness.points.waiting == 0
+    harness.point(0)
+    assert harness.woken()
+    assert harness.parked()
+    harness.rest(time.monotonic())
+    assert harness.woken()
+    assert harness.parked()
+    harness.inputs.awake()
+    assert not harness.parked()
+    harness.point(1)  # while the clock runs: no callback for points
+    assert [group for group, _ in harness.inputs.points()] == [0, 1]
+
+
+def test_a_point_before_the_parking_ends_the_rest_at_once(harness: Harness) -> None:
+    harness.point(1, point_id=5)
+    harness.inputs.rest(time.monotonic() + 60)
+    assert [point.point_id for _, point in harness.inputs.points()] == [5]
 
 
 def test_a_rest_ends_at_its_deadline(harness: Harness) -> None:

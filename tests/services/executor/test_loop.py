@@ -168,6 +168,9 @@ class ScriptedInputs:
         self._time.now_ns = max(start, min(wakes))
         self.rests.append((start, self._time.now_ns))
 
+    def awake(self) -> None:
+        self.log.append("awake")
+
     def statuses(self) -> list[tuple[int, ControllerStatus]]:
         self.log.append("statuses")
         now = self._time.now_ns
@@ -478,6 +481,9 @@ def test_a_point_wakes_a_resting_clock_on_its_grid() -> None:
     assert 0 < woken[0] - arrives < PERIOD_NS
     first = next(tick for at, tick in run.outputs.ticks if at == woken[0])
     assert first.tick == (woken[0] - FIRST_DEADLINE) // PERIOD_NS + 1, "numbered on the grid too"
+    rested = len(run.log) - 1 - run.log[::-1].index("rest")
+    assert run.log[rested + 1 :].count("awake") == 1, "the inputs are told the rest is over"
+    assert "awake" not in run.log[:rested]
 
 
 def test_a_status_that_changes_readiness_is_served_at_rest_without_ticking() -> None:

@@ -47,12 +47,18 @@ class FakeChannel:
 
 
 class FakeAnswer:
-    def __init__(self, payload: Callable[[], bytes]) -> None:
+    """A declared queryable (or callback subscriber)."""
+
+    def __init__(
+        self, payload: Callable[[], bytes], on_undeclare: Callable[[], None] = lambda: None
+    ) -> None:
         self.payload = payload
         self.undeclared = False
+        self._on_undeclare = on_undeclare
 
     def undeclare(self) -> None:
         self.undeclared = True
+        self._on_undeclare()
 
 
 @dataclass
@@ -61,6 +67,7 @@ class FakeBus:
     doorbells: dict[str, FakeDoorbell] = field(default_factory=dict)
     publications: dict[str, FakePublication] = field(default_factory=dict)
     answers: dict[str, FakeAnswer] = field(default_factory=dict)
+    callbacks: dict[str, list[Callable[[object], None]]] = field(default_factory=dict)
 
     # -- Bus -------------------------------------------------------------------------------
     def fifo(self, key: str, size: int) -> FakeChannel:
@@ -71,6 +78,12 @@ class FakeBus:
 
     def doorbell(self, key: str) -> FakeDoorbell:
         return self.doorbells.setdefault(key, FakeDoorbell(self, key))
+
+    def subscribe(self, key: str, on_sample: Callable[[object], None]) -> FakeAnswer:
+        """A callback subscriber; run on the publishing thread, as Zenoh runs it on its own."""
+        callbacks = self.callbacks.setdefault(key, [])
+        callbacks.append(on_sample)
+        return FakeAnswer(lambda: b"", lambda: callbacks.remove(on_sample))
 
     def publisher(
         self, key: str, *, realtime: bool = False, latest: bool = False
@@ -90,6 +103,8 @@ class FakeBus:
         for channel in self.channels.get(key, []):
             if not channel.undeclared:
                 channel.put(payload)
+        for callback in list(self.callbacks.get(key, [])):
+            callback(payload)
 
     def query(self, key: str) -> bytes:
         """What a query on ``key`` is answered."""

@@ -10,7 +10,7 @@ from collections.abc import Iterator
 
 import pytest
 
-from motocell.services.interpolator.inputs import Inputs
+from motocell.services.interpolator.inputs import PARK_AFTER_S, Inputs
 from motocell.shared.bus import ignored
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import Point, encode
@@ -35,8 +35,17 @@ class Running:
     def __init__(self) -> None:
         self.bus = FakeBus()
         self.stop = StopFlag()
-        self.inputs = Inputs(self.bus, KEYS, GROUP, AXES, self.stop)
+        self.now = time.monotonic()
+        self.inputs = Inputs(self.bus, KEYS, GROUP, AXES, self.stop, clock=lambda: self.now)
         self.inputs.start()
+
+    def parked(self) -> bool:
+        return len(self.bus.callbacks.get(POINT_KEY, [])) == 1
+
+    def wait_in_thread(self) -> threading.Thread:
+        waiting = threading.Thread(target=self.inputs.wait, args=(False, later()))
+        waiting.start()
+        return waiting
 
 
 @pytest.fixture
@@ -164,3 +173,47 @@ def test_a_point_no_gateway_sends_is_ignored_and_counted(running: Running, misfi
     inputs.wait(for_ring=False, deadline=later())
     assert [p.point_id for p in inputs.points()] == [3]
     assert ignored.IGNORED.total == 1
+
+
+def test_after_a_second_without_points_the_wait_is_parked_until_the_next_point(
+    running: Running,
+) -> None:
+    """Parked, the thread polls a pipe (the channel's recv would wake it 10 times a second);
+    the point that ends it is read as any other, and the parking ends with it."""
+    bus, inputs = running.bus, running.inputs
+    waiting = running.wait_in_thread()  # within a second of the start: the channel's recv
+    bus.publish(POINT_KEY, encode(point(1, 0, 0.0)))
+    waiting.join(WAIT_S)
+    assert not waiting.is_alive()
+    assert not running.parked()
+    assert [p.point_id for p in inputs.points()] == [1]
+    running.now += PARK_AFTER_S
+    waiting = running.wait_in_thread()
+    deadline = time.monotonic() + WAIT_S
+    while not running.parked():
+        assert time.monotonic() < deadline, "the idle wait never parked"
+        time.sleep(0.001)
+    assert waiting.is_alive()
+    bus.publish(POINT_KEY, encode(point(2, 1, 0.1)))
+    waiting.join(WAIT_S)
+    assert not waiting.is_alive()
+    assert [p.point_id for p in inputs.points()] == [2]
+    assert not running.parked()
+
+
+def test_a_parked_wait_ends_at_its_deadline_and_at_the_stop(running: Running) -> None:
+    running.now += PARK_AFTER_S
+    running.inputs.wait(for_ring=False, deadline=time.monotonic())
+    assert running.parked()
+    assert list(running.inputs.points()) == []
+    waiting = running.wait_in_thread()
+    running.stop.set()
+    waiting.join(WAIT_S)
+    assert not waiting.is_alive()
+
+
+def test_a_point_that_came_before_the_parking_ends_the_wait_at_once(running: Running) -> None:
+    running.bus.publish(POINT_KEY, encode(point(3, 0, 0.0)))
+    running.now += PARK_AFTER_S
+    running.inputs.wait(for_ring=False, deadline=later())
+    assert [p.point_id for p in running.inputs.points()] == [3]

@@ -133,21 +133,34 @@ def test_at_rest_clients_get_a_state_every_state_period() -> None:
     assert broadcaster.next_wake(5.05, clients=True) == pytest.approx(5.06)
 
 
-def test_at_rest_without_clients_observers_get_a_state_every_rest_heartbeat() -> None:
+def test_at_rest_without_clients_observers_get_one_state_a_second() -> None:
+    """The executor's resting tick, again every rest heartbeat, is the observers' beat; the
+    broadcaster beats by itself only when one does not come."""
     broadcaster = Broadcaster(cell(state_period_ms=10), FakeController())
-    broadcaster.on_tick(resting_tick(), 0.0)
-    assert broadcaster.on_wake(0.01, clients=False) is not None  # the beat set by the tick
-    assert broadcaster.next_wake(0.01, clients=False) == pytest.approx(0.01 + AT_REST_HEARTBEAT_S)
-    assert broadcaster.on_wake(0.5, clients=False) is None
+    silence = broadcaster.silence_s
+    sent = []
+    for resent in (0.0, AT_REST_HEARTBEAT_S, 2 * AT_REST_HEARTBEAT_S):
+        for wake in (resent + 0.01, resent + AT_REST_HEARTBEAT_S / 2):
+            if broadcaster.on_wake(wake, clients=False) is not None:
+                sent.append(wake)
+        if broadcaster.on_tick(resting_tick(), resent + AT_REST_HEARTBEAT_S) is not None:
+            sent.append(resent + AT_REST_HEARTBEAT_S)
+    assert sent == pytest.approx([1.0, 2.0, 3.0])
+    gone = 3.0 + AT_REST_HEARTBEAT_S + silence  # no resting tick since: the executor went
+    assert broadcaster.next_wake(3.0, clients=False) == pytest.approx(gone)
+    assert broadcaster.on_wake(gone, clients=False) is not None
+    following = gone + AT_REST_HEARTBEAT_S
+    assert broadcaster.next_wake(gone, clients=False) == pytest.approx(following)
 
 
 def test_a_client_connecting_at_rest_gets_a_state_at_once() -> None:
     broadcaster = Broadcaster(cell(state_period_ms=10), FakeController())
     broadcaster.on_tick(resting_tick(), 0.0)
-    broadcaster.on_wake(0.01, clients=False)  # next beat in a second
-    assert broadcaster.next_wake(0.3, clients=True) == pytest.approx(0.31)
+    assert broadcaster.on_wake(0.01, clients=False) is None  # observers only: next beat later
+    assert broadcaster.next_wake(0.3, clients=True) == pytest.approx(0.3)
+    assert broadcaster.on_wake(0.3, clients=True) is not None
+    assert broadcaster.on_wake(0.305, clients=True) is None
     assert broadcaster.on_wake(0.31, clients=True) is not None
-    assert broadcaster.on_wake(0.32, clients=True) is not None
 
 
 def test_the_first_tick_after_a_rest_ends_the_beats() -> None:

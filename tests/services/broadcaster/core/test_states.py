@@ -53,6 +53,11 @@ def into(pacing: Pacing) -> Broadcaster:
     return broadcaster
 
 
+def rest_silence(broadcaster: Broadcaster) -> float:
+    """How long after a resting tick observers' beat waits for the executor's next one."""
+    return AT_REST_HEARTBEAT_S + broadcaster.silence_s
+
+
 def pacing(broadcaster: Broadcaster) -> Pacing:
     """Read afresh: a check of the pacing before an event does not hold after it."""
     return broadcaster.pacing
@@ -80,6 +85,7 @@ def test_a_first_tick_that_rests_is_sent_and_beats_a_state_period_later() -> Non
     assert sent(broadcaster.on_tick(resting_tick(), T0)).tick == 9
     assert broadcaster.pacing is Pacing.AT_REST
     assert broadcaster.next_wake(T0, clients=True) == pytest.approx(T0 + PERIOD_S)
+    assert broadcaster.next_wake(T0, clients=False) == pytest.approx(T0 + rest_silence(broadcaster))
 
 
 @row(Pacing.WAITING, PacingEvent.WAKE_WITH_CLIENTS)
@@ -161,7 +167,9 @@ def test_a_resting_tick_after_silence_is_sent_and_beats_a_state_period_later() -
     broadcaster = into(Pacing.SILENT)
     assert sent(broadcaster.on_tick(resting_tick(2), T0 + 0.001)).tick == 2
     assert broadcaster.pacing is Pacing.AT_REST
-    assert broadcaster.next_wake(T0 + 0.001, clients=False) == pytest.approx(T0 + 0.001 + PERIOD_S)
+    assert broadcaster.next_wake(T0 + 0.001, clients=True) == pytest.approx(T0 + 0.001 + PERIOD_S)
+    following = T0 + 0.001 + rest_silence(broadcaster)
+    assert broadcaster.next_wake(T0 + 0.001, clients=False) == pytest.approx(following)
 
 
 @row(Pacing.SILENT, PacingEvent.WAKE_WITH_CLIENTS)
@@ -201,12 +209,23 @@ def test_the_first_tick_after_a_rest_is_sent_and_ends_the_beats() -> None:
 
 
 @row(Pacing.AT_REST, PacingEvent.RESTING_TICK)
-def test_a_resting_tick_again_is_sent_and_restarts_the_beat() -> None:
-    """The executor republishes its resting tick (for a broadcaster that joined since)."""
+def test_a_resting_tick_again_is_sent_and_the_next_beat_waits_for_the_one_after() -> None:
+    """The executor republishes its resting tick every rest heartbeat (for a broadcaster that
+    joined since, with the readiness as it is now): observers get one state a second, not the
+    tick and a beat of the broadcaster's own after it; a client still gets every period."""
     broadcaster = into(Pacing.AT_REST)
     assert sent(broadcaster.on_tick(resting_tick(9), T0 + 0.5)).seq == 2
     assert broadcaster.pacing is Pacing.AT_REST
-    assert broadcaster.next_wake(T0 + 0.5, clients=False) == pytest.approx(T0 + 0.5 + PERIOD_S)
+    assert broadcaster.next_wake(T0 + 0.5, clients=True) == pytest.approx(T0 + 0.5 + PERIOD_S)
+    resent = T0 + 0.5 + AT_REST_HEARTBEAT_S
+    assert broadcaster.on_wake(T0 + 0.5 + PERIOD_S, clients=False) is None
+    overdue = T0 + 0.5 + rest_silence(broadcaster)
+    assert broadcaster.next_wake(T0 + 0.5, clients=False) == pytest.approx(overdue)
+    assert overdue > resent
+    assert sent(broadcaster.on_tick(resting_tick(9), resent)).seq == 3
+    assert broadcaster.next_wake(resent, clients=False) == pytest.approx(
+        resent + rest_silence(broadcaster)
+    )
 
 
 @row(Pacing.AT_REST, PacingEvent.WAKE_WITH_CLIENTS)
@@ -220,21 +239,25 @@ def test_at_rest_a_client_gets_the_last_tick_every_state_period_and_at_once_on_a
     # Paced for observers only (the next beat a heartbeat away), then a client comes.
     assert broadcaster.on_wake(T0 + 2 * PERIOD_S, clients=False) is not None
     arrival = T0 + 0.3
-    assert broadcaster.next_wake(arrival, clients=True) == pytest.approx(arrival + PERIOD_S)
+    assert broadcaster.next_wake(arrival, clients=True) == pytest.approx(arrival)
     assert sent(broadcaster.on_wake(arrival, clients=True)).tick == 9
     assert broadcaster.next_wake(arrival, clients=True) == pytest.approx(arrival + PERIOD_S)
 
 
 @row(Pacing.AT_REST, PacingEvent.WAKE_WITHOUT_CLIENTS)
-def test_at_rest_observers_only_get_the_last_tick_every_rest_heartbeat() -> None:
+def test_at_rest_observers_only_get_the_last_tick_once_the_next_resting_tick_is_overdue() -> None:
+    """Then every rest heartbeat, from the broadcaster's own clock."""
     broadcaster = into(Pacing.AT_REST)
-    assert broadcaster.on_wake(T0 + PERIOD_S / 2, clients=False) is None
-    late = T0 + 1.5 * PERIOD_S  # the next beat keeps the rate: counted from the due time
+    assert broadcaster.on_wake(T0 + PERIOD_S, clients=False) is None
+    assert broadcaster.on_wake(T0 + 0.5, clients=False) is None
+    overdue = T0 + rest_silence(broadcaster)
+    assert broadcaster.next_wake(T0 + 0.5, clients=False) == pytest.approx(overdue)
+    late = overdue + 0.002  # the next beat keeps the rate: counted from the due time
     assert sent(broadcaster.on_wake(late, clients=False)).tick == 9
     assert broadcaster.pacing is Pacing.AT_REST
-    following = T0 + PERIOD_S + AT_REST_HEARTBEAT_S
+    following = overdue + AT_REST_HEARTBEAT_S
     assert broadcaster.next_wake(late, clients=False) == pytest.approx(following)
-    assert broadcaster.on_wake(T0 + 0.5, clients=False) is None
+    assert broadcaster.on_wake(late + 0.5, clients=False) is None
 
 
 # -- the table as a whole ----------------------------------------------------------------------
