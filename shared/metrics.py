@@ -24,10 +24,21 @@ class Window:
     def summary(self) -> Percentiles:
         if self._count == 0:
             return Percentiles(0, 0.0, 0.0, 0.0)
-        values = self._values[: self._count]
-        p50, p99 = np.percentile(values, (50, 99))
-        return Percentiles(self._count, float(p50), float(p99), float(values.max()))
+        ordered = np.sort(self._values[: self._count])
+        return Percentiles(
+            self._count, percentile(ordered, 50), percentile(ordered, 99), float(ordered[-1])
+        )
 
     def clear(self) -> None:
         self._next = 0
         self._count = 0
+
+
+def percentile(ordered: np.ndarray, q: float) -> float:
+    """``np.percentile``'s default (linear between the two nearest ranks) of sorted values.
+    Not numpy's own: its first call imports ``numpy.ma``, whose modules a forked service would
+    hold as pages of its own (the executor's summary at its start: 4 MiB, docs/startup.md)."""
+    rank = (len(ordered) - 1) * q / 100
+    below = int(rank)
+    above = min(below + 1, len(ordered) - 1)
+    return float(ordered[below] + (rank - below) * (ordered[above] - ordered[below]))
