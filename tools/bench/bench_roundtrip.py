@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import itertools
 import time
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -213,14 +214,18 @@ def measure(
             )
             for name, runs in measured_again(streamer, one_run, log, refusals, index).items():
                 series[condition][name] += runs
+        # The diagnosis runs alternate directions across clients too, so the robot comes back
+        # and stays inside its joint ranges however many clients there are.
+        moves = itertools.count()
         for label, priority in diagnoses.items():
             streamer.child.close()  # one motion client at a time, as MotoROS allows
             streamer = StreamClientProcess(cell, directory, priority=priority)
             stack.push(streamer.__exit__)
             streamer.start_traj_mode()
             kind, points = "2016 x4 groups", counts[1]
-            for index in range(diagnosis_runs):
-                messages = _points(cell, observer, kind, points, 1.0 if index % 2 == 0 else -1.0)
+            for _ in range(diagnosis_runs):
+                direction = 1.0 if next(moves) % 2 == 0 else -1.0
+                messages = _points(cell, observer, kind, points, direction)
                 record = streamer.stream(messages, stream_bound_s(points * POINT_INTERVAL_S))
                 series[label][f"point {kind}, SUCCESS"].append(
                     record.check().rtts_ms(Result.SUCCESS)
