@@ -1,8 +1,10 @@
 """Real-time scheduling: the executor's clock (SCHED_FIFO, where it may run), every other thread
-of a cell's processes (SCHED_RR below the clock), and the one command that allows both. The
-executor applies the clock's (``services/executor/loop.py``), every service and the launcher's
-router their own (``enter_service_priority``); the launcher, ``motocell ps`` and ``motocell
-watch`` show the command when they run without (docs/realtime.md).
+of a cell's processes (SCHED_RR below the clock, the gateway's connection threads a step above
+the rest), and the one command that allows both. The executor applies the clock's
+(``services/executor/loop.py``), every service and the launcher's router their own
+(``enter_service_priority``), the gateway's connection threads theirs (``enter_reply_priority``);
+the launcher, ``motocell ps`` and ``motocell watch`` show the command when they run without
+(docs/realtime.md).
 """
 
 from __future__ import annotations
@@ -24,6 +26,12 @@ other work (a build, other cells, CPU hogs) cannot starve what the stall rules w
 controller's status, the interpolators' increments, the gateway's view of both, the router that
 carries them) into stopping motion; below the clock, which preempts them all. Measured:
 docs/realtime.md, "The other threads: SCHED_RR 10"."""
+
+REPLY_PRIORITY = 20
+"""The SCHED_RR priority of the gateway's connection threads, the ones that answer a client's
+request: above the rest of the cell (SERVICE_PRIORITY), so that a request preempts the
+interpolating, broadcasting and routing its previous point set off instead of waiting for a CPU
+behind them; below the clock. Measured: docs/reply-path.md, "The reply's priority"."""
 
 MIN_CPUS_FOR_AFFINITY = 4
 """Below this the clock is never restricted: with two or three CPUs, the ones left to it would be
@@ -82,6 +90,25 @@ def enter_service_priority(log: logging.Logger, *, quiet: bool = False) -> bool:
         )
         return False
     log.debug("every thread runs SCHED_RR priority %d", SERVICE_PRIORITY)
+    return True
+
+
+def enter_reply_priority() -> bool:
+    """SCHED_RR REPLY_PRIORITY for the calling thread, if it runs at the services' priority
+    (a thread of a process that was refused it, or of a test, stays as it is). Whether it was
+    granted: an rtprio limit between the services' priority and this one keeps it at the
+    services', which works as before, only slower to answer."""
+    if not sys.platform.startswith("linux"):
+        return False
+    if (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority) != (
+        os.SCHED_RR,
+        SERVICE_PRIORITY,
+    ):
+        return False
+    try:
+        os.sched_setscheduler(0, os.SCHED_RR, os.sched_param(REPLY_PRIORITY))
+    except OSError:
+        return False
     return True
 
 

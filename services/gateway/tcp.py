@@ -2,8 +2,8 @@
 the handlers.
 
 A thread per connection keeps the reply path short: recv, decode, decide, send, with no event
-loop hop in between. Connection limits and take-over follow MotoROS 1.9.4+ (motoros1 §2.1,
-motoros1 §8).
+loop hop in between; it runs a step above the rest of the cell (``enter_reply_priority``).
+Connection limits and take-over follow MotoROS 1.9.4+ (motoros1 §2.1, motoros1 §8).
 
 Replies are written as each request is answered, by the connection's own thread, and nothing
 else is read meanwhile: a client that does not read its replies fills the kernel's buffers and
@@ -29,6 +29,7 @@ from motocell.services.gateway.core.response import Response
 from motocell.shared.protocol.codec import CLOSED, NEED_DATA, ByteOrder, Role, SimpleMessageCodec
 from motocell.shared.protocol.errors import PeerProtocolError
 from motocell.shared.protocol.messages import Message, UnknownMessage
+from motocell.shared.realtime import enter_reply_priority
 
 log = logging.getLogger("gateway")
 
@@ -239,6 +240,9 @@ class RequestServer:
         self.on_change()
 
     def _serve(self, client: Stream, peer: tuple[str, int]) -> None:
+        # Above the rest of the cell: a request then preempts the interpolating and routing the
+        # previous point set off, instead of queueing behind it (docs/reply-path.md).
+        enter_reply_priority()
         try:
             serve_requests(client, self.byte_order, self.respond, self.error_reply, self.observe)
         except OSError as exc:

@@ -1,5 +1,6 @@
 """Who runs at which priority in a running cell (docs/realtime.md): every service's threads at
-the services' SCHED_RR, the executor's clock at SCHED_FIFO, the launcher's router threads at
+the services' SCHED_RR, the executor's clock at SCHED_FIFO, the gateway's connection threads a
+step above the services (docs/reply-path.md), the launcher's router threads at
 SCHED_RR, and the launcher's main thread, which starts the services, and its warm parent, which
 has imported them, at ordinary priority, so that a starting (or restarting) service's imports
 never run at the priority of the running cells' threads."""
@@ -12,7 +13,9 @@ from pathlib import Path
 
 import pytest
 
-from motocell.shared.realtime import RT_PRIORITY, SERVICE_PRIORITY
+from motocell.shared.protocol.constants import Command
+from motocell.shared.protocol.replies import motion_ctrl
+from motocell.shared.realtime import REPLY_PRIORITY, RT_PRIORITY, SERVICE_PRIORITY
 from motocell.testing.running_cell import RunningCell, running_cell
 
 pytestmark = [
@@ -52,10 +55,27 @@ def test_every_service_thread_runs_at_the_services_priority_but_the_clock(
     cell: RunningCell,
 ) -> None:
     clocks = 0
+    (gateway,) = cell.service_pids("gateway")
     for pid in cell.services():
         for policy in policies(pid).values():
             if policy == (os.SCHED_FIFO, RT_PRIORITY):
                 clocks += 1
+            elif pid == gateway and policy == (os.SCHED_RR, REPLY_PRIORITY):
+                continue  # a connection's thread, maybe of a client that has just gone
             else:
                 assert policy == (os.SCHED_RR, SERVICE_PRIORITY), pid
     assert clocks == 1
+
+
+def test_the_gateways_connection_threads_answer_a_step_above_the_services(
+    cell: RunningCell,
+) -> None:
+    (gateway,) = cell.service_pids("gateway")
+    with cell.motion() as motion, cell.io() as io:
+        # A reply proves each connection's thread runs: it set its priority before serving.
+        motion.request(motion_ctrl(Command.CHECK_MOTION_READY))
+        io.request(motion_ctrl(Command.CHECK_MOTION_READY))
+        raised = [p for p in policies(gateway).values() if p != (os.SCHED_RR, SERVICE_PRIORITY)]
+    # Both connections' threads; another may still be closing (a client that has just gone).
+    assert len(raised) >= 2
+    assert set(raised) == {(os.SCHED_RR, REPLY_PRIORITY)}

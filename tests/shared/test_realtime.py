@@ -14,9 +14,11 @@ import pytest
 from motocell.shared.realtime import (
     CAP_SYS_NICE,
     ELSEWHERE,
+    REPLY_PRIORITY,
     RT_PRIORITY,
     SERVICE_PRIORITY,
     clock_cpus,
+    enter_reply_priority,
     enter_service_priority,
     fix,
     fix_command,
@@ -141,6 +143,41 @@ def test_off_linux_nothing_is_asked(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(os, "sched_setscheduler", scheduler, raising=False)
     assert not enter_service_priority(logging.getLogger("gateway"))
     assert scheduler.calls == []
+
+
+def at_policy(monkeypatch: pytest.MonkeyPatch, policy: int, priority: int) -> None:
+    """The calling thread reads as running ``policy`` at ``priority``."""
+    monkeypatch.setattr(os, "sched_getscheduler", lambda pid: policy, raising=False)
+    monkeypatch.setattr(os, "sched_getparam", lambda pid: os.sched_param(priority), raising=False)
+
+
+def test_a_connection_thread_at_the_services_priority_answers_a_step_above_it(
+    linux: None, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    scheduler = Scheduler(refuse=False)
+    monkeypatch.setattr(os, "sched_setscheduler", scheduler, raising=False)
+    at_policy(monkeypatch, os.SCHED_RR, SERVICE_PRIORITY)
+    assert enter_reply_priority()
+    assert scheduler.calls == [(0, os.SCHED_RR, REPLY_PRIORITY)]
+    assert SERVICE_PRIORITY < REPLY_PRIORITY < RT_PRIORITY
+
+
+def test_a_thread_refused_the_services_priority_is_not_raised(
+    linux: None, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    scheduler = Scheduler(refuse=False)
+    monkeypatch.setattr(os, "sched_setscheduler", scheduler, raising=False)
+    at_policy(monkeypatch, os.SCHED_OTHER, 0)
+    assert not enter_reply_priority()
+    assert scheduler.calls == []
+
+
+def test_a_refused_reply_priority_leaves_the_thread_at_the_services(
+    linux: None, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(os, "sched_setscheduler", Scheduler(refuse=True), raising=False)
+    at_policy(monkeypatch, os.SCHED_RR, SERVICE_PRIORITY)
+    assert not enter_reply_priority()
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="scheduling policies are Linux's")

@@ -4,7 +4,9 @@
 
 A 4-group cell (default 10 ms state period) with one state client connected, as a ROS driver
 has. The motion client runs in its own process (``bench.stream_client``, garbage collector off)
-and times send -> reply read (CLOCK_MONOTONIC) for:
+at the priority of the gateway's thread that answers it (SCHED_RR 20, ``REPLY_PRIORITY``),
+standing in for a client on hardware of its own, and times send -> reply read
+(CLOCK_MONOTONIC) for:
 
 - CHECK_MOTION_READY and CHECK_QUEUE_CNT, idle (commands answered from the gateway's view of
   the controller and of the queues);
@@ -20,7 +22,9 @@ points in 0.34 ms median, 1.13 ms worst (a captured session of a real FS100 runn
 
 Diagnosis rows: the gateway's own reply time (request decoded -> reply written, from
 ``gateway/metrics``, BUSY and SUCCESS together), to split a round trip into the gateway's
-handling and everything around it (wake-ups, the GIL, the loaded CPUs).
+handling and everything around it (wake-ups, the GIL, the loaded CPUs); and 2016 points
+streamed by a client at the cell's services' priority (SCHED_RR 10) and at ordinary priority,
+a driver beside the cell on one machine, whose replies also wait for a CPU the cell holds.
 
 Each run: 3000 of each command and 2000 accepted points of each kind (quick: 300 and 100), so
 the percentiles rest on thousands of samples; the table shows median and [min-max] over the runs.
@@ -30,6 +34,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import itertools
 import time
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -122,32 +127,38 @@ def _one_run(
 
 def run(quick: bool) -> list[dict[str, Any]]:
     counts = (QUICK_COMMANDS, QUICK_POINTS) if quick else (COMMANDS, POINTS)
-    series, gateway_metrics = measure(counts, [""] * RUNS, ordinary_runs=RUNS)
-    return (
-        _results(series[""])
-        + _internal_results(gateway_internal(gateway_metrics))
-        + _ordinary_results(series[ORDINARY])
-    )
+    series, gateway_metrics = measure(counts, [""] * RUNS, diagnosis_runs=RUNS)
+    results = _results(series[""]) + _internal_results(gateway_internal(gateway_metrics))
+    for label in DIAGNOSIS_CLIENTS:
+        results += _diagnosis_results(series[label], label)
+    return results
 
 
-ORDINARY = "client at ordinary priority"
-"""The label of the diagnosis runs whose motion client stays at ordinary priority."""
+DIAGNOSIS_CLIENTS = {
+    "client at the services' priority": "services",
+    "client at ordinary priority": "ordinary",
+}
+"""The labels of the diagnosis runs, by the priority their motion client runs at
+(``recording.CLIENT_PRIORITIES``); the figure's own client runs at the gateway's reply
+priority, as a client on hardware of its own waits for nothing in the cell."""
+WAITS = {
+    "services": "its wait for a CPU behind the cell's threads, at its priority",
+    "ordinary": "a driver on the cell's machine: its wait for a CPU the cell's threads hold",
+}
 
 
-def _ordinary_results(series: Series) -> list[dict[str, Any]]:
-    """A driver beside the cell on one machine, at ordinary priority, waits for a CPU while the
-    cell's threads handle the point it just sent (``bench.recording.take_the_cells_priority``)."""
+def _diagnosis_results(series: Series, label: str) -> list[dict[str, Any]]:
+    """A client below the gateway's reply priority waits for a CPU while the cell's threads
+    handle the point it just sent (``bench.recording.take_client_priority``)."""
     name = "point 2016 x4 groups, SUCCESS"
     runs = series[name]
     return [
         figure_result(
             FIGURE,
-            f"  diagnosis: {name}, {ORDINARY}, p{q}",
+            f"  diagnosis: {name}, {label}, p{q}",
             "ms",
             [percentiles(r, (q,))[0] for r in runs],
-            note="a driver on the cell's machine: its wait for a CPU the cell's threads hold"
-            if q == 50
-            else "",
+            note=WAITS[DIAGNOSIS_CLIENTS[label]] if q == 50 else "",
         )
         for q in (50, 99)
     ]
@@ -165,7 +176,7 @@ def measure(
     conditions: Sequence[str],
     before_run: Callable[[int], None] | None = None,
     refusals: list[tuple[int, str]] | None = None,
-    ordinary_runs: int = 0,
+    diagnosis_runs: int = 0,
 ) -> tuple[dict[str, Series], list[tuple[int, bytes]]]:
     """One run per entry of ``conditions`` (its label), on one cell, ``before_run(index)``
     called before each (figure 11 starts or stops a neighbour cell there); the round trips per
@@ -176,9 +187,10 @@ def measure(
     noted there (the run's index, why), the cell recovered (START_TRAJ_MODE) and the run measured
     again, at most ``clients.RETRIES`` times.
 
-    Then ``ordinary_runs`` runs of 2016 points by a motion client at ordinary priority, under
-    the label ``ORDINARY``."""
-    labels = [*conditions, *([ORDINARY] if ordinary_runs else [])]
+    Then, for each of ``DIAGNOSIS_CLIENTS``, ``diagnosis_runs`` runs of 2016 points by a motion
+    client at that priority, under its label."""
+    diagnoses = DIAGNOSIS_CLIENTS if diagnosis_runs else {}
+    labels = [*conditions, *diagnoses]
     series: dict[str, Series] = {c: {name: [] for name in series_names()} for c in labels}
     with contextlib.ExitStack() as stack:
         directory = stack.enter_context(workdir())
@@ -188,7 +200,7 @@ def measure(
         gateway_metrics = observer.record(cell.keys.metrics("gateway"))
         state = StateClientProcess(cell, directory / "state.npz", RECORDING_S)
         stack.callback(state.kill)
-        streamer = StreamClientProcess(cell, directory)
+        streamer = StreamClientProcess(cell, directory, priority="reply")
         stack.push(streamer.__exit__)
         stack.enter_context(gc_paused())
         streamer.start_traj_mode()
@@ -202,16 +214,20 @@ def measure(
             )
             for name, runs in measured_again(streamer, one_run, log, refusals, index).items():
                 series[condition][name] += runs
-        if ordinary_runs:
+        # The diagnosis runs alternate directions across clients too, so the robot comes back
+        # and stays inside its joint ranges however many clients there are.
+        moves = itertools.count()
+        for label, priority in diagnoses.items():
             streamer.child.close()  # one motion client at a time, as MotoROS allows
-            streamer = StreamClientProcess(cell, directory, ordinary=True)
+            streamer = StreamClientProcess(cell, directory, priority=priority)
             stack.push(streamer.__exit__)
             streamer.start_traj_mode()
             kind, points = "2016 x4 groups", counts[1]
-            for index in range(ordinary_runs):
-                messages = _points(cell, observer, kind, points, 1.0 if index % 2 == 0 else -1.0)
+            for _ in range(diagnosis_runs):
+                direction = 1.0 if next(moves) % 2 == 0 else -1.0
+                messages = _points(cell, observer, kind, points, direction)
                 record = streamer.stream(messages, stream_bound_s(points * POINT_INTERVAL_S))
-                series[ORDINARY][f"point {kind}, SUCCESS"].append(
+                series[label][f"point {kind}, SUCCESS"].append(
                     record.check().rtts_ms(Result.SUCCESS)
                 )
         observer.wait_still()

@@ -201,8 +201,8 @@ class StreamRefusedError(RuntimeError):
 class StreamClientProcess:
     """``python -m motocell.tools.bench.stream_client``: the motion client, one job at a time."""
 
-    def __init__(self, cell: RunningCell, directory: Path, *, ordinary: bool = False) -> None:
-        """``ordinary``: the client stays at ordinary priority (``take_the_cells_priority``)."""
+    def __init__(self, cell: RunningCell, directory: Path, *, priority: str = "services") -> None:
+        """``priority``: one of ``recording.CLIENT_PRIORITIES`` (``take_client_priority``)."""
         self.directory = directory
         self.codec = SimpleMessageCodec(Role.CLIENT, cell.byte_order)
         self.jobs = 0
@@ -211,7 +211,7 @@ class StreamClientProcess:
         arguments = [
             *("--host", cell.host, "--port", str(cell.port_base)),
             *("--byte-order", cell.byte_order.value),
-            *(["--ordinary-priority"] if ordinary else []),
+            *("--priority", priority),
         ]
         self.child = ChildProcess("motocell.tools.bench.stream_client", arguments)
 

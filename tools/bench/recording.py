@@ -19,7 +19,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from motocell.shared.realtime import enter_service_priority
+from motocell.shared.realtime import enter_reply_priority, enter_service_priority
 
 
 def freeze_gc() -> None:
@@ -35,10 +35,26 @@ def take_the_cells_priority() -> None:
     """The cell's services' SCHED_RR priority for this measuring client, where the machine
     grants it. A MotoROS client runs on hardware of its own; here it shares two cores with the
     cell, and at ordinary priority a reply it was sent waits until the cell's threads (SCHED_RR,
-    docs/realtime.md), busy with the point it just accepted, let it run: figure 4 would time
-    the scheduler instead of the cell. Figure 4 reports that wait apart (a client at ordinary
-    priority, what a driver beside the cell on one machine sees)."""
+    docs/realtime.md), busy with the point it just accepted, let it run: a figure would time
+    the scheduler instead of the cell."""
     enter_service_priority(logging.getLogger("bench"), quiet=True)
+
+
+CLIENT_PRIORITIES = ("reply", "services", "ordinary")
+"""What a motion client may run at: the priority of the gateway's thread that answers it
+(``shared.realtime.REPLY_PRIORITY``), the cell's services', or ordinary priority."""
+
+
+def take_client_priority(priority: str) -> None:
+    """One of ``CLIENT_PRIORITIES`` for this motion client, where the machine grants it. At the
+    services' priority its reply still waits for a CPU behind the cell's threads, all at that
+    priority and busy with the point it just sent; at the gateway's own it waits for nobody in
+    the cell but the clock, as a client on hardware of its own (figure 4 shows all three)."""
+    if priority == "ordinary":
+        return
+    take_the_cells_priority()
+    if priority == "reply":
+        enter_reply_priority()
 
 
 class Columns:

@@ -34,11 +34,12 @@ from motocell.shared.protocol.messages import Message, MotoMotionReply
 from motocell.shared.protocol.replies import motion_ctrl
 from motocell.testing.client import MotionClient
 from motocell.tools.bench.recording import (
+    CLIENT_PRIORITIES,
     Columns,
     StdinControl,
     freeze_gc,
     report,
-    take_the_cells_priority,
+    take_client_priority,
 )
 
 BUSY_RETRY_S = 0.005
@@ -204,13 +205,14 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--port", type=int, required=True)
     parser.add_argument("--byte-order", choices=[o.value for o in ByteOrder], default="little")
     parser.add_argument(
-        "--ordinary-priority",
-        action="store_true",
-        help="stay at ordinary priority, as a driver beside the cell on one machine would",
+        "--priority",
+        choices=CLIENT_PRIORITIES,
+        default="services",
+        help="the gateway's reply priority, the cell's services' (the default), or ordinary, "
+        "as a driver beside the cell on one machine runs",
     )
     args = parser.parse_args(argv)
-    if not args.ordinary_priority:
-        take_the_cells_priority()
+    take_client_priority(args.priority)
     with MotionClient(args.host, args.port, ByteOrder(args.byte_order)) as client:
         control = StdinControl()
         freeze_gc()
