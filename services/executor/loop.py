@@ -126,7 +126,7 @@ class Clock:
         )
 
     def _warm_up(self) -> None:
-        """numpy's percentile and msgspec set themselves up on first use, long enough to make a
+        """numpy's sort and msgspec set themselves up on first use, long enough to make a
         tick late: here, before the first deadline."""
         self.lateness.add(0.0)
         self.lateness.summary()

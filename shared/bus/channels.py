@@ -121,18 +121,19 @@ class Parking:
         for fd in (self._read, self._write):
             os.set_blocking(fd, False)
         self._subscription: Declared | None = None
-
-    @property
-    def parked(self) -> bool:
-        return self._subscription is not None
+        self._closing = threading.Lock()
+        self._closed = False
 
     def park(self) -> None:
         if self._subscription is None:
             self._subscription = self._subscribe(self._on_sample)
 
     def _on_sample(self, _sample: object) -> None:
-        with contextlib.suppress(BlockingIOError):  # a byte is waiting already
-            os.write(self._write, b"\0")
+        # zenoh-python may still call a callback after its undeclare returned: never into a
+        # pipe already closed, whose descriptor may be another file's by then.
+        with self._closing, contextlib.suppress(BlockingIOError):  # a byte is waiting already
+            if not self._closed:
+                os.write(self._write, b"\0")
 
     def wait(self) -> None:
         """Until a sample came since the last wait (or while parked before it), or the stop."""
@@ -143,19 +144,24 @@ class Parking:
         self._drain()
 
     def unpark(self) -> None:
-        if self._subscription is not None:
-            self._subscription.undeclare()
-            self._subscription = None
+        """Cheap when not parked: the interpolator calls it for every point it reads."""
+        if self._subscription is None:
+            return
+        self._subscription.undeclare()
+        self._subscription = None
         self._drain()
 
     def _drain(self) -> None:
         with contextlib.suppress(BlockingIOError):
-            os.read(self._read, 64)
+            while os.read(self._read, 64):
+                pass
 
     def close(self) -> None:
         self.unpark()
-        os.close(self._read)
-        os.close(self._write)
+        with self._closing:
+            self._closed = True
+            os.close(self._read)
+            os.close(self._write)
 
 
 def is_doorbell(sample: zenoh.Sample) -> bool:

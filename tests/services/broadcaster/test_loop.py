@@ -256,3 +256,48 @@ def test_run_cycles_until_stopped() -> None:
     loop.run(stop)
     assert ticks.ticks == []
     assert len(state.payloads) == 2
+
+
+class RestingExecutor:
+    """A ``TickFeed`` of a resting executor, as ``ticks.TickSource`` reads one: at rest the
+    loop sleeps until its deadline, then takes the tick that came meanwhile, the resting tick
+    the executor sends again every ``resent_s`` (from ``first``, and never after ``gone_at``)."""
+
+    def __init__(self, first: Tick, resent_s: float, gone_at: float) -> None:
+        self.tick = first
+        self.now = 0.0
+        self.resent_s = resent_s
+        self.gone_at = gone_at
+        self._next = 0.0
+
+    def next(self, deadline: float | None, ticks_expected: bool) -> Tick | None:
+        """Before the first tick the loop waits for one (no deadline): it comes at 0."""
+        assert deadline is not None or self.now == 0.0, "a resting loop always has a beat"
+        self.now = self.now if deadline is None else deadline
+        if self._next <= self.now < self.gone_at:
+            self._next += self.resent_s
+            return self.tick
+        return None
+
+
+def test_at_rest_observers_get_one_state_a_second_also_once_the_executor_is_gone() -> None:
+    resting = msgspec.structs.replace(tick(9, 0), resting=True)
+    ticks = RestingExecutor(resting, resent_s=1.0, gone_at=3.5)
+    state = FakePublication("state", realtime=True, latest=True)
+    state.subscribed = True
+    loop = StateLoop(
+        Broadcaster(cell(state_period_ms=10), FakeController()),
+        ticks,
+        FakePort(),
+        byte_order=ByteOrder.LITTLE,
+        state=state,
+        reports=RecordedReports(),
+        clock=lambda: ticks.now,
+    )
+    sent_at = []
+    while ticks.now < 6.0:
+        published = len(state.payloads)
+        loop.cycle()
+        if len(state.payloads) > published:
+            sent_at.append(ticks.now)
+    assert sent_at == pytest.approx([0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0])

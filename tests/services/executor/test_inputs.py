@@ -227,7 +227,8 @@ def test_a_rest_waits_parked_and_the_clock_running_again_unparks(harness: Harnes
 
 def test_a_point_before_the_parking_ends_the_rest_at_once(harness: Harness) -> None:
     harness.point(1, point_id=5)
-    harness.inputs.rest(time.monotonic() + 60)
+    harness.rest(time.monotonic() + 60)
+    assert harness.woken(), "the point already in the channel is read after parking"
     assert [point.point_id for _, point in harness.inputs.points()] == [5]
 
 

@@ -215,5 +215,7 @@ def test_a_parked_wait_ends_at_its_deadline_and_at_the_stop(running: Running) ->
 def test_a_point_that_came_before_the_parking_ends_the_wait_at_once(running: Running) -> None:
     running.bus.publish(POINT_KEY, encode(point(3, 0, 0.0)))
     running.now += PARK_AFTER_S
-    running.inputs.wait(for_ring=False, deadline=later())
+    waiting = running.wait_in_thread()
+    waiting.join(WAIT_S)
+    assert not waiting.is_alive(), "the point already in the channel is read after parking"
     assert [p.point_id for p in running.inputs.points()] == [3]
