@@ -369,8 +369,8 @@ def wait_for_whole_cell(
     with StateListener(host, port_base + 1, byte_order).start() as state:
         state.wait_for(lambda f: f.status is not None and f.status.drives_powered != -1, timeout)
     # The state port is the broadcaster's, the motion port the gateway's: either can be first.
-    wait_until(lambda: connectable(host, port_base), timeout, "the motion port to listen")
-    with MotionClient(host, port_base, byte_order) as motion:
+    # Connected once, without a probe first, whose close the gateway would make this wait for.
+    with MotionClient.once_listening(host, port_base, byte_order, timeout) as motion:
         wait_until(
             lambda: (
                 motion.command(Command.CHECK_MOTION_READY).subcode != NotReadySubcode.INC_MOVE_ERROR
