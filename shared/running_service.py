@@ -40,6 +40,7 @@ from motocell.shared.bus.runtime import zenoh_runtime
 from motocell.shared.bus.schemas import Listening, ServiceInfo, encode
 from motocell.shared.bus.session import ENCODING, StoppedWaiting, open_session
 from motocell.shared.config import EXIT_CONFIG, Cell, ConfigError, load_catalogue, load_cell
+from motocell.shared.launcher_names import PARENT_PID_ENV
 from motocell.shared.realtime import enter_service_priority
 from motocell.shared.service import (
     StartError,
@@ -49,12 +50,7 @@ from motocell.shared.service import (
     stop_on_signals,
     version,
 )
-from motocell.shared.service_names import (
-    PARENT_PID_ENV,
-    ServiceName,
-    UnknownServiceError,
-    parse_service,
-)
+from motocell.shared.service_names import ServiceName, UnknownServiceError, parse_service
 
 SERVICE_VERSION = version()
 """motocell's version, as every service's description gives it: read once, at import (see the

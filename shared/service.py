@@ -20,12 +20,9 @@ from types import FrameType
 
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.config import Cell
+from motocell.shared.launcher_names import PARENT_PID_ENV
 from motocell.shared.ports import port_base_argument
-from motocell.shared.service_names import (
-    PARENT_PID_ENV,
-    ROS2_FACE,
-    cell_services,
-)
+from motocell.shared.service_names import ROS2_FACE, cell_services
 from motocell.shared.signals import STOP_SIGNALS
 
 PR_SET_PDEATHSIG = 1

@@ -38,16 +38,12 @@ from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import Decoder, Tick
 from motocell.shared.bus.session import open_session
 from motocell.shared.config import PORT_COUNT, Cell, load_cell
+from motocell.shared.launcher_names import WARM_PARENT_MODULE
 from motocell.shared.ports import free_port, free_port_block, port_free
 from motocell.shared.protocol.codec import ByteOrder
 from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
-from motocell.shared.service_names import (
-    ROS2_FACE,
-    WARM_PARENT_MODULE,
-    cell_services,
-    parse_service,
-)
+from motocell.shared.service_names import ROS2_FACE, cell_services, parse_service
 from motocell.testing.client import MotionClient, StateListener, smooth_move, stream
 from motocell.testing.ports import PortTakenError, on_free_port
 from motocell.testing.processes import alive, cmdline, connectable, descendants, wait_until
