@@ -60,17 +60,6 @@ def listen(host: str, port: int) -> socket.socket:
     return server
 
 
-def version() -> str:
-    # Imported only where needed: importlib.metadata brings the email package, 10-20 ms that
-    # `motocell up` would spend before it starts a single service.
-    import importlib.metadata  # noqa: PLC0415
-
-    try:
-        return importlib.metadata.version("motocell")
-    except importlib.metadata.PackageNotFoundError:
-        return "unknown"
-
-
 def argument_parser(service: str, description: str) -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog=f"motocell service {service}", description=description, allow_abbrev=False
