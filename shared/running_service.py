@@ -2,13 +2,11 @@
 its description and its liveliness token (``running_service``).
 
 Apart from ``shared.service`` (arguments, signals, what the launcher uses too) because it does
-at import what every service would otherwise do after it is forked: read motocell's version
-(``SERVICE_VERSION``), which imports ``importlib.metadata`` and through it the email package,
-and the robot models' catalogue (``config.load_catalogue``, read once per process), which its
-cell file's loading needs. The launcher's warm parent imports this module with the services'
-own, so each fork of it starts with both in the pages it shares with the others instead of
-copies of its own (docs/startup.md, "Where a cell's memory is"), and the launcher itself,
-which imports ``shared.service``, never reads the version.
+at import what every service would otherwise do after it is forked: read the robot models'
+catalogue (``config.load_catalogue``, read once per process), which its cell file's loading
+needs. The launcher's warm parent imports this module with the services' own, so each fork of
+it starts with the catalogue in the pages it shares with the others instead of a copy of its
+own (docs/startup.md, "Where a cell's memory is").
 """
 
 from __future__ import annotations
@@ -30,6 +28,7 @@ from pathlib import Path
 import msgspec
 import zenoh
 
+from motocell import __version__
 from motocell.shared.bus.access import Identity
 from motocell.shared.bus.catalog import Role
 from motocell.shared.bus.claim import ClaimError, claim_name, watch_claims
@@ -40,6 +39,7 @@ from motocell.shared.bus.runtime import zenoh_runtime
 from motocell.shared.bus.schemas import Listening, ServiceInfo, encode
 from motocell.shared.bus.session import ENCODING, StoppedWaiting, open_session
 from motocell.shared.config import EXIT_CONFIG, Cell, ConfigError, load_catalogue, load_cell
+from motocell.shared.launcher_names import PARENT_PID_ENV
 from motocell.shared.realtime import enter_service_priority
 from motocell.shared.service import (
     StartError,
@@ -47,18 +47,9 @@ from motocell.shared.service import (
     die_with_launcher,
     setup_logging,
     stop_on_signals,
-    version,
 )
-from motocell.shared.service_names import (
-    PARENT_PID_ENV,
-    ServiceName,
-    UnknownServiceError,
-    parse_service,
-)
+from motocell.shared.service_names import ServiceName, UnknownServiceError, parse_service
 
-SERVICE_VERSION = version()
-"""motocell's version, as every service's description gives it: read once, at import (see the
-module's text)."""
 load_catalogue()
 
 
@@ -206,8 +197,8 @@ def _service_session(
     with zenoh_runtime():
         session = open_session("client", connect, credentials=credentials, stop=stop.wait)
     keys = CellKeys(cell.name)
-    # Made here, not when first asked: looking up the version on a Zenoh thread would hold the
-    # GIL for milliseconds, long enough to delay the executor's clock thread by a period.
+    # Made and encoded here, not when first asked: queries are answered on a Zenoh thread, where
+    # no service logic runs (docs/conventions.md, The bus).
     info = ServiceInfo(
         cell=cell.name,
         service=service,
@@ -215,7 +206,7 @@ def _service_session(
         host=socket.gethostname(),
         pid=os.getpid(),
         started_unix_ns=time.time_ns(),
-        version=SERVICE_VERSION,
+        version=__version__,
     )
     description = Description(keys.service_info(service, instance), info)
     try:

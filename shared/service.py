@@ -20,12 +20,9 @@ from types import FrameType
 
 from motocell.shared.bus.keys import CellKeys
 from motocell.shared.config import Cell
+from motocell.shared.launcher_names import PARENT_PID_ENV
 from motocell.shared.ports import port_base_argument
-from motocell.shared.service_names import (
-    PARENT_PID_ENV,
-    ROS2_FACE,
-    cell_services,
-)
+from motocell.shared.service_names import ROS2_FACE, cell_services
 from motocell.shared.signals import STOP_SIGNALS
 
 PR_SET_PDEATHSIG = 1
@@ -61,17 +58,6 @@ def listen(host: str, port: int) -> socket.socket:
         raise StartError(f"cannot listen on {host}:{port}: {reason}") from exc
     server.listen(socket.SOMAXCONN)
     return server
-
-
-def version() -> str:
-    # Imported only where needed: importlib.metadata brings the email package, 10-20 ms that
-    # `motocell up` would spend before it starts a single service.
-    import importlib.metadata  # noqa: PLC0415
-
-    try:
-        return importlib.metadata.version("motocell")
-    except importlib.metadata.PackageNotFoundError:
-        return "unknown"
 
 
 def argument_parser(service: str, description: str) -> argparse.ArgumentParser:

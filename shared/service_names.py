@@ -12,28 +12,27 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-if TYPE_CHECKING:  # only for annotations: the launcher imports this module before anything heavy
+if TYPE_CHECKING:  # only for annotations: the launcher imports this module before the heavy ones
     from motocell.shared.config import Cell
 
 PER_GROUP = "interpolator"
 """The service that runs once per control group, its group as its instance."""
 ROS2_FACE = "ros2"
 """MotoROS2's ROS 2 API (``services/ros2``): only in a cell whose file has ``[ros2]``."""
-WARM_PARENT_MODULE = "motocell.services.launcher.zygote"
-"""The launcher's warm parent, which the services are forked from (docs/startup.md): a process
-of the cell beside them, but no service."""
 SERVICES = ("controller", "executor", "broadcaster", PER_GROUP, "gateway", ROS2_FACE)
 """Every kind of service, in the order a launcher starts them."""
 WARM_SERVICES = tuple(service for service in SERVICES if service != ROS2_FACE)
 """The services the warm parent forks: every one but the ROS 2 face, whose rclpy would double
 the parent's size for one process."""
-PARENT_PID_ENV = "MOTOCELL_PARENT_PID"
-"""Set by ``motocell up`` for its children: they stop when that process goes away."""
 
 
 def service_module(service: str) -> str:
     """What ``python -m`` runs for a service of this kind."""
     return f"motocell.services.{service}"
+
+
+WARM_MODULES = tuple(service_module(service) for service in WARM_SERVICES)
+"""What the warm parent imports and forks."""
 
 
 class UnknownServiceError(ValueError):

@@ -59,6 +59,33 @@ def connect(host: str, port: int, timeout: float = 5.0) -> socket.socket:
     return sock
 
 
+LISTEN_POLL_S = 0.01
+"""How often ``connect_once_listening`` tries again while nothing listens yet."""
+
+
+def connect_once_listening(host: str, port: int, timeout: float) -> socket.socket:
+    """A connection to ``host:port`` as soon as something listens there, tried again every
+    LISTEN_POLL_S for ``timeout`` s (then TimeoutError). The connection is the caller's to use,
+    not a probe: a client that first probes a motion port with a connection of its own and then
+    connects again waits for the gateway to finish with the probe (MotoROS's 50 ms pause before
+    it closes a connection, motoros1 §2.1; the gateway serves one client at a time). A socket
+    whose kernel-chosen source port is ``port`` itself connects to itself with nobody
+    listening (TCP simultaneous open): that one is closed and tried again."""
+    deadline = time.monotonic() + timeout
+    while True:
+        try:
+            sock = connect(host, port, max(deadline - time.monotonic(), LISTEN_POLL_S))
+        except ConnectionRefusedError:
+            pass
+        else:
+            if sock.getsockname() != sock.getpeername():
+                return sock
+            sock.close()
+        if time.monotonic() >= deadline:
+            raise TimeoutError(f"nothing listened at {host}:{port} within {timeout:.0f} s")
+        time.sleep(LISTEN_POLL_S)
+
+
 class FrameReader:
     """Frames off a socket, one at a time."""
 
@@ -101,10 +128,25 @@ class MotionClient:
     """Port 50240 (or 50242 for I/O): request, then read exactly one reply."""
 
     def __init__(
-        self, host: str, port: int, byte_order: ByteOrder = ByteOrder.LITTLE, timeout: float = 10.0
+        self,
+        host: str,
+        port: int,
+        byte_order: ByteOrder = ByteOrder.LITTLE,
+        timeout: float = 10.0,
+        *,
+        sock: socket.socket | None = None,
     ) -> None:
-        self.sock = connect(host, port, timeout)
+        """``sock``: a connection made already (``once_listening``), else one is made now."""
+        self.sock = connect(host, port, timeout) if sock is None else sock
         self.reader = FrameReader(self.sock, byte_order)
+
+    @classmethod
+    def once_listening(
+        cls, host: str, port: int, byte_order: ByteOrder, timeout: float
+    ) -> MotionClient:
+        """A client of a port that may not listen yet (a cell starting): connected as soon as
+        it does (``connect_once_listening``)."""
+        return cls(host, port, byte_order, sock=connect_once_listening(host, port, timeout))
 
     def send(self, message: Message) -> None:
         self.sock.sendall(self.reader.codec.send(message))

@@ -38,16 +38,12 @@ from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import Decoder, Tick
 from motocell.shared.bus.session import open_session
 from motocell.shared.config import PORT_COUNT, Cell, load_cell
+from motocell.shared.launcher_names import WARM_PARENT_MODULE
 from motocell.shared.ports import free_port, free_port_block, port_free
 from motocell.shared.protocol.codec import ByteOrder
 from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
-from motocell.shared.service_names import (
-    ROS2_FACE,
-    WARM_PARENT_MODULE,
-    cell_services,
-    parse_service,
-)
+from motocell.shared.service_names import ROS2_FACE, cell_services, parse_service
 from motocell.testing.client import MotionClient, StateListener, smooth_move, stream
 from motocell.testing.ports import PortTakenError, on_free_port
 from motocell.testing.processes import alive, cmdline, connectable, descendants, wait_until
@@ -369,8 +365,8 @@ def wait_for_whole_cell(
     with StateListener(host, port_base + 1, byte_order).start() as state:
         state.wait_for(lambda f: f.status is not None and f.status.drives_powered != -1, timeout)
     # The state port is the broadcaster's, the motion port the gateway's: either can be first.
-    wait_until(lambda: connectable(host, port_base), timeout, "the motion port to listen")
-    with MotionClient(host, port_base, byte_order) as motion:
+    # Connected once, without a probe first, whose close the gateway would make this wait for.
+    with MotionClient.once_listening(host, port_base, byte_order, timeout) as motion:
         wait_until(
             lambda: (
                 motion.command(Command.CHECK_MOTION_READY).subcode != NotReadySubcode.INC_MOVE_ERROR

@@ -11,6 +11,7 @@ from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any, cast
 
+from motocell import __version__
 from motocell.shared.signals import release_stop_signals
 
 COMMANDS = (
@@ -84,7 +85,7 @@ def fill(command: str, parser: argparse.ArgumentParser) -> None:
 
 
 class ShowVersion(argparse.Action):
-    """``--version``, looked up only when asked (importlib.metadata takes 10-20 ms to import)."""
+    """``--version``."""
 
     def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS) -> None:
         super().__init__(option_strings, dest, nargs=0, help="show the version and exit")
@@ -96,10 +97,7 @@ class ShowVersion(argparse.Action):
         values: object,
         option_string: str | None = None,
     ) -> None:
-        # shared.service brings the cell file's loader: only when asked.
-        from motocell.shared.service import version  # noqa: PLC0415
-
-        print(f"motocell {version()}")
+        print(f"motocell {__version__}")
         parser.exit()
 
 

@@ -275,12 +275,9 @@ def drive(
             )
         # The motion port is the gateway's, the state port the broadcaster's: either can be
         # up first.
-        wait_until(
-            lambda: connectable(host, port_base),
-            READY_TIMEOUT_S,
-            f"the motion port {host}:{port_base}",
+        motion = stack.enter_context(
+            MotionClient.once_listening(host, port_base, byte_order, READY_TIMEOUT_S)
         )
-        motion = stack.enter_context(MotionClient(host, port_base, byte_order))
         ticks = None if bus is None else TickLog(bus, CellKeys(cell.name))
         if ticks is not None:
             stack.callback(ticks.subscriber.undeclare)

@@ -22,9 +22,9 @@ from motocell.services.executor.core.resting import next_on_grid
 from motocell.shared.bus.channels import StopSignal
 from motocell.shared.bus.liveness import AT_REST_HEARTBEAT_S
 from motocell.shared.bus.schemas import ExecutorMetrics, LateTicks
+from motocell.shared.launcher_names import PARENT_PID_ENV
 from motocell.shared.metrics import Window
 from motocell.shared.realtime import RT_PRIORITY, clock_cpus, fix_command, tighten_timer_slack
-from motocell.shared.service_names import PARENT_PID_ENV
 
 log = logging.getLogger("executor")
 

@@ -38,9 +38,10 @@ from motocell.services.launcher.core.forks import (
     encode,
 )
 from motocell.services.launcher.loop import Stop
-from motocell.services.launcher.warm_parent import WARM_MODULES, StartedZygote
+from motocell.services.launcher.warm_parent import StartedZygote
 from motocell.shared.bus.session import StoppedWaiting
-from motocell.shared.service_names import PARENT_PID_ENV
+from motocell.shared.launcher_names import PARENT_PID_ENV
+from motocell.shared.service_names import WARM_MODULES
 
 log = logging.getLogger("motocell")
 

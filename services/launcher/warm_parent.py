@@ -3,9 +3,10 @@
 The zygote's imports take 0.15-0.3 s; the launcher's own (Zenoh, its cell file's loader) take
 0.1-0.2 s and its router opens after them. Started before those, on a machine of two cores or
 more, the zygote imports beside them instead of after them (measured in docs/startup.md). So
-this module imports the standard library and the services' names alone, and the zygote holds
-every service it can fork (``WARM_SERVICES``) whatever the cell turns out to run: the cell's
-file is not read yet.
+this module imports a few modules of the standard library and ``shared.launcher_names`` alone
+(the services' names, with ``dataclasses``, would hold the zygote's start back by 11 ms of
+CPU), and the zygote holds every service it can fork (``service_names.WARM_MODULES``, which it
+reads itself) whatever the cell turns out to run: the cell's file is not read yet.
 """
 
 from __future__ import annotations
@@ -17,18 +18,11 @@ import sys
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 
-from motocell.shared.service_names import (
-    PARENT_PID_ENV,
-    WARM_PARENT_MODULE,
-    WARM_SERVICES,
-    service_module,
-)
+from motocell.shared.launcher_names import PARENT_PID_ENV, WARM_PARENT_MODULE
 
 ROOM = 8192
 """Bytes of command line the zygote holds for a service's (``zygote.rewrite_command_line``):
 a cell's longest, with its paths, is a few hundred."""
-WARM_MODULES = tuple(service_module(service) for service in WARM_SERVICES)
-"""What the zygote imports and forks."""
 NOTHING_TO_FORK = frozenset({"--cold", "-h", "--help", "--version"})
 """Words of a launcher's command line after which it forks no service."""
 
@@ -42,7 +36,7 @@ class StartedZygote:
         env = {**os.environ, PARENT_PID_ENV: str(os.getpid())}
         command = [
             *(sys.executable, "-m", WARM_PARENT_MODULE),
-            *("--channel", str(theirs.fileno()), "--room", " " * ROOM, ",".join(WARM_MODULES)),
+            *("--channel", str(theirs.fileno()), "--room", " " * ROOM),
         ]
         try:
             # A process group of its own, as every service has: a Ctrl-C reaches the launcher.

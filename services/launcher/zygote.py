@@ -2,7 +2,7 @@
 modules, so that each service starts as a fork of it instead of a fresh interpreter that
 imports them again (docs/startup.md).
 
-    python -m motocell.services.launcher.zygote --channel FD --room PADDING MODULE,MODULE...
+    python -m motocell.services.launcher.zygote --channel FD --room PADDING
 
 It opens no Zenoh session and starts no thread (``OPENBLAS_NUM_THREADS=1``, set by
 ``motocell.services``, keeps numpy's worker away), so a fork of it is as safe as a fork of a
@@ -47,6 +47,7 @@ from motocell.services.launcher.core.forks import (
     encode,
 )
 from motocell.shared.service import die_with_launcher
+from motocell.shared.service_names import WARM_MODULES
 from motocell.shared.signals import release_stop_signals
 
 ARG_START_FIELD = 45
@@ -247,16 +248,13 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser = argparse.ArgumentParser(prog="motocell zygote", allow_abbrev=False)
     parser.add_argument("--channel", type=int, required=True)
     parser.add_argument("--room", default="", help="padding: room for a service's arguments")
-    # One word: a list of modules in the zygote's command line is not taken for the services
-    # (``testing.running_cell.service_pids`` looks for a word that names one).
-    parser.add_argument("modules", type=lambda text: text.split(","))
     args = parser.parse_args(argv)
     # The launcher starts it with SIGINT and SIGTERM held (``warm_parent``: before its own
     # handlers exist), and a blocked mask survives the exec: released, SIGTERM ends it, the
     # one its PR_SET_PDEATHSIG sends when the launcher dies.
     release_stop_signals()
     die_with_launcher()
-    warm_up(args.modules)
+    warm_up(WARM_MODULES)
     with socket.socket(fileno=args.channel) as channel, channel.makefile("rwb") as lines:
         request = serve(lines, fork_service, room(), sys.executable)
     if request is not None:

@@ -1,24 +1,24 @@
-"""Where a service's version and the robot models are read: once, by whoever imports a
-service's modules (the launcher's warm parent, for all its forks); the version never by the
-launcher's own modules."""
+"""Where a service's version and the robot models are read: the version from the package
+itself, as its installed metadata has it; the models once, by whoever imports a service's
+modules (the launcher's warm parent, for all its forks), never by the launcher's own modules."""
 
 from __future__ import annotations
 
+import importlib.metadata
 from pathlib import Path
 
 import pytest
 
+from motocell import __version__
 from motocell.shared.config import RobotModel, load_catalogue
-from motocell.shared.running_service import SERVICE_VERSION
-from motocell.shared.service import version
 from tests.tools.test_cli import loaded_after
 
 FORKED = ("broadcaster", "controller", "executor", "gateway", "interpolator")
-READ_AT_IMPORT = {"importlib.metadata", "motocell.shared.running_service"}
+READ_AT_IMPORT = {"motocell.shared.running_service"}
 
 
 def test_the_version_a_service_describes_itself_with_is_the_installed_one() -> None:
-    assert version() == SERVICE_VERSION
+    assert importlib.metadata.version("motocell") == __version__
 
 
 def test_the_catalogue_is_read_once_and_shared_read_only() -> None:

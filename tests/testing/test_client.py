@@ -1,5 +1,6 @@
 """The test kit's Simple Message client against a controller of the other byte order: it stops
-at the first frame and names the byte order the controller speaks, on either port."""
+at the first frame and names the byte order the controller speaks, on either port; and how it
+connects to a port that may not listen yet."""
 
 from __future__ import annotations
 
@@ -13,7 +14,14 @@ from motocell.shared.protocol.constants import Command, Result
 from motocell.shared.protocol.errors import PeerProtocolError
 from motocell.shared.protocol.messages import RobotStatus
 from motocell.shared.protocol.replies import motion_ctrl, motion_reply, state_message
-from motocell.testing.client import FrameReader, MotionClient, StateListener, WrongByteOrderError
+from motocell.testing import client
+from motocell.testing.client import (
+    FrameReader,
+    MotionClient,
+    StateListener,
+    WrongByteOrderError,
+    connect_once_listening,
+)
 
 STATUS = state_message(13, RobotStatus(1, 0, 0, 0, 0, 2, 1))
 
@@ -63,3 +71,41 @@ def test_garbage_after_good_frames_is_not_blamed_on_the_byte_order() -> None:
         with pytest.raises(PeerProtocolError) as refused:
             reader.next()
     assert not isinstance(refused.value, WrongByteOrderError)
+
+
+def test_a_client_once_listening_makes_one_connection(listener: socket.socket) -> None:
+    port = listener.getsockname()[1]
+    with MotionClient.once_listening("127.0.0.1", port, ByteOrder.LITTLE, timeout=60.0) as motion:
+        controller, peer = listener.accept()
+        with controller:
+            assert peer == motion.sock.getsockname()
+            listener.setblocking(False)
+            with pytest.raises(BlockingIOError):  # no probe before it
+                listener.accept()
+
+
+def test_a_refused_connection_is_tried_again(
+    listener: socket.socket, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    port = listener.getsockname()[1]
+    tries: list[int] = []
+    real = client.connect
+
+    def refused_first(host: str, port: int, timeout: float = 5.0) -> socket.socket:
+        tries.append(port)
+        if len(tries) == 1:
+            raise ConnectionRefusedError
+        return real(host, port, timeout)
+
+    monkeypatch.setattr(client, "connect", refused_first)
+    monkeypatch.setattr(client, "LISTEN_POLL_S", 0.0)
+    with connect_once_listening("127.0.0.1", port, timeout=60.0) as sock:
+        assert sock.getpeername() == ("127.0.0.1", port)
+    assert tries == [port, port]
+
+
+def test_nothing_listening_is_a_timeout() -> None:
+    with socket.socket() as bound:  # bound, not listening: a connection is refused
+        bound.bind(("127.0.0.1", 0))
+        with pytest.raises(TimeoutError, match="nothing listened"):
+            connect_once_listening("127.0.0.1", bound.getsockname()[1], timeout=0.0)

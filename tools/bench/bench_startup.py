@@ -65,8 +65,11 @@ def milestones(cell: RunningCell) -> dict[str, float]:
     with StateListener(cell.host, cell.port_base + 1, cell.byte_order).start() as state:
         first = state.wait_for(lambda f: f.status is not None, TIMEOUT_S)
     first_status = (first.received_ns - spawned) / 1e6
-    wait_until(lambda: connectable(cell.host, cell.port_base), TIMEOUT_S, "motion port")
-    with MotionClient(cell.host, cell.port_base, cell.byte_order) as motion:
+    # Connected once, as a client would: a probe first would make the gateway keep this one
+    # waiting while it closes the probe (MotoROS's 50 ms pause, ``testing.client``).
+    with MotionClient.once_listening(
+        cell.host, cell.port_base, cell.byte_order, TIMEOUT_S
+    ) as motion:
         while True:
             reply = motion.command(Command.CHECK_MOTION_READY)
             if reply.subcode != NotReadySubcode.INC_MOVE_ERROR:

@@ -8,14 +8,17 @@ from typing import cast
 import pytest
 
 from motocell.services.launcher.up import warm_starter
-from motocell.services.launcher.warm_parent import WARM_MODULES, StartedZygote, started_zygote
+from motocell.services.launcher.warm_parent import StartedZygote, started_zygote
 from motocell.shared.service import StopFlag
-from motocell.shared.service_names import ROS2_FACE, ServiceName
+from motocell.shared.service_names import ROS2_FACE, WARM_MODULES, ServiceName
 from motocell.shared.signals import STOP_SIGNALS, hold_stop_signals, release_stop_signals
 from motocell.testing.processes import wait_until
 from tests.tools.test_cli import loaded_after
 
-HEAVY = {"zenoh", "msgspec", "numpy", "motocell.shared.config", "motocell.shared.service"}
+HEAVY = {
+    *("zenoh", "msgspec", "numpy", "dataclasses", "logging", "argparse"),
+    *("motocell.shared.config", "motocell.shared.service", "motocell.shared.service_names"),
+}
 """What the launcher loads after the zygote has started: loaded before, it would delay it."""
 DEADLINE_S = 30.0
 """For a hang: the zygote releases them within a few tenths of a second."""
@@ -34,9 +37,11 @@ def test_the_zygote_holds_every_service_but_the_ros2_face() -> None:
 
 
 @pytest.mark.cell
-def test_starting_it_loads_nothing_heavy(tmp_path: Path) -> None:
-    code = "import motocell.services.launcher.warm_parent"
-    assert loaded_after(code, HEAVY, tmp_path) == []
+@pytest.mark.parametrize(
+    "module", ["motocell.services.launcher.warm_parent", "motocell.services.launcher.__main__"]
+)
+def test_starting_it_loads_nothing_heavy(module: str, tmp_path: Path) -> None:
+    assert loaded_after(f"import {module}", HEAVY, tmp_path) == []
 
 
 def blocked_signals(pid: int) -> int:
