@@ -65,6 +65,7 @@ def main(argv: Sequence[str] | None = None) -> None:
             moving=moving,
             on_disconnect=motion.disconnected,
             observe=stats.observe,
+            reply_priority=True,
         )
         io_server = RequestServer(
             name="io",

@@ -2,7 +2,8 @@
 the handlers.
 
 A thread per connection keeps the reply path short: recv, decode, decide, send, with no event
-loop hop in between; it runs a step above the rest of the cell (``enter_reply_priority``).
+loop hop in between; the motion port's runs a step above the rest of the cell
+(``reply_priority``).
 Connection limits and take-over follow MotoROS 1.9.4+ (motoros1 §2.1, motoros1 §8).
 
 Replies are written as each request is answered, by the connection's own thread, and nothing
@@ -26,10 +27,10 @@ from collections.abc import Callable
 from typing import Protocol
 
 from motocell.services.gateway.core.response import Response
+from motocell.services.gateway.reply_priority import ReplyPriority
 from motocell.shared.protocol.codec import CLOSED, NEED_DATA, ByteOrder, Role, SimpleMessageCodec
 from motocell.shared.protocol.errors import PeerProtocolError
 from motocell.shared.protocol.messages import Message, UnknownMessage
-from motocell.shared.realtime import enter_reply_priority
 
 log = logging.getLogger("gateway")
 
@@ -53,7 +54,7 @@ ErrorReply = Callable[[PeerProtocolError], Message]
 class Stream(Protocol):
     """What a connection needs of its socket."""
 
-    def recv(self, size: int, /) -> bytes: ...
+    def recv(self, size: int, flags: int = 0, /) -> bytes: ...
 
     def sendall(self, data: bytes, /) -> None: ...
 
@@ -104,14 +105,17 @@ def serve_requests(
     respond: Respond,
     error_reply: ErrorReply,
     observe: Observe = lambda msg_type, reply, elapsed_ns: None,
+    *,
+    priority: ReplyPriority | None = None,
 ) -> None:
     """Answer every request exactly once, in order, until the peer closes or a handler says
     to close. Garbage gets its INVALID reply and the connection is kept. ``observe`` learns
-    each request's type, reply and time from decoded request to written reply."""
+    each request's type, reply and time from decoded request to written reply; ``priority``
+    whether the thread waits for its client between reads."""
     codec = SimpleMessageCodec(Role.CONTROLLER, byte_order)
     while True:
         try:
-            data = client.recv(RECV_BYTES)
+            data = _read(client, priority)
         except OSError:
             return
         codec.receive_data(data)
@@ -142,6 +146,20 @@ def serve_requests(
                     response.then()
             if response.close:
                 return
+
+
+def _read(client: Stream, priority: ReplyPriority | None) -> bytes:
+    """What the client sent; while the thread holds the reply priority, first without waiting,
+    to tell ``priority`` whether a request was there already."""
+    if priority is None or not priority.raised:
+        return client.recv(RECV_BYTES)
+    try:
+        data = client.recv(RECV_BYTES, socket.MSG_DONTWAIT)
+    except BlockingIOError:
+        priority.waiting()
+        return client.recv(RECV_BYTES)
+    priority.busy()
+    return data
 
 
 class Connection:
@@ -179,7 +197,10 @@ class RequestServer:
         on_disconnect: Callable[[], object] = lambda: None,
         on_change: Callable[[], object] = lambda: None,
         observe: Observe = lambda msg_type, reply, elapsed_ns: None,
+        reply_priority: bool = False,
     ) -> None:
+        """``reply_priority``: its connection threads answer at the reply priority (the motion
+        port's, whose points set off the work a next request would otherwise wait behind)."""
         self.name = name
         self.listener = listener
         self.byte_order = byte_order
@@ -189,6 +210,7 @@ class RequestServer:
         self.on_disconnect = on_disconnect
         self.on_change = on_change
         self.observe = observe
+        self.reply_priority = reply_priority
         self.current: Connection | None = None
         self._stopping = threading.Event()
         self._accepting: threading.Thread | None = None
@@ -240,11 +262,20 @@ class RequestServer:
         self.on_change()
 
     def _serve(self, client: Stream, peer: tuple[str, int]) -> None:
-        # Above the rest of the cell: a request then preempts the interpolating and routing the
-        # previous point set off, instead of queueing behind it (docs/reply-path.md).
-        enter_reply_priority()
+        priority = ReplyPriority()
+        if self.reply_priority:
+            # Above the rest of the cell: a request then preempts the interpolating and routing
+            # the previous point set off, instead of queueing behind it (docs/reply-path.md).
+            priority.enter()
         try:
-            serve_requests(client, self.byte_order, self.respond, self.error_reply, self.observe)
+            serve_requests(
+                client,
+                self.byte_order,
+                self.respond,
+                self.error_reply,
+                self.observe,
+                priority=priority,
+            )
         except OSError as exc:
             log.info("%s: %s:%d: %s", self.name, *peer, exc)
         finally:

@@ -82,7 +82,7 @@ class ScriptedStream:
         self.send_error = send_error
         self.closed = False
 
-    def recv(self, size: int, /) -> bytes:
+    def recv(self, size: int, flags: int = 0, /) -> bytes:
         if not self.reads:
             return b""
         item = self.reads.pop(0)
@@ -197,7 +197,7 @@ class PipeStream:
         self.closed = False
 
     # the server's side
-    def recv(self, size: int, /) -> bytes:
+    def recv(self, size: int, flags: int = 0, /) -> bytes:
         with self._changed:
             self._changed.wait_for(lambda: self._inbound or self._peer_closed or self._shut)
             data = bytes(self._inbound[:size])
