@@ -8,6 +8,7 @@ never run at the priority of the running cells' threads."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import time
 from collections.abc import Iterator
@@ -57,7 +58,8 @@ def policies(pid: int) -> dict[int, tuple[int, int]]:
     found = {}
     for task in Path(f"/proc/{pid}/task").iterdir():
         tid = int(task.name)
-        found[tid] = (os.sched_getscheduler(tid), os.sched_getparam(tid).sched_priority)
+        with contextlib.suppress(ProcessLookupError):  # a thread that ended since the listing
+            found[tid] = (os.sched_getscheduler(tid), os.sched_getparam(tid).sched_priority)
     return found
 
 
