@@ -79,6 +79,10 @@ class Bus(Protocol):
 
     def latest(self, key: str) -> Latest: ...
 
+    def subscribe(self, key: str, on_sample: Callable[[object], None]) -> Declared:
+        """``on_sample`` runs on the bus's threads, once per sample: it must only hand it on."""
+        ...
+
     def publisher(self, key: str, *, realtime: bool = False, latest: bool = False) -> Publication:
         """As ``shared.bus.session.publisher``."""
         ...
@@ -106,6 +110,11 @@ class ZenohBus:
 
     def latest(self, key: str) -> Latest:
         return ZenohLatest(self._session, key)
+
+    def subscribe(self, key: str, on_sample: Callable[[object], None]) -> Declared:
+        return self._session.declare_subscriber(
+            key, zenoh.handlers.Callback(on_sample, indirect=False)
+        )
 
     def publisher(self, key: str, *, realtime: bool = False, latest: bool = False) -> Publication:
         return ZenohPublication(publisher(self._session, key, realtime=realtime, latest=latest))

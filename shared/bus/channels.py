@@ -143,6 +143,15 @@ class Parking:
         poller.poll()
         self._drain()
 
+    def fileno(self) -> int:
+        """Readable once a sample came while parked: for an owner that polls it beside other
+        descriptors of its own, and then calls ``clear``."""
+        return self._read
+
+    def clear(self) -> None:
+        """Forget the samples told so far (the owner reads its channel next)."""
+        self._drain()
+
     def unpark(self) -> None:
         """Cheap when not parked: the interpolator calls it for every point it reads."""
         if self._subscription is None:

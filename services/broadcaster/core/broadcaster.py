@@ -78,6 +78,7 @@ class Broadcaster:
         self.beats = {
             Beat.STATE_PERIOD: self.state_period_s,
             Beat.REST_HEARTBEAT: AT_REST_HEARTBEAT_S,
+            Beat.REST_SILENCE: AT_REST_HEARTBEAT_S + self.silence_s,
             Beat.SILENCE: self.silence_s,
         }
         self.pacing = Pacing.WAITING

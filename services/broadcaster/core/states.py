@@ -55,6 +55,7 @@ class Beat(_Member):
 
     STATE_PERIOD = "the cell's state period"
     REST_HEARTBEAT = "AT_REST_HEARTBEAT_S"
+    REST_SILENCE = "AT_REST_HEARTBEAT_S plus silence_s: the executor's next resting tick overdue"
     SILENCE = "silence_s: ticks unheard this long while the executor's clock runs"
 
 
@@ -79,13 +80,13 @@ class PacingStep:
 
 
 _ON_TICK = PacingStep(Pacing.TICKS, Sends.TICK_ON_SCHEDULE, Beat.SILENCE)
-# The executor sends its resting tick again every AT_REST_HEARTBEAT_S. Its next beat is a rest
-# heartbeat away, not a state period: for observers alone the resent tick and a beat of the
-# broadcaster's own would be two states 10 ms apart each second. Asleep at rest, the
-# broadcaster takes the resent tick (or a moving one) when it wakes for that beat, so observers
-# get one state a second; a client is still paced at the state period, the (AT_REST,
-# WAKE_WITH_CLIENTS) row's due_within bringing the beat in.
-_ON_RESTING_TICK = PacingStep(Pacing.AT_REST, Sends.TICK, Beat.REST_HEARTBEAT)
+# The executor sends its resting tick again every AT_REST_HEARTBEAT_S, and a resting
+# broadcaster wakes for it (``ticks.TickSource`` sleeps parked on the tick key): that resent tick
+# is the observers' beat. The broadcaster's own beat is for one that does not come (an executor
+# gone at rest); at a heartbeat instead it would race the resent tick, two states a few
+# milliseconds apart. A client is still paced at the state period: the (AT_REST,
+# WAKE_WITH_CLIENTS) row's due_within brings the beat in.
+_ON_RESTING_TICK = PacingStep(Pacing.AT_REST, Sends.TICK, Beat.REST_SILENCE)
 _NOTHING_YET = PacingStep(Pacing.WAITING, Sends.NOTHING, None)
 _SILENCE_FOUND = PacingStep(Pacing.SILENT, Sends.LAST_TICK_ON_BEAT, Beat.SILENCE, BeatFrom.NOW)
 _SILENT_BEAT = PacingStep(Pacing.SILENT, Sends.LAST_TICK_ON_BEAT, Beat.SILENCE, BeatFrom.DUE_TIME)

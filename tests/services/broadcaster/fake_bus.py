@@ -49,12 +49,16 @@ class FakeTokens:
 
 @dataclass
 class FakeServed:
+    """A declared queryable (or callback subscriber)."""
+
     key: str
     reply: Callable[[], CommandReply]
     undeclared: bool = False
+    on_undeclare: Callable[[], None] = lambda: None
 
     def undeclare(self) -> None:
         self.undeclared = True
+        self.on_undeclare()
 
 
 @dataclass
@@ -64,6 +68,7 @@ class FakeBus:
     publications: dict[str, FakePublication] = field(default_factory=dict)
     watched: dict[str, FakeTokens] = field(default_factory=dict)
     served: dict[str, FakeServed] = field(default_factory=dict)
+    callbacks: dict[str, list[Callable[[object], None]]] = field(default_factory=dict)
 
     # -- Bus -------------------------------------------------------------------------------
     def channel(self, key: str, size: int) -> FakeChannel:
@@ -83,6 +88,17 @@ class FakeBus:
     def serve(self, key: str, reply: Callable[[], CommandReply]) -> FakeServed:
         return self.served.setdefault(key, FakeServed(key, reply))
 
+    def subscribe(self, key: str, on_sample: Callable[[object], None]) -> FakeServed:
+        """A callback subscriber, run on the publishing thread as Zenoh runs it on its own."""
+        callbacks = self.callbacks.setdefault(key, [])
+        callbacks.append(on_sample)
+
+        def undeclared() -> CommandReply:
+            raise AssertionError("a subscriber answers nothing")
+
+        served = FakeServed(key, undeclared, on_undeclare=lambda: callbacks.remove(on_sample))
+        return served
+
     # -- the rest of the cell --------------------------------------------------------------
     def publish(self, key: str, payload: bytes) -> None:
         """A sample arrives on ``key``: into its channel or latest-value subscription."""
@@ -90,6 +106,8 @@ class FakeBus:
             self.channels[key].put(payload)
         if key in self.latests:
             self.latests[key].put(payload)
+        for callback in list(self.callbacks.get(key, [])):
+            callback(payload)
 
 
 class ScriptedTicks:

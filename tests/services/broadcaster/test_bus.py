@@ -6,6 +6,7 @@ shells run against the scripted bus in the other tests."""
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -93,6 +94,44 @@ def test_the_executors_ticks_reach_the_tick_source(tmp_path: Path) -> None:
                 "the newest, taken without blocking",
             )
         finally:
+            stop.set()
+            source.close()
+            ticks.undeclare()
+
+
+def test_at_rest_a_tick_through_the_router_ends_the_sleep(tmp_path: Path) -> None:
+    """Parked on the tick key (a callback subscriber the cell's access rules allow): a tick that
+    comes while the reader sleeps wakes it long before its deadline."""
+    with cell_bus(tmp_path, Role.BROADCASTER, Role.EXECUTOR) as (broadcaster, executor):
+        stop = StopFlag()
+        source = TickSource(ZenohBus(broadcaster), KEYS, stop)
+        source.start()
+        ticks = publisher(executor, KEYS.executor_tick, latest=True)
+        sent = [0]
+
+        def another_tick() -> bool:
+            sent[0] += 1
+            ticks.put(encode(tick(sent[0])))
+            return source.next(time.monotonic() + SOON_S, ticks_expected=True) is not None
+
+        pouring = threading.Event()
+
+        def pour() -> None:  # from now on, a tick every 20 ms, while the reader sleeps
+            while not pouring.wait(0.02):
+                ticks.put(encode(tick(1000)))
+
+        pourer = threading.Thread(target=pour)
+        try:
+            wait_until(another_tick, 10.0, "a tick")  # the subscription reached the router
+            pourer.start()
+            started = time.monotonic()
+            got = source.next(started + 30.0, ticks_expected=False)
+            assert got is not None and got.tick == 1000
+            assert time.monotonic() - started < 30.0
+        finally:
+            pouring.set()
+            if pourer.is_alive():
+                pourer.join()
             stop.set()
             source.close()
             ticks.undeclare()

@@ -260,8 +260,8 @@ def test_run_cycles_until_stopped() -> None:
 
 class RestingExecutor:
     """A ``TickFeed`` of a resting executor, as ``ticks.TickSource`` reads one: at rest the
-    loop sleeps until its deadline, then takes the tick that came meanwhile, the resting tick
-    the executor sends again every ``resent_s`` (from ``first``, and never after ``gone_at``)."""
+    loop sleeps until its deadline or until a tick comes, whichever is first: the resting tick
+    the executor sends again every ``resent_s`` (from 0, and never after ``gone_at``)."""
 
     def __init__(self, first: Tick, resent_s: float, gone_at: float) -> None:
         self.tick = first
@@ -273,10 +273,12 @@ class RestingExecutor:
     def next(self, deadline: float | None, ticks_expected: bool) -> Tick | None:
         """Before the first tick the loop waits for one (no deadline): it comes at 0."""
         assert deadline is not None or self.now == 0.0, "a resting loop always has a beat"
-        self.now = self.now if deadline is None else deadline
-        if self._next <= self.now < self.gone_at:
+        if self._next < self.gone_at and (deadline is None or self._next <= deadline):
+            self.now = self._next
             self._next += self.resent_s
             return self.tick
+        assert deadline is not None
+        self.now = deadline
         return None
 
 
@@ -300,4 +302,5 @@ def test_at_rest_observers_get_one_state_a_second_also_once_the_executor_is_gone
         loop.cycle()
         if len(state.payloads) > published:
             sent_at.append(ticks.now)
-    assert sent_at == pytest.approx([0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
+    gone = 3.0 + 1.0 + 0.05  # a heartbeat and the silence after the last resting tick
+    assert sent_at == pytest.approx([0.0, 1.0, 2.0, 3.0, gone, gone + 1.0, gone + 2.0])

@@ -4,6 +4,7 @@ doorbell while ticks are expected, by its own sleep at rest), when rung and at s
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Iterator
 
@@ -11,7 +12,7 @@ import pytest
 
 from motocell.services.broadcaster.ticks import CHANNEL_SIZE, TickSource
 from motocell.shared.bus.keys import CellKeys
-from motocell.shared.bus.schemas import encode
+from motocell.shared.bus.schemas import Tick, encode
 from motocell.shared.service import StopFlag
 from tests.services.broadcaster.fake_bus import FakeBus
 from tests.services.broadcaster.scripted import tick
@@ -19,6 +20,8 @@ from tests.services.fakes import FakeChannel
 
 KEYS = CellKeys("c1")
 SOON_S = 0.05
+WAIT_S = 5.0
+"""Deadline for what another thread is expected to do soon (generous for a loaded host)."""
 
 
 @pytest.fixture
@@ -100,3 +103,37 @@ def test_stop_wakes_the_reader(bus: FakeBus, ticks_expected: bool) -> None:
     assert source.next(None, ticks_expected) is None
     source.close()
     assert channel(bus).closed
+
+
+def test_at_rest_a_tick_ends_the_sleep_at_once(bus: FakeBus, source: TickSource) -> None:
+    """Parked on the tick key: the resent resting tick, or a motion's first, is taken when it
+    comes, not at the next beat."""
+    got: list[Tick | None] = []
+    sleeping = threading.Thread(
+        target=lambda: got.append(source.next(time.monotonic() + 60, ticks_expected=False))
+    )
+    sleeping.start()
+    deadline = time.monotonic() + WAIT_S
+    while not bus.callbacks.get(KEYS.executor_tick):
+        assert time.monotonic() < deadline, "the resting reader never parked"
+        time.sleep(0.001)
+    bus.publish(KEYS.executor_tick, encode(tick(5)))
+    sleeping.join(WAIT_S)
+    assert not sleeping.is_alive()
+    assert [t.tick for t in got if t is not None] == [5]
+    assert source.next(time.monotonic(), ticks_expected=True) is None
+    assert not bus.callbacks.get(KEYS.executor_tick), "unparked once ticks are expected"
+
+
+def test_at_rest_a_tick_that_came_before_the_sleep_ends_it_at_once(
+    bus: FakeBus, source: TickSource
+) -> None:
+    bus.publish(KEYS.executor_tick, encode(tick(6)))
+    got: list[Tick | None] = []
+    sleeping = threading.Thread(
+        target=lambda: got.append(source.next(time.monotonic() + 60, ticks_expected=False))
+    )
+    sleeping.start()
+    sleeping.join(WAIT_S)
+    assert not sleeping.is_alive()
+    assert [t.tick for t in got if t is not None] == [6]

@@ -3,6 +3,8 @@ router on loopback: it must behave as the scripted bus of the other tests does."
 
 from __future__ import annotations
 
+import threading
+
 import zenoh
 
 from motocell.services.interpolator.bus import ZenohBus
@@ -90,3 +92,19 @@ def test_a_query_is_answered_with_the_payload_of_the_moment(
     now[0] = b"\x91\x05"
     assert ask() == [b"\x91\x05"]
     answering.undeclare()
+
+
+def test_a_callback_subscriber_is_called_for_each_sample_until_undeclared(
+    sessions: tuple[zenoh.Session, zenoh.Session],
+) -> None:
+    sender, receiver = sessions
+    called = threading.Semaphore(0)
+    subscriber = ZenohBus(receiver).subscribe(KEY, lambda _sample: called.release())
+    publisher = ZenohBus(sender).publisher(KEY, realtime=True)
+    wait_until(publisher.observed, WAIT_S, "the subscriber matched")
+    publisher.put(b"\x91\x01")
+    publisher.put(b"\x91\x02")
+    assert called.acquire(timeout=WAIT_S)
+    assert called.acquire(timeout=WAIT_S)
+    subscriber.undeclare()
+    wait_until(lambda: not publisher.observed(), WAIT_S, "the subscriber gone")

@@ -8,6 +8,7 @@ import pytest
 from motocell.services.broadcaster.core.broadcaster import Broadcaster
 from motocell.services.broadcaster.core.joints import JointStates
 from motocell.services.broadcaster.core.states import Pacing
+from motocell.shared.bus.liveness import AT_REST_HEARTBEAT_S
 from motocell.shared.protocol.constants import Result
 from tests.services.broadcaster.scripted import (
     MS,
@@ -133,22 +134,23 @@ def test_at_rest_clients_get_a_state_every_state_period() -> None:
 
 
 def test_at_rest_without_clients_observers_get_one_state_a_second() -> None:
-    """As the resting loop drives it: asleep until the next beat, then the tick that came
-    meanwhile, if any (the executor's resting tick, sent again every rest heartbeat)."""
+    """The executor's resting tick, again every rest heartbeat, is the observers' beat; the
+    broadcaster beats by itself only when one does not come."""
     broadcaster = Broadcaster(cell(state_period_ms=10), FakeController())
-    broadcaster.on_tick(resting_tick(), 0.0)
-    sent = [0.0]
-    for resent in (1.0, 2.0, 3.0):
-        wake = broadcaster.next_wake(sent[-1], clients=False)
-        assert wake is not None
-        assert wake == pytest.approx(resent)
-        assert broadcaster.on_tick(resting_tick(), wake) is not None
-        sent.append(wake)
-    wake = broadcaster.next_wake(sent[-1], clients=False)  # no resting tick came by this beat
-    assert wake is not None
-    assert wake == pytest.approx(4.0)
-    assert broadcaster.on_wake(wake, clients=False) is not None
-    assert broadcaster.next_wake(wake, clients=False) == pytest.approx(5.0)
+    silence = broadcaster.silence_s
+    sent = []
+    for resent in (0.0, AT_REST_HEARTBEAT_S, 2 * AT_REST_HEARTBEAT_S):
+        for wake in (resent + 0.01, resent + AT_REST_HEARTBEAT_S / 2):
+            if broadcaster.on_wake(wake, clients=False) is not None:
+                sent.append(wake)
+        if broadcaster.on_tick(resting_tick(), resent + AT_REST_HEARTBEAT_S) is not None:
+            sent.append(resent + AT_REST_HEARTBEAT_S)
+    assert sent == pytest.approx([1.0, 2.0, 3.0])
+    gone = 3.0 + AT_REST_HEARTBEAT_S + silence  # no resting tick since: the executor went
+    assert broadcaster.next_wake(3.0, clients=False) == pytest.approx(gone)
+    assert broadcaster.on_wake(gone, clients=False) is not None
+    following = gone + AT_REST_HEARTBEAT_S
+    assert broadcaster.next_wake(gone, clients=False) == pytest.approx(following)
 
 
 def test_a_client_connecting_at_rest_gets_a_state_at_once() -> None:

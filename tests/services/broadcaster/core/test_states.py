@@ -53,6 +53,11 @@ def into(pacing: Pacing) -> Broadcaster:
     return broadcaster
 
 
+def rest_silence(broadcaster: Broadcaster) -> float:
+    """How long after a resting tick observers' beat waits for the executor's next one."""
+    return AT_REST_HEARTBEAT_S + broadcaster.silence_s
+
+
 def pacing(broadcaster: Broadcaster) -> Pacing:
     """Read afresh: a check of the pacing before an event does not hold after it."""
     return broadcaster.pacing
@@ -80,7 +85,7 @@ def test_a_first_tick_that_rests_is_sent_and_beats_a_state_period_later() -> Non
     assert sent(broadcaster.on_tick(resting_tick(), T0)).tick == 9
     assert broadcaster.pacing is Pacing.AT_REST
     assert broadcaster.next_wake(T0, clients=True) == pytest.approx(T0 + PERIOD_S)
-    assert broadcaster.next_wake(T0, clients=False) == pytest.approx(T0 + AT_REST_HEARTBEAT_S)
+    assert broadcaster.next_wake(T0, clients=False) == pytest.approx(T0 + rest_silence(broadcaster))
 
 
 @row(Pacing.WAITING, PacingEvent.WAKE_WITH_CLIENTS)
@@ -163,7 +168,7 @@ def test_a_resting_tick_after_silence_is_sent_and_beats_a_state_period_later() -
     assert sent(broadcaster.on_tick(resting_tick(2), T0 + 0.001)).tick == 2
     assert broadcaster.pacing is Pacing.AT_REST
     assert broadcaster.next_wake(T0 + 0.001, clients=True) == pytest.approx(T0 + 0.001 + PERIOD_S)
-    following = T0 + 0.001 + AT_REST_HEARTBEAT_S
+    following = T0 + 0.001 + rest_silence(broadcaster)
     assert broadcaster.next_wake(T0 + 0.001, clients=False) == pytest.approx(following)
 
 
@@ -204,21 +209,23 @@ def test_the_first_tick_after_a_rest_is_sent_and_ends_the_beats() -> None:
 
 
 @row(Pacing.AT_REST, PacingEvent.RESTING_TICK)
-def test_a_resting_tick_again_is_sent_and_the_next_beat_is_a_rest_heartbeat_away() -> None:
+def test_a_resting_tick_again_is_sent_and_the_next_beat_waits_for_the_one_after() -> None:
     """The executor republishes its resting tick every rest heartbeat (for a broadcaster that
-    joined since, with the readiness as it is now). Observers alone get it at the beat it sets,
-    where the resting broadcaster wakes and takes the next resent one: one state a second, not
-    the tick and a beat of the broadcaster's own a state period after it. A client still gets
-    every state period."""
+    joined since, with the readiness as it is now): observers get one state a second, not the
+    tick and a beat of the broadcaster's own after it; a client still gets every period."""
     broadcaster = into(Pacing.AT_REST)
     assert sent(broadcaster.on_tick(resting_tick(9), T0 + 0.5)).seq == 2
     assert broadcaster.pacing is Pacing.AT_REST
     assert broadcaster.next_wake(T0 + 0.5, clients=True) == pytest.approx(T0 + 0.5 + PERIOD_S)
+    resent = T0 + 0.5 + AT_REST_HEARTBEAT_S
     assert broadcaster.on_wake(T0 + 0.5 + PERIOD_S, clients=False) is None
-    beat = T0 + 0.5 + AT_REST_HEARTBEAT_S
-    assert broadcaster.next_wake(T0 + 0.5, clients=False) == pytest.approx(beat)
-    assert sent(broadcaster.on_tick(resting_tick(9), beat)).seq == 3
-    assert broadcaster.next_wake(beat, clients=False) == pytest.approx(beat + AT_REST_HEARTBEAT_S)
+    overdue = T0 + 0.5 + rest_silence(broadcaster)
+    assert broadcaster.next_wake(T0 + 0.5, clients=False) == pytest.approx(overdue)
+    assert overdue > resent
+    assert sent(broadcaster.on_tick(resting_tick(9), resent)).seq == 3
+    assert broadcaster.next_wake(resent, clients=False) == pytest.approx(
+        resent + rest_silence(broadcaster)
+    )
 
 
 @row(Pacing.AT_REST, PacingEvent.WAKE_WITH_CLIENTS)
@@ -238,18 +245,18 @@ def test_at_rest_a_client_gets_the_last_tick_every_state_period_and_at_once_on_a
 
 
 @row(Pacing.AT_REST, PacingEvent.WAKE_WITHOUT_CLIENTS)
-def test_at_rest_observers_only_get_the_last_tick_every_rest_heartbeat() -> None:
-    """When no resting tick came by the beat (an executor gone at rest), from the broadcaster's
-    own clock."""
+def test_at_rest_observers_only_get_the_last_tick_once_the_next_resting_tick_is_overdue() -> None:
+    """Then every rest heartbeat, from the broadcaster's own clock."""
     broadcaster = into(Pacing.AT_REST)
     assert broadcaster.on_wake(T0 + PERIOD_S, clients=False) is None
     assert broadcaster.on_wake(T0 + 0.5, clients=False) is None
-    beat = T0 + AT_REST_HEARTBEAT_S
-    assert broadcaster.next_wake(T0 + 0.5, clients=False) == pytest.approx(beat)
-    late = beat + 0.002  # the next beat keeps the rate: counted from the due time
+    overdue = T0 + rest_silence(broadcaster)
+    assert broadcaster.next_wake(T0 + 0.5, clients=False) == pytest.approx(overdue)
+    late = overdue + 0.002  # the next beat keeps the rate: counted from the due time
     assert sent(broadcaster.on_wake(late, clients=False)).tick == 9
     assert broadcaster.pacing is Pacing.AT_REST
-    assert broadcaster.next_wake(late, clients=False) == pytest.approx(beat + AT_REST_HEARTBEAT_S)
+    following = overdue + AT_REST_HEARTBEAT_S
+    assert broadcaster.next_wake(late, clients=False) == pytest.approx(following)
     assert broadcaster.on_wake(late + 0.5, clients=False) is None
 
 
