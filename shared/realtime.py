@@ -1,8 +1,8 @@
 """Real-time scheduling: the executor's clock (SCHED_FIFO, where it may run), every other thread
-of a cell's processes (SCHED_RR below the clock, the gateway's connection threads a step above
-the rest), and the one command that allows both. The executor applies the clock's
+of a cell's processes (SCHED_RR below the clock, the gateway's motion connection thread a step
+above the rest), and the one command that allows both. The executor applies the clock's
 (``services/executor/loop.py``), every service and the launcher's router their own
-(``enter_service_priority``), the gateway's connection threads theirs (``enter_reply_priority``);
+(``enter_service_priority``), the motion connection thread its own (``enter_reply_priority``);
 the launcher, ``motocell ps`` and ``motocell watch`` show the command when they run without
 (docs/realtime.md).
 """
@@ -28,8 +28,9 @@ carries them) into stopping motion; below the clock, which preempts them all. Me
 docs/realtime.md, "The other threads: SCHED_RR 10"."""
 
 REPLY_PRIORITY = 20
-"""The SCHED_RR priority of the gateway's connection threads, the ones that answer a client's
-request: above the rest of the cell (SERVICE_PRIORITY), so that a request preempts the
+"""The SCHED_RR priority of the gateway's motion connection thread, the one that answers the
+motion port's client, while that client keeps it waiting (``services/gateway/reply_priority.py``):
+above the rest of the cell (SERVICE_PRIORITY), so that a request preempts the
 interpolating, broadcasting and routing its previous point set off instead of waiting for a CPU
 behind them; below the clock. Measured: docs/reply-path.md, "The reply's priority"."""
 
@@ -78,7 +79,7 @@ def enter_service_priority(log: logging.Logger, *, quiet: bool = False) -> bool:
     if not sys.platform.startswith("linux"):
         return False
     try:
-        os.sched_setscheduler(0, os.SCHED_RR, os.sched_param(SERVICE_PRIORITY))
+        round_robin(SERVICE_PRIORITY)
     except OSError as exc:
         log.log(
             logging.DEBUG if quiet else logging.WARNING,
@@ -106,10 +107,15 @@ def enter_reply_priority() -> bool:
     ):
         return False
     try:
-        os.sched_setscheduler(0, os.SCHED_RR, os.sched_param(REPLY_PRIORITY))
+        round_robin(REPLY_PRIORITY)
     except OSError:
         return False
     return True
+
+
+def round_robin(priority: int) -> None:
+    """SCHED_RR ``priority`` for the calling thread (OSError where it is refused)."""
+    os.sched_setscheduler(0, os.SCHED_RR, os.sched_param(priority))
 
 
 def leave_service_priority() -> None:

@@ -25,6 +25,7 @@ from motocell.shared.bus.adapters import (
     ZenohChannel,
     ZenohLatest,
     ZenohPublication,
+    callback_subscriber,
 )
 from motocell.shared.bus.schemas import CommandReply, Tick
 from motocell.shared.bus.session import Liveness, answer, publisher
@@ -112,9 +113,7 @@ class ZenohBus:
         return ZenohLatest(self._session, key)
 
     def subscribe(self, key: str, on_sample: Callable[[object], None]) -> Declared:
-        return self._session.declare_subscriber(
-            key, zenoh.handlers.Callback(on_sample, indirect=False)
-        )
+        return callback_subscriber(self._session, key, on_sample)
 
     def publisher(self, key: str, *, realtime: bool = False, latest: bool = False) -> Publication:
         return ZenohPublication(publisher(self._session, key, realtime=realtime, latest=latest))

@@ -19,7 +19,12 @@ from typing import Protocol
 
 import zenoh
 
-from motocell.shared.bus.adapters import Declared, Publication, ZenohPublication
+from motocell.shared.bus.adapters import (
+    Declared,
+    Publication,
+    ZenohPublication,
+    callback_subscriber,
+)
 from motocell.shared.bus.channels import Doorbell as ZenohDoorbell
 from motocell.shared.bus.schemas import (
     CommandReply,
@@ -254,9 +259,7 @@ class ZenohBus:
         return self._session.declare_subscriber(key, zenoh.handlers.FifoChannel(depth))
 
     def subscribe(self, key: str, on_sample: Callable[[Sample], None]) -> Declared:
-        return self._session.declare_subscriber(
-            key, zenoh.handlers.Callback(on_sample, indirect=False)
-        )
+        return callback_subscriber(self._session, key, on_sample)
 
     def queryable(self, key: str, on_query: Callable[[Query], None]) -> Declared:
         def on_zenoh_query(query: zenoh.Query) -> None:

@@ -119,10 +119,7 @@ class Inputs:
             if self._statuses or self._stops:
                 return  # arrived before the flag was up
             self._waker.wake_at(deadline_s)
-            self._parking.park()
-            self._woken_by = self._points.try_recv()  # it may have come before the parking
-            if self._woken_by is None:
-                self._parking.wait()
+            self._woken_by = self._parking.park_and_wait(self._points.try_recv)
         finally:
             self._resting = False
 

@@ -12,20 +12,20 @@ priority again the next time it has to wait.
 
 from __future__ import annotations
 
-import os
 import time
 from collections.abc import Callable
 
-from motocell.shared.realtime import REPLY_PRIORITY, SERVICE_PRIORITY, enter_reply_priority
+from motocell.shared.realtime import (
+    REPLY_PRIORITY,
+    SERVICE_PRIORITY,
+    enter_reply_priority,
+    round_robin,
+)
 
 BUSY_S = 0.02
 """How long a connection thread may read without once waiting before it gives way: five
 interpolation periods, far above a request-reply client's turn (a fraction of a millisecond),
 far below the stall bound of a cell it would starve (docs/timing.md)."""
-
-
-def _round_robin(priority: int) -> None:
-    os.sched_setscheduler(0, os.SCHED_RR, os.sched_param(priority))
 
 
 class ReplyPriority:
@@ -36,7 +36,7 @@ class ReplyPriority:
         self,
         *,
         clock: Callable[[], float] = time.monotonic,
-        set_priority: Callable[[int], None] = _round_robin,
+        set_priority: Callable[[int], None] = round_robin,
     ) -> None:
         self._clock = clock
         self._set_priority = set_priority

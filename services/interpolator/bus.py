@@ -13,7 +13,12 @@ from typing import Protocol
 
 import zenoh
 
-from motocell.shared.bus.adapters import Declared, Publication, ZenohPublication
+from motocell.shared.bus.adapters import (
+    Declared,
+    Publication,
+    ZenohPublication,
+    callback_subscriber,
+)
 from motocell.shared.bus.channels import Channel as ZenohChannel
 from motocell.shared.bus.channels import Doorbell as ZenohDoorbell
 from motocell.shared.bus.session import ENCODING, publisher
@@ -97,9 +102,7 @@ class ZenohBus:
         return ZenohDoorbell(self._session, key)
 
     def subscribe(self, key: str, on_sample: Callable[[object], None]) -> Declared:
-        return self._session.declare_subscriber(
-            key, zenoh.handlers.Callback(on_sample, indirect=False)
-        )
+        return callback_subscriber(self._session, key, on_sample)
 
     def publisher(self, key: str, *, realtime: bool = False, latest: bool = False) -> Publication:
         return ZenohPublication(publisher(self._session, key, realtime=realtime, latest=latest))

@@ -116,10 +116,7 @@ class Inputs:
             self._woken_by = self._points.recv()
             return
         self._waker.wake_at(deadline)
-        self._parking.park()
-        self._woken_by = self._points.try_recv()  # it may have come before the parking
-        if self._woken_by is None:
-            self._parking.wait()
+        self._woken_by = self._parking.park_and_wait(self._points.try_recv)
 
     def status(self) -> ControllerStatus | None:
         """The controller's newest status since the last call, if any."""

@@ -60,6 +60,14 @@ class Declared(Protocol):
     def undeclare(self) -> None: ...
 
 
+def callback_subscriber(
+    session: zenoh.Session, key: str, on_sample: Callable[[zenoh.Sample], None]
+) -> Declared:
+    """``on_sample`` run on Zenoh's own thread for each sample on ``key``, with no thread of
+    zenoh-python's in between: it must only hand the sample on (docs/conventions.md, The bus)."""
+    return session.declare_subscriber(key, zenoh.handlers.Callback(on_sample, indirect=False))
+
+
 class ZenohPublication:
     put: Callable[[bytes], None]
 

@@ -107,9 +107,10 @@ class Parking:
     Python runs on Zenoh's threads while the key is busy (docs/conventions.md, The bus): the
     owner parks when it has had nothing for a while and unparks when something comes.
 
-    ``subscribe`` declares a callback subscriber on the key. The owner, after ``park``, reads
-    its channel once more (a sample may have come before the subscriber) and only then
-    ``wait``s. A byte left by a sample already read wakes the next wait once, for nothing.
+    ``subscribe`` declares a callback subscriber on the key. ``park_and_wait`` reads the owner's
+    channel once more after parking (a sample may have come before the subscriber) and only
+    then waits; an owner that polls the pipe itself (``fileno``) does the same. A byte left by a
+    sample already read wakes the next wait once, for nothing.
     """
 
     def __init__(
@@ -135,13 +136,22 @@ class Parking:
             if not self._closed:
                 os.write(self._write, b"\0")
 
+    def park_and_wait(self, take: Callable[[], T | None]) -> T | None:
+        """Parked, what ``take`` (the owner's channel's ``try_recv``) has at once, else None once
+        a sample came (the owner reads its channel next) or the stop."""
+        self.park()
+        came = take()
+        if came is None:
+            self.wait()
+        return came
+
     def wait(self) -> None:
         """Until a sample came since the last wait (or while parked before it), or the stop."""
         poller = select.poll()
         poller.register(self._stop.fileno(), select.POLLIN)
         poller.register(self._read, select.POLLIN)
         poller.poll()
-        self._drain()
+        self.clear()
 
     def fileno(self) -> int:
         """Readable once a sample came while parked: for an owner that polls it beside other
@@ -150,7 +160,9 @@ class Parking:
 
     def clear(self) -> None:
         """Forget the samples told so far (the owner reads its channel next)."""
-        self._drain()
+        with contextlib.suppress(BlockingIOError):
+            while os.read(self._read, 64):
+                pass
 
     def unpark(self) -> None:
         """Cheap when not parked: the interpolator calls it for every point it reads."""
@@ -158,12 +170,7 @@ class Parking:
             return
         self._subscription.undeclare()
         self._subscription = None
-        self._drain()
-
-    def _drain(self) -> None:
-        with contextlib.suppress(BlockingIOError):
-            while os.read(self._read, 64):
-                pass
+        self.clear()
 
     def close(self) -> None:
         self.unpark()

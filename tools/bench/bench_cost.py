@@ -160,15 +160,21 @@ def idle_four(directory: Path, count: int, seconds: float, settle: float, found:
         found.windows[IDLE_FOUR.label] = [cost_window(kinds, seconds) for _ in range(count)]
 
 
-def moving(directory: Path, count: int, seconds: float, settle: float, found: Measured) -> None:
-    cell = SwingingCell(
+def moving_cell(directory: Path, name: str, seconds: float) -> SwingingCell:
+    """The fourth case's cell: four groups swinging for up to ``seconds``, the state period at
+    one tick, 4 state clients, no observer of the ticks."""
+    return SwingingCell(
         directory,
-        "cost-moving",
-        count * seconds + settle + 60.0,
+        name,
+        seconds,
         state_period_ms=MOVING_STATE_PERIOD_MS,
         state_clients=MOVING_CLIENTS,
         observe=False,
     )
+
+
+def moving(directory: Path, count: int, seconds: float, settle: float, found: Measured) -> None:
+    cell = moving_cell(directory, "cost-moving", count * seconds + settle + 60.0)
     try:
         kinds = process_kinds(cell.cell)
         executor = next(pid for pid, kind in kinds.items() if kind == "executor")

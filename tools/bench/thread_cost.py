@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from motocell.testing.running_cell import running_cell
-from motocell.tools.bench.bench_cost import MOVING_CLIENTS, MOVING_STATE_PERIOD_MS
+from motocell.tools.bench.bench_cost import moving_cell
 from motocell.tools.bench.measuring import (
     START_TIMEOUT_S,
     process_kinds,
@@ -27,7 +27,6 @@ from motocell.tools.bench.measuring import (
     workdir,
     write_cell_file,
 )
-from motocell.tools.bench.swinging import SwingingCell
 
 SETTLE_S = 3.0
 
@@ -74,14 +73,7 @@ def idle(seconds: float, windows: int) -> Found:
 
 def moving(seconds: float, windows: int) -> Found:
     with workdir() as directory:
-        cell = SwingingCell(
-            directory,
-            "moving-cost",
-            windows * seconds + SETTLE_S + 60.0,
-            state_period_ms=MOVING_STATE_PERIOD_MS,
-            state_clients=MOVING_CLIENTS,
-            observe=False,
-        )
+        cell = moving_cell(directory, "moving-cost", windows * seconds + SETTLE_S + 60.0)
         try:
             kinds = process_kinds(cell.cell)
             time.sleep(SETTLE_S)

@@ -19,6 +19,7 @@ from motocell.services.broadcaster.controller_watch import ControllerWatch
 from motocell.services.broadcaster.reports import REFRESH_S, StatePortReports
 from motocell.services.broadcaster.ticks import TickSource
 from motocell.shared.bus.access import Identity, cell_identities
+from motocell.shared.bus.adapters import ZenohPublication
 from motocell.shared.bus.catalog import Role
 from motocell.shared.bus.credentials import load, write_passwords
 from motocell.shared.bus.keys import CellKeys
@@ -66,12 +67,16 @@ def cell_bus(directory: Path, *roles: Role) -> Iterator[list[zenoh.Session]]:
         router.close()
 
 
-def test_the_executors_ticks_reach_the_tick_source(tmp_path: Path) -> None:
-    with cell_bus(tmp_path, Role.BROADCASTER, Role.EXECUTOR) as (broadcaster, executor):
+@contextmanager
+def routed_ticks(directory: Path) -> Iterator[tuple[TickSource, ZenohPublication]]:
+    """A tick source on the broadcaster's session and the executor's tick publisher, through a
+    router with the cell's access rules, once a tick has reached the source (the subscription
+    travels through the router: publish until one arrives)."""
+    with cell_bus(directory, Role.BROADCASTER, Role.EXECUTOR) as (broadcaster, executor):
         stop = StopFlag()
         source = TickSource(ZenohBus(broadcaster), KEYS, stop)
         source.start()
-        ticks = publisher(executor, KEYS.executor_tick, latest=True)
+        ticks = ZenohPublication(publisher(executor, KEYS.executor_tick, latest=True))
         sent = [0]
 
         def another_tick() -> bool:
@@ -81,39 +86,32 @@ def test_the_executors_ticks_reach_the_tick_source(tmp_path: Path) -> None:
             return got is not None and got.tick == sent[0]
 
         try:
-            # The subscription travels through the router: publish until one arrives.
             wait_until(another_tick, 10.0, "a tick")
-            for number in (100, 101, 102):
-                ticks.put(encode(tick(number)))
-            wait_until(
-                lambda: (
-                    (got := source.next(time.monotonic(), ticks_expected=False)) is not None
-                    and got.tick == 102
-                ),
-                5.0,
-                "the newest, taken without blocking",
-            )
+            yield source, ticks
         finally:
             stop.set()
             source.close()
             ticks.undeclare()
 
 
+def test_the_executors_ticks_reach_the_tick_source(tmp_path: Path) -> None:
+    with routed_ticks(tmp_path) as (source, ticks):
+        for number in (100, 101, 102):
+            ticks.put(encode(tick(number)))
+        wait_until(
+            lambda: (
+                (got := source.next(time.monotonic(), ticks_expected=False)) is not None
+                and got.tick == 102
+            ),
+            5.0,
+            "the newest, taken without blocking",
+        )
+
+
 def test_at_rest_a_tick_through_the_router_ends_the_sleep(tmp_path: Path) -> None:
     """Parked on the tick key (a callback subscriber the cell's access rules allow): a tick that
     comes while the reader sleeps wakes it long before its deadline."""
-    with cell_bus(tmp_path, Role.BROADCASTER, Role.EXECUTOR) as (broadcaster, executor):
-        stop = StopFlag()
-        source = TickSource(ZenohBus(broadcaster), KEYS, stop)
-        source.start()
-        ticks = publisher(executor, KEYS.executor_tick, latest=True)
-        sent = [0]
-
-        def another_tick() -> bool:
-            sent[0] += 1
-            ticks.put(encode(tick(sent[0])))
-            return source.next(time.monotonic() + SOON_S, ticks_expected=True) is not None
-
+    with routed_ticks(tmp_path) as (source, ticks):
         pouring = threading.Event()
 
         def pour() -> None:  # from now on, a tick every 20 ms, while the reader sleeps
@@ -121,20 +119,15 @@ def test_at_rest_a_tick_through_the_router_ends_the_sleep(tmp_path: Path) -> Non
                 ticks.put(encode(tick(1000)))
 
         pourer = threading.Thread(target=pour)
+        pourer.start()
         try:
-            wait_until(another_tick, 10.0, "a tick")  # the subscription reached the router
-            pourer.start()
             started = time.monotonic()
             got = source.next(started + 30.0, ticks_expected=False)
             assert got is not None and got.tick == 1000
             assert time.monotonic() - started < 30.0
         finally:
             pouring.set()
-            if pourer.is_alive():
-                pourer.join()
-            stop.set()
-            source.close()
-            ticks.undeclare()
+            pourer.join()
 
 
 def test_the_doorbell_wakes_the_reader_and_never_leaves_the_session(tmp_path: Path) -> None:

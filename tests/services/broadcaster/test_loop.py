@@ -238,14 +238,14 @@ class StoppingTicks(ScriptedTicks):
         return got
 
 
-def test_run_cycles_until_stopped() -> None:
-    stop = StopFlag()
-    ticks = StoppingTicks(stop)
-    ticks.ticks += [moved(1, 1), moved(2, 1)]
+def observed_loop(
+    ticks: ScriptedTicks | RestingExecutor, state_period_ms: float
+) -> tuple[StateLoop, FakePublication]:
+    """A loop on ``ticks`` and its clock, without clients, its ``state`` observed."""
     state = FakePublication("state", realtime=True, latest=True)
     state.subscribed = True
     loop = StateLoop(
-        Broadcaster(cell(state_period_ms=STATE_PERIOD_S * 1000), FakeController()),
+        Broadcaster(cell(state_period_ms=state_period_ms), FakeController()),
         ticks,
         FakePort(),
         byte_order=ByteOrder.LITTLE,
@@ -253,6 +253,14 @@ def test_run_cycles_until_stopped() -> None:
         reports=RecordedReports(),
         clock=lambda: ticks.now,
     )
+    return loop, state
+
+
+def test_run_cycles_until_stopped() -> None:
+    stop = StopFlag()
+    ticks = StoppingTicks(stop)
+    ticks.ticks += [moved(1, 1), moved(2, 1)]
+    loop, state = observed_loop(ticks, STATE_PERIOD_S * 1000)
     loop.run(stop)
     assert ticks.ticks == []
     assert len(state.payloads) == 2
@@ -285,17 +293,7 @@ class RestingExecutor:
 def test_at_rest_observers_get_one_state_a_second_also_once_the_executor_is_gone() -> None:
     resting = msgspec.structs.replace(tick(9, 0), resting=True)
     ticks = RestingExecutor(resting, resent_s=1.0, gone_at=3.5)
-    state = FakePublication("state", realtime=True, latest=True)
-    state.subscribed = True
-    loop = StateLoop(
-        Broadcaster(cell(state_period_ms=10), FakeController()),
-        ticks,
-        FakePort(),
-        byte_order=ByteOrder.LITTLE,
-        state=state,
-        reports=RecordedReports(),
-        clock=lambda: ticks.now,
-    )
+    loop, state = observed_loop(ticks, 10)
     sent_at = []
     while ticks.now < 6.0:
         published = len(state.payloads)
