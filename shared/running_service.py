@@ -210,7 +210,7 @@ def _service_session(
     )
     description = Description(keys.service_info(service, instance), info)
     try:
-        claim = claim_name(session, keys, service, instance)
+        claim = claim_name(session, keys, service, instance, sole=args.new_bus)
         queryable = session.declare_queryable(
             keys.service_info(service, instance), description.answer
         )

@@ -103,6 +103,13 @@ def add_bus_arguments(parser: argparse.ArgumentParser) -> None:
         help="the cell's credentials directory (motocell credentials, or the one motocell up "
         "writes): join as this service's identity; without it the bus must be open",
     )
+    parser.add_argument(
+        "--new-bus",
+        action="store_true",
+        help="what motocell up gives the first start of each service on the secured router it "
+        "has just opened: nobody else can be claiming the name there, so the claim holds "
+        "without settling (docs/topology.md, rule 6); not for starting a service by hand",
+    )
 
 
 def setup_logging(service: str, level: str) -> None:

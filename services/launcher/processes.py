@@ -41,7 +41,7 @@ class Child:
         # The child arranges to get SIGTERM if the launcher dies (shared.service), so no
         # half cell outlives a killed launcher.
         self.forget()
-        self.process = self._start(self.spec.argv)
+        self.process = self._start(self.spec.argv_for(restart=self.process is not None))
         self.exited = os.pidfd_open(self.process.pid)
 
     @property

@@ -169,6 +169,8 @@ class CellBus:
     credentials: Path | None
     session: zenoh.Session
     """The launcher's own: its router, or an observer's session on the router it joined."""
+    new: bool = False
+    """Its own router, opened just now, secured with passwords written for this start."""
 
 
 def _config_reference(config: str | None) -> str:
@@ -217,8 +219,9 @@ def _cell_bus(
                     cell_identities(len(cell.groups), face=cell.ros2 is not None),
                 )
             session = open_cell_router(cell, listen, connect, credentials)
+        new = not args.zenoh_connect and credentials is not None
         try:
-            yield CellBus(listen, credentials, session)
+            yield CellBus(listen, credentials, session, new)
         finally:
             session.close()
     finally:
@@ -254,6 +257,7 @@ def run_children(
         host=args.host,
         port_base=None if args.port_base is None else this_host.port_base,
         byte_order=args.byte_order,
+        new_bus=bus.new,
     )
     specs = child_specs(this_host.services, options, bus.endpoints, [sys.executable, "-m"])
     children = [Child(spec, starter) for spec in specs]

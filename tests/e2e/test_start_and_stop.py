@@ -29,7 +29,7 @@ from motocell.shared.config import EXIT_CONFIG, PORT_COUNT, load_cell
 from motocell.shared.ports import free_port, free_port_block
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
 from motocell.testing.ports import on_free_port
-from motocell.testing.processes import alive, connectable, wait_until
+from motocell.testing.processes import alive, cmdline, connectable, descendants, wait_until
 from motocell.testing.running_cell import zenoh_router
 
 pytestmark = pytest.mark.cell
@@ -303,8 +303,22 @@ def test_port_base_auto_takes_free_ports_and_says_which(
     assert entry.port_base != load_cell(None).port_base
 
 
+def claims_held_at_once(up: Run) -> list[bool]:
+    """For each service the launcher ``up`` runs, whether it was told its bus is new."""
+    services = [cmdline(pid) for pid in descendants(up.process.pid)]
+    return [
+        "--new-bus" in line
+        for line in services
+        if len(line) > 2
+        and line[2].startswith("motocell.services.")
+        and not line[2].startswith("motocell.services.launcher")  # its warm parent
+    ]
+
+
 def test_an_open_bus_says_so_in_one_warning(tmp_path: Path) -> None:
     with up_on_free_ports(tmp_path, "--open-bus") as (up, _):
+        # Anyone may be on an open bus: every claim settles.
+        assert claims_held_at_once(up) == [False] * 5
         up.process.send_signal(signal.SIGTERM)
         assert up.finish() == 0
         output = up.text()
@@ -481,6 +495,7 @@ def test_credentials_a_user_gives_are_left_as_they_are(tmp_path: Path) -> None:
     with zenoh_router(config_file=router):
         joining = ["--zenoh-connect", endpoint, "--credentials", str(given)]
         with up_on_free_ports(tmp_path, *joining, own_router=False) as (up, _):
+            assert claims_held_at_once(up) == [False] * 5, "a router others may have joined"
             up.process.send_signal(signal.SIGTERM)
             assert up.finish() == 0
     after = {

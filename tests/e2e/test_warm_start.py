@@ -1,6 +1,7 @@
 """Services forked from the launcher's warm parent (docs/startup.md) are supervised as spawned
 ones were: each is the launcher's child with its ``python -m`` command line; a killed zygote
-takes no service with it, and a service killed after it is restarted as a process of its own;
+takes no service with it, and a service killed after it is restarted as a process of its own
+(whose claim settles, where the first start's held at once on the launcher's new bus);
 a killed launcher takes the services and the zygote with it; a SIGTERM while the launcher waits
 for a stopped zygote stops everything at once."""
 
@@ -56,6 +57,7 @@ def test_a_killed_zygote_takes_nothing_and_a_service_killed_after_it_is_restarte
             (pid,) = cell.service_pids(service)
             assert parent(pid) == cell.process.pid, f"{service} is the launcher's child"
             assert cmdline(pid)[:3] == [sys.executable, "-m", f"motocell.services.{service}"]
+            assert cmdline(pid)[-1] == "--new-bus", "its own new router: the claim held at once"
 
         os.kill(zygote, signal.SIGKILL)
         wait_until(lambda: not alive(zygote), 5.0, "the zygote to die")
@@ -71,6 +73,7 @@ def test_a_killed_zygote_takes_nothing_and_a_service_killed_after_it_is_restarte
         )
         (restarted,) = cell.service_pids("interpolator")
         assert parent(restarted) == cell.process.pid
+        assert "--new-bus" not in cmdline(restarted), "a restart's claim settles"
         wait_until(lambda: motion_ready(motion), 15.0, "motion-ready again")
 
 

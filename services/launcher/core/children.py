@@ -31,12 +31,21 @@ class UpOptions:
     host: str | None = None
     port_base: int | None = None
     byte_order: str | None = None
+    new_bus: bool = False
+    """The services join the secured router this launcher has just opened: nobody else can be
+    claiming their names, so each one's first start holds its claim at once (``--new-bus``)."""
 
 
 @dataclass(frozen=True)
 class ChildSpec:
     service: ServiceName
     argv: tuple[str, ...]
+    first_start: tuple[str, ...] = ()
+    """Arguments for the first start only: a restart joins a bus others may have joined since,
+    so its claim settles."""
+
+    def argv_for(self, *, restart: bool) -> tuple[str, ...]:
+        return self.argv if restart else self.argv + self.first_start
 
     @property
     def name(self) -> str:
@@ -82,7 +91,8 @@ def child_specs(
             extra = _port_options(options)
         else:
             extra = []
-        specs.append(ChildSpec(name, (*python, service_module(name.service), *common, *extra)))
+        argv = (*python, service_module(name.service), *common, *extra)
+        specs.append(ChildSpec(name, argv, ("--new-bus",) if options.new_bus else ()))
     return specs
 
 

@@ -8,8 +8,10 @@ from __future__ import annotations
 import itertools
 import os
 import select
+import subprocess
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
 import pytest
@@ -98,6 +100,25 @@ def test_a_child_that_dies_is_restarted_and_looks_come_only_when_asked(tmp_path:
         stop_children(children)
     assert len(pids) == 2, "restarted once"
     assert all(b - a >= 0.045 for a, b in itertools.pairwise(looks)), "only when asked"
+
+
+@pytest.mark.cell
+def test_only_a_childs_first_start_has_its_first_start_arguments() -> None:
+    started: list[tuple[str, ...]] = []
+
+    def start(argv: Sequence[str]) -> subprocess.Popen[bytes]:
+        started.append(tuple(argv))
+        return subprocess.Popen(["true"])
+
+    gateway = Child(ChildSpec(ServiceName("gateway", "0"), ("serve",), ("--new-bus",)), start)
+    try:
+        for _ in range(2):
+            gateway.start()
+            assert gateway.process is not None
+            gateway.process.wait(timeout=DEADLINE_MS / 1000)
+    finally:
+        gateway.forget()
+    assert started == [("serve", "--new-bus"), ("serve",)]
 
 
 class AllBut:

@@ -98,6 +98,66 @@ def test_of_simultaneous_claims_exactly_one_wins(endpoint: str) -> None:
             session.close()
 
 
+def test_a_sole_claim_holds_without_settling_and_is_refused_when_the_name_is_held(
+    endpoint: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    settled: list[float] = []
+    monkeypatch.setattr("motocell.shared.bus.claim.time.sleep", settled.append)
+    first, second, third = (open_session("client", [endpoint], wait=False) for _ in range(3))
+    try:
+        held = claim_name(first, KEYS, "gateway", "0", sole=True)
+        assert settled == []
+        # Its bid and hold reach the bus as a settled claim's do: a later start is refused.
+        own = str(first.info.zid())
+        wait_until(
+            lambda: (
+                sorted(c.chunk for c in claim._claims(second, KEYS, "gateway", "0"))
+                == [own, own + claim.HELD]
+            ),
+            SEEN_TIMEOUT_S,
+            "the sole claim's bid and hold on the router",
+        )
+        with pytest.raises(NameTakenError, match="a gateway of cell c1 is already running"):
+            claim_name(second, KEYS, "gateway", "0", sole=True)
+        with pytest.raises(NameTakenError, match="a gateway of cell c1 is already running"):
+            claim_name(third, KEYS, "gateway", "0")
+        held.undeclare()
+    finally:
+        for session in (first, second, third):
+            session.close()
+
+
+def test_a_start_that_slipped_past_a_sole_claims_look_up_loses_to_its_hold(
+    endpoint: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    rival, sole, onlooker = (open_session("client", [endpoint], wait=False) for _ in range(3))
+    looked_up = claim._claims
+    holds: list[claim.HeldName] = []
+
+    def rival_looks_then_the_sole_one_holds(
+        session: zenoh.Session, keys: CellKeys, service: str, instance: str, *, first: bool = False
+    ) -> list[claim.Claim]:
+        found = looked_up(session, keys, service, instance, first=first)
+        if session is rival and first:  # the rival found the name free: now the sole start
+            holds.append(claim_name(sole, KEYS, "executor", "0", sole=True))
+            wait_until(  # on the router before the rival bids: the crossing, not its timing
+                lambda: len(looked_up(onlooker, KEYS, "executor", "0")) == 2,
+                SEEN_TIMEOUT_S,
+                "the sole claim's hold on the router",
+            )
+        return found
+
+    monkeypatch.setattr(claim, "_claims", rival_looks_then_the_sole_one_holds)
+    try:
+        with pytest.raises(NameTakenError, match="an executor of cell c1 is already running"):
+            claim_name(rival, KEYS, "executor", "0")
+        assert len(holds) == 1
+        holds[0].undeclare()
+    finally:
+        for session in (rival, sole, onlooker):
+            session.close()
+
+
 def test_a_holder_never_gives_way_to_a_later_claim_however_low_its_id(
     endpoint: str, caplog: pytest.LogCaptureFixture
 ) -> None:

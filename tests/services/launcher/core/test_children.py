@@ -127,6 +127,15 @@ def test_config_name_and_credentials_go_to_every_child() -> None:
         assert command[command.index("--credentials") + 1] == "/run/creds"
 
 
+def test_on_a_new_bus_only_each_first_start_holds_its_claim_at_once() -> None:
+    """A restart joins a bus others may have joined since: its claim settles (topology.md)."""
+    for spec in specs(options=UpOptions(credentials="/run/creds", new_bus=True)).values():
+        assert spec.argv_for(restart=False) == (*spec.argv, "--new-bus"), spec.name
+        assert "--new-bus" not in spec.argv_for(restart=True), spec.name
+    for spec in specs(options=UpOptions(credentials="/run/creds")).values():
+        assert spec.argv_for(restart=False) == spec.argv == spec.argv_for(restart=True)
+
+
 def test_port_options_go_to_the_services_that_serve_tcp_only() -> None:
     chosen = specs(options=UpOptions(host="0.0.0.0", port_base=50300, byte_order="big"))
     for name in ("gateway/0", "broadcaster/0"):
