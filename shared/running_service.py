@@ -183,6 +183,12 @@ def freeze_what_lives_forever() -> None:
     gc.freeze()
 
 
+def claims_at_once(args: argparse.Namespace) -> bool:
+    """Whether this start's claim skips the settles: ``--new-bus``, in a launcher's child only
+    (docs/topology.md, rule 6); the same line typed into a shell settles."""
+    return bool(args.new_bus) and PARENT_PID_ENV in os.environ
+
+
 @contextmanager
 def _service_session(
     service: str, instance: str, cell: Cell, args: argparse.Namespace, stop: StopFlag
@@ -210,7 +216,9 @@ def _service_session(
     )
     description = Description(keys.service_info(service, instance), info)
     try:
-        claim = claim_name(session, keys, service, instance, sole=args.new_bus)
+        if stop.is_set():  # a start its launcher's death stopped claims nothing
+            raise StoppedWaiting
+        claim = claim_name(session, keys, service, instance, sole=claims_at_once(args))
         queryable = session.declare_queryable(
             keys.service_info(service, instance), description.answer
         )

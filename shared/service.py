@@ -103,13 +103,10 @@ def add_bus_arguments(parser: argparse.ArgumentParser) -> None:
         help="the cell's credentials directory (motocell credentials, or the one motocell up "
         "writes): join as this service's identity; without it the bus must be open",
     )
-    parser.add_argument(
-        "--new-bus",
-        action="store_true",
-        help="what motocell up gives the first start of each service on the secured router it "
-        "has just opened: nobody else can be claiming the name there, so the claim holds "
-        "without settling (docs/topology.md, rule 6); not for starting a service by hand",
-    )
+    # Given by `motocell up` to each service's first start on the secured router it has just
+    # opened, where the claim need not settle (docs/topology.md, rule 6); honoured only in a
+    # launcher's child, so a command line copied from `ps` into a shell settles as it should.
+    parser.add_argument("--new-bus", action="store_true", help=argparse.SUPPRESS)
 
 
 def setup_logging(service: str, level: str) -> None:

@@ -169,7 +169,7 @@ class CellBus:
     credentials: Path | None
     session: zenoh.Session
     """The launcher's own: its router, or an observer's session on the router it joined."""
-    new: bool = False
+    new: bool
     """Its own router, opened just now, secured with passwords written for this start."""
 
 
@@ -209,7 +209,7 @@ def _cell_bus(
     try:
         this_host.check_ports()
         if args.zenoh_connect:
-            session = _join(cell, listen, credentials, stop)
+            session, new = _join(cell, listen, credentials, stop), False
         else:
             check_router_endpoints(listen)
             if credentials is not None:
@@ -218,8 +218,7 @@ def _cell_bus(
                     cell.name,
                     cell_identities(len(cell.groups), face=cell.ros2 is not None),
                 )
-            session = open_cell_router(cell, listen, connect, credentials)
-        new = not args.zenoh_connect and credentials is not None
+            session, new = open_cell_router(cell, listen, connect, credentials), secured
         try:
             yield CellBus(listen, credentials, session, new)
         finally:

@@ -105,7 +105,8 @@ class NoRouterError(ConnectionError):
 
 
 class StoppedWaiting(Exception):  # noqa: N818 (not an error: what the user asked)
-    """A stop was asked while ``open_session`` waited for its router."""
+    """A stop was asked while a start waited: ``open_session`` for its router, or a service
+    before its claim (``running_service``)."""
 
 
 def open_session(

@@ -1,16 +1,21 @@
 """Where a service's version and the robot models are read: the version from the package
 itself, as its installed metadata has it; the models once, by whoever imports a service's
-modules (the launcher's warm parent, for all its forks), never by the launcher's own modules."""
+modules (the launcher's warm parent, for all its forks), never by the launcher's own modules.
+And whose claim skips the settles."""
 
 from __future__ import annotations
 
+import argparse
 import importlib.metadata
+import os
 from pathlib import Path
 
 import pytest
 
 from motocell import __version__
 from motocell.shared.config import RobotModel, load_catalogue
+from motocell.shared.launcher_names import PARENT_PID_ENV
+from motocell.shared.running_service import claims_at_once
 from tests.tools.test_cli import loaded_after
 
 FORKED = ("broadcaster", "controller", "executor", "gateway", "interpolator")
@@ -36,3 +41,14 @@ def test_the_launchers_modules_do_not_read_it_and_each_services_do(tmp_path: Pat
     for service in FORKED:
         code = f"import motocell.services.{service}.__main__"
         assert loaded_after(code, READ_AT_IMPORT, tmp_path) == sorted(READ_AT_IMPORT), service
+
+
+def test_only_a_launchers_child_claims_at_once_when_told_its_bus_is_new(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    told, untold = argparse.Namespace(new_bus=True), argparse.Namespace(new_bus=False)
+    monkeypatch.delenv(PARENT_PID_ENV, raising=False)
+    assert not claims_at_once(told), "a command line copied into a shell settles"
+    monkeypatch.setenv(PARENT_PID_ENV, str(os.getppid()))
+    assert claims_at_once(told)
+    assert not claims_at_once(untold)

@@ -7,7 +7,9 @@ from __future__ import annotations
 
 import logging
 import threading
+import time
 from collections.abc import Iterator
+from types import SimpleNamespace
 
 import pytest
 import zenoh
@@ -102,7 +104,9 @@ def test_a_sole_claim_holds_without_settling_and_is_refused_when_the_name_is_hel
     endpoint: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     settled: list[float] = []
-    monkeypatch.setattr("motocell.shared.bus.claim.time.sleep", settled.append)
+    # The claim module's clock only: the test's own waits still sleep.
+    clock = SimpleNamespace(monotonic=time.monotonic, sleep=settled.append)
+    monkeypatch.setattr("motocell.shared.bus.claim.time", clock)
     first, second, third = (open_session("client", [endpoint], wait=False) for _ in range(3))
     try:
         held = claim_name(first, KEYS, "gateway", "0", sole=True)
@@ -156,6 +160,80 @@ def test_a_start_that_slipped_past_a_sole_claims_look_up_loses_to_its_hold(
     finally:
         for session in (rival, sole, onlooker):
             session.close()
+
+
+def test_a_sole_start_that_a_settled_claim_overtook_after_its_look_up_withdraws(
+    endpoint: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The sole start found the name free, then was held up (descheduled) while a settling
+    start claimed it in full: its look-up after its own tokens finds the winner."""
+    sole, rival, onlooker = (open_session("client", [endpoint], wait=False) for _ in range(3))
+    looked_up = claim._claims
+    holds: list[claim.HeldName] = []
+
+    def the_sole_one_looks_then_is_overtaken(
+        session: zenoh.Session, keys: CellKeys, service: str, instance: str, *, first: bool = False
+    ) -> list[claim.Claim]:
+        found = looked_up(session, keys, service, instance, first=first)
+        if session is sole and first:
+            holds.append(claim_name(rival, KEYS, "gateway", "0"))
+        return found
+
+    monkeypatch.setattr(claim, "_claims", the_sole_one_looks_then_is_overtaken)
+    try:
+        with pytest.raises(NameTakenError, match="a gateway of cell c1 is already running"):
+            claim_name(sole, KEYS, "gateway", "0", sole=True)
+        assert len(holds) == 1, "the settling start holds"
+        rival_id = str(rival.info.zid())
+        wait_until(  # the withdrawn tokens leave the router: one holder remains
+            lambda: {c.session for c in looked_up(onlooker, KEYS, "gateway", "0")} == {rival_id},
+            SEEN_TIMEOUT_S,
+            "the sole start's tokens gone",
+        )
+        holds[0].undeclare()
+    finally:
+        for session in (sole, rival, onlooker):
+            session.close()
+
+
+def holders_of_a_sole_race(endpoint: str, instance: str, starts: int = 4) -> int:
+    """How many of ``starts`` sole claims made at once hold the name."""
+    sessions = [open_session("client", [endpoint], wait=False) for _ in range(starts)]
+    holds: list[claim.HeldName] = []
+    lock = threading.Lock()
+    start = threading.Barrier(starts)
+
+    def race(session: zenoh.Session) -> None:
+        start.wait()
+        try:
+            held = claim_name(session, KEYS, "interpolator", instance, sole=True)
+        except NameTakenError:
+            return
+        with lock:
+            holds.append(held)
+
+    threads = [threading.Thread(target=race, args=(session,)) for session in sessions]
+    try:
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join(SEEN_TIMEOUT_S)
+        return len(holds)
+    finally:
+        for held in holds:
+            held.undeclare()
+        for session in sessions:
+            session.close()
+
+
+def test_of_sole_starts_at_once_at_most_one_holds(
+    endpoint: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Rule 6's look-up alone, with no settle to hide behind: rounds of four."""
+    # Bounds the losers' question to the holder, which has no service_info to answer.
+    monkeypatch.setattr(claim, "QUERY_TIMEOUT_S", 0.2)
+    for round_ in range(3):
+        assert holders_of_a_sole_race(endpoint, str(round_)) <= 1, f"round {round_}"
 
 
 def test_a_holder_never_gives_way_to_a_later_claim_however_low_its_id(
