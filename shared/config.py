@@ -8,7 +8,6 @@ catalogue in ``models.toml``. Bad files are refused with a message naming the fi
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import functools
 import math
 import re
@@ -18,7 +17,6 @@ import typing
 from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import Enum, StrEnum
-from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
 
@@ -50,8 +48,13 @@ LOOK_AHEAD_POINTS = 3
 their segments all fit the executor's ring together (``GroupCredit.pending_fits``)."""
 
 
-SAMPLE_CELLS = "cells"
-"""The folder of ``shared`` that holds the sample cell files (package data)."""
+SHARED = Path(__file__).parent
+"""``motocell.shared``'s folder, which holds its package data (``models.toml``, the sample
+cells): read as files, not through ``importlib.resources``, which with the ``tempfile``,
+``shutil`` and ``zipfile`` it brings is 5-8 ms of CPU in the launcher and in the warm parent
+at every cell's start (docs/startup.md), for packages motocell is never installed as (a zip)."""
+SAMPLE_CELLS = SHARED / "cells"
+"""The sample cell files (package data)."""
 
 EXIT_CONFIG = 2
 """The exit status of a process that cannot start as configured (a bad file or option, refused
@@ -340,7 +343,7 @@ class Cell:
 def load_catalogue() -> types.MappingProxyType[str, RobotModel]:
     """The robot models motocell ships (``models.toml``), read once per process: a fact of the
     installation. Read-only, as every caller gets the same one."""
-    text = resources.files("motocell.shared").joinpath("models.toml").read_text()
+    text = (SHARED / "models.toml").read_text()
     return types.MappingProxyType(
         _decode_models(tomllib.loads(text).get("models", {}), "models.toml")
     )
@@ -416,6 +419,9 @@ def _did_you_mean(problem: str, path: str, within: type[msgspec.Struct]) -> str:
         for field in msgspec.structs.fields(t)
         if field.name != unknown[1]
     ]
+    # Only a refused file needs difflib: imported at the top, 1 ms of every process's start.
+    import difflib  # noqa: PLC0415
+
     close = difflib.get_close_matches(unknown[1], names, n=1)
     return f"; did you mean `{close[0]}`?" if close else ""
 
@@ -519,12 +525,7 @@ def _check_name(name: str, where: str) -> None:
 
 def sample_cells() -> list[str]:
     """The sample cell files installed with motocell (``shared/cells``), by name."""
-    folder = resources.files("motocell.shared").joinpath(SAMPLE_CELLS)
-    return sorted(
-        entry.name.removesuffix(".toml")
-        for entry in folder.iterdir()
-        if entry.name.endswith(".toml")
-    )
+    return sorted(entry.stem for entry in SAMPLE_CELLS.glob("*.toml"))
 
 
 def _cell_text(path: str | Path) -> str:
@@ -533,7 +534,7 @@ def _cell_text(path: str | Path) -> str:
     candidate = Path(path)
     is_name = candidate.name == str(path) and candidate.suffix == ""
     if is_name and not candidate.exists():
-        sample = resources.files("motocell.shared").joinpath(SAMPLE_CELLS, f"{path}.toml")
+        sample = SAMPLE_CELLS / f"{path}.toml"
         if not sample.is_file():
             known = ", ".join(sample_cells())
             raise ConfigError(f"{path}: no such file, nor a sample cell (samples: {known})")

@@ -6,6 +6,7 @@ starts it (``warm_parent``): even ``argparse`` and ``logging`` would make it sta
 
 from __future__ import annotations
 
+import gc
 import sys
 from collections.abc import Sequence
 
@@ -28,13 +29,17 @@ def _main(argv: Sequence[str] | None) -> None:
     words = sys.argv[1:] if argv is None else argv
     # The warm parent first, so that its imports run beside the launcher's (warm_parent).
     with started_zygote(words) as zygote:
-        # Zenoh and the launcher load only once the signals are held.
-        import argparse  # noqa: PLC0415
-        import logging  # noqa: PLC0415
+        # Zenoh and the launcher load only once the signals are held, with the collector
+        # paused, as the warm parent's imports are (``zygote.warm_up`` says why).
+        gc.disable()
+        try:
+            import argparse  # noqa: PLC0415
+            import logging  # noqa: PLC0415
 
-        from motocell.services.launcher.cli import add_arguments  # noqa: PLC0415
-        from motocell.services.launcher.up import run  # noqa: PLC0415
-
+            from motocell.services.launcher.cli import add_arguments  # noqa: PLC0415
+            from motocell.services.launcher.up import run  # noqa: PLC0415
+        finally:
+            gc.enable()
         parser = argparse.ArgumentParser(
             prog="python -m motocell.services.launcher",
             description="Run a whole cell.",

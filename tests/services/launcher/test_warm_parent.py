@@ -20,6 +20,28 @@ HEAVY = {
     *("motocell.shared.config", "motocell.shared.service", "motocell.shared.service_names"),
 }
 """What the launcher loads after the zygote has started: loaded before, it would delay it."""
+UNUSED = {
+    *("importlib.resources", "zipfile", "tempfile", "difflib"),
+    *("secrets", "hmac", "hashlib"),
+}
+"""What neither the launcher nor the warm parent needs to start a cell, each a few ms of CPU at
+every start (docs/startup.md, The critical path): the package data's reader, the suggestion for
+a misspelt field, the hashing that ``secrets`` brings to make a password."""
+LAUNCHER_START = (
+    "import motocell.services.launcher.__main__, motocell.services.launcher.up\n"
+    "from pathlib import Path\n"
+    "from motocell.shared.bus.access import cell_identities\n"
+    "from motocell.shared.bus.credentials import write_passwords\n"
+    "from motocell.shared.config import load_cell\n"
+    "load_cell('single-arm')\n"
+    "write_passwords(Path('credentials'), 'cell1', cell_identities(1))"
+)
+"""What a launcher does before its router opens: its modules, its cell file, its passwords."""
+WARM_UP = (
+    "from motocell.services.launcher.zygote import warm_up\n"
+    "from motocell.shared.service_names import WARM_MODULES\n"
+    "warm_up(WARM_MODULES)"
+)
 DEADLINE_S = 30.0
 """For a hang: the zygote releases them within a few tenths of a second."""
 
@@ -42,6 +64,12 @@ def test_the_zygote_holds_every_service_but_the_ros2_face() -> None:
 )
 def test_starting_it_loads_nothing_heavy(module: str, tmp_path: Path) -> None:
     assert loaded_after(f"import {module}", HEAVY, tmp_path) == []
+
+
+@pytest.mark.cell
+def test_starting_a_cell_loads_nothing_it_does_not_use(tmp_path: Path) -> None:
+    assert loaded_after(LAUNCHER_START, UNUSED, tmp_path) == []
+    assert loaded_after(WARM_UP, UNUSED, tmp_path) == []
 
 
 def blocked_signals(pid: int) -> int:
