@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import random
 import socket
+from collections.abc import Collection
 from pathlib import Path
 
 from motocell.shared.config import MAX_PORT, MAX_PORT_BASE, PORT_COUNT
@@ -25,6 +26,15 @@ TRIES = 200
 def free_port(host: str = "127.0.0.1") -> int:
     """A port free right now (another process may still take it before it is bound)."""
     return free_port_block(1, host)
+
+
+def free_port_besides(taken: Collection[int], host: str = "127.0.0.1") -> int:
+    """A port free right now that is none of ``taken``: ports picked for the same cell but not
+    yet bound (its TCP ports, when its router's is picked), which a pick alone cannot see."""
+    while True:
+        port = free_port(host)
+        if port not in taken:
+            return port
 
 
 def free_port_block(count: int, host: str = "127.0.0.1") -> int:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import logging
 import resource
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from pathlib import Path
 
 import zenoh
@@ -24,15 +24,21 @@ from motocell.shared.bus.router import router_settings, zenoh_config
 from motocell.shared.bus.runtime import zenoh_runtime
 from motocell.shared.bus.session import zenoh_problem
 from motocell.shared.config import Cell
-from motocell.shared.ports import free_port, port_free
+from motocell.shared.ports import free_port_besides, port_free
 from motocell.shared.service import StopFlag
 
 log = logging.getLogger("motocell")
 
 
-def cell_router_endpoints(listen: Sequence[str], *, secured: bool) -> tuple[list[str], list[str]]:
-    """(listen, connect) for a cell's own router, from what is free on this machine."""
-    return router_endpoints(listen, port_free(WELL_KNOWN_PORT), free_port, link=not secured)
+def cell_router_endpoints(
+    listen: Sequence[str], *, secured: bool, tcp_ports: Collection[int]
+) -> tuple[list[str], list[str]]:
+    """(listen, connect) for a cell's own router, from what is free on this machine and none
+    of ``tcp_ports``, the cell's own, picked already but bound only once its services start."""
+    well_known_free = WELL_KNOWN_PORT not in tcp_ports and port_free(WELL_KNOWN_PORT)
+    return router_endpoints(
+        listen, well_known_free, lambda: free_port_besides(tcp_ports), link=not secured
+    )
 
 
 def open_cell_router(

@@ -192,7 +192,10 @@ def _cell_bus(
         listen, connect = list(args.zenoh_connect), list[str]()
         credentials = Path(args.credentials) if args.credentials else None
     else:
-        listen, connect = cell_router_endpoints(args.zenoh_listen, secured=secured)
+        tcp_ports = [tcp.port for tcp in this_host.ports]
+        listen, connect = cell_router_endpoints(
+            args.zenoh_listen, secured=secured, tcp_ports=tcp_ports
+        )
         credentials = registry.credentials_dir(cell.name) if secured else None
     entry = CellEntry(
         name=cell.name,

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from motocell.shared.ports import free_port, free_port_block
+from motocell.shared.ports import free_port_besides, free_port_block
 from motocell.shared.protocol.codec import ByteOrder
 from motocell.shared.protocol.constants import Command, Result
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
@@ -33,7 +33,7 @@ def launcher(*extra: str) -> list[str]:
     """A launcher's command on ports picked free, for a start refused for its name (the name is
     checked before the ports: a port taken meanwhile cannot change the answer)."""
     port_base = free_port_block(3)
-    listen = f"tcp/127.0.0.1:{free_port()}"
+    listen = f"tcp/127.0.0.1:{free_port_besides(range(port_base, port_base + 3))}"
     return [*LAUNCHER, "--port-base", str(port_base), "--zenoh-listen", listen, *extra]
 
 

@@ -26,7 +26,7 @@ import pytest
 from motocell.shared import registry
 from motocell.shared.bus.session import CONNECT_WAIT_S
 from motocell.shared.config import EXIT_CONFIG, PORT_COUNT, load_cell
-from motocell.shared.ports import free_port, free_port_block
+from motocell.shared.ports import free_port, free_port_besides, free_port_block
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
 from motocell.testing.ports import on_free_port
 from motocell.testing.processes import alive, cmdline, connectable, descendants, wait_until
@@ -164,9 +164,7 @@ def up_options(port_base: int | None = None) -> list[str]:
     """Free ports for a cell: its TCP ports (from ``port_base`` when given) and its router's."""
     if port_base is None:
         port_base = free_port_block(PORT_COUNT, HOST)
-    zenoh_port = free_port(HOST)
-    while port_base <= zenoh_port < port_base + 3:
-        zenoh_port = free_port(HOST)
+    zenoh_port = free_port_besides(range(port_base, port_base + PORT_COUNT), HOST)
     return ["--port-base", str(port_base), "--zenoh-listen", f"tcp/{HOST}:{zenoh_port}"]
 
 

@@ -24,6 +24,12 @@ def test_a_block_lies_below_the_ephemeral_range_and_is_free() -> None:
         assert all(port_free(base + i) for i in range(3))
 
 
+def test_a_port_picked_besides_others_is_none_of_them(monkeypatch: pytest.MonkeyPatch) -> None:
+    picks = iter([30001, 30002, 30000, 30004])
+    monkeypatch.setattr(ports, "free_port", lambda host="127.0.0.1": next(picks))
+    assert ports.free_port_besides(range(30000, 30003)) == 30004
+
+
 def test_a_taken_port_is_not_free() -> None:
     port = free_port()
     with socket.socket() as holder:
