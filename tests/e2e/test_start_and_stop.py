@@ -26,6 +26,7 @@ import pytest
 from motocell.shared import registry
 from motocell.shared.bus.session import CONNECT_WAIT_S
 from motocell.shared.config import EXIT_CONFIG, PORT_COUNT, load_cell
+from motocell.shared.launcher_names import WARM_PARENT_MODULE
 from motocell.shared.ports import free_port, free_port_besides, free_port_block
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
 from motocell.testing.ports import on_free_port
@@ -302,15 +303,10 @@ def test_port_base_auto_takes_free_ports_and_says_which(
 
 
 def claims_held_at_once(up: Run) -> list[bool]:
-    """For each service the launcher ``up`` runs, whether it was told its bus is new."""
-    services = [cmdline(pid) for pid in descendants(up.process.pid)]
-    return [
-        "--new-bus" in line
-        for line in services
-        if len(line) > 2
-        and line[2].startswith("motocell.services.")
-        and not line[2].startswith("motocell.services.launcher")  # its warm parent
-    ]
+    """For each service the launcher ``up`` runs (its processes but its warm parent, as
+    ``RunningCell.services`` counts them), whether it was told its bus is new."""
+    lines = [cmdline(pid) for pid in descendants(up.process.pid)]
+    return ["--new-bus" in line for line in lines if WARM_PARENT_MODULE not in line]
 
 
 def test_an_open_bus_says_so_in_one_warning(tmp_path: Path) -> None:

@@ -8,7 +8,7 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from types import SimpleNamespace
 
 import pytest
@@ -131,27 +131,39 @@ def test_a_sole_claim_holds_without_settling_and_is_refused_when_the_name_is_hel
             session.close()
 
 
+def after_first_look_up(
+    monkeypatch: pytest.MonkeyPatch, session: zenoh.Session, then: Callable[[], None]
+) -> None:
+    """``then`` as soon as ``session``'s claim has made its first look-up: a start held up
+    between that look-up and its tokens, played without timing. Other look-ups pass."""
+    looked_up = claim._claims
+
+    def intercepted(
+        asking: zenoh.Session, keys: CellKeys, service: str, instance: str, *, first: bool = False
+    ) -> list[claim.Claim]:
+        found = looked_up(asking, keys, service, instance, first=first)
+        if asking is session and first:
+            then()
+        return found
+
+    monkeypatch.setattr(claim, "_claims", intercepted)
+
+
 def test_a_start_that_slipped_past_a_sole_claims_look_up_loses_to_its_hold(
     endpoint: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     rival, sole, onlooker = (open_session("client", [endpoint], wait=False) for _ in range(3))
-    looked_up = claim._claims
     holds: list[claim.HeldName] = []
 
-    def rival_looks_then_the_sole_one_holds(
-        session: zenoh.Session, keys: CellKeys, service: str, instance: str, *, first: bool = False
-    ) -> list[claim.Claim]:
-        found = looked_up(session, keys, service, instance, first=first)
-        if session is rival and first:  # the rival found the name free: now the sole start
-            holds.append(claim_name(sole, KEYS, "executor", "0", sole=True))
-            wait_until(  # on the router before the rival bids: the crossing, not its timing
-                lambda: len(looked_up(onlooker, KEYS, "executor", "0")) == 2,
-                SEEN_TIMEOUT_S,
-                "the sole claim's hold on the router",
-            )
-        return found
+    def the_sole_one_holds() -> None:  # the rival found the name free
+        holds.append(claim_name(sole, KEYS, "executor", "0", sole=True))
+        wait_until(  # on the router before the rival bids: the crossing, not its timing
+            lambda: len(claim._claims(onlooker, KEYS, "executor", "0")) == 2,
+            SEEN_TIMEOUT_S,
+            "the sole claim's hold on the router",
+        )
 
-    monkeypatch.setattr(claim, "_claims", rival_looks_then_the_sole_one_holds)
+    after_first_look_up(monkeypatch, rival, the_sole_one_holds)
     try:
         with pytest.raises(NameTakenError, match="an executor of cell c1 is already running"):
             claim_name(rival, KEYS, "executor", "0")
@@ -168,25 +180,19 @@ def test_a_sole_start_that_a_settled_claim_overtook_after_its_look_up_withdraws(
     """The sole start found the name free, then was held up (descheduled) while a settling
     start claimed it in full: its look-up after its own tokens finds the winner."""
     sole, rival, onlooker = (open_session("client", [endpoint], wait=False) for _ in range(3))
-    looked_up = claim._claims
     holds: list[claim.HeldName] = []
-
-    def the_sole_one_looks_then_is_overtaken(
-        session: zenoh.Session, keys: CellKeys, service: str, instance: str, *, first: bool = False
-    ) -> list[claim.Claim]:
-        found = looked_up(session, keys, service, instance, first=first)
-        if session is sole and first:
-            holds.append(claim_name(rival, KEYS, "gateway", "0"))
-        return found
-
-    monkeypatch.setattr(claim, "_claims", the_sole_one_looks_then_is_overtaken)
+    after_first_look_up(
+        monkeypatch, sole, lambda: holds.append(claim_name(rival, KEYS, "gateway", "0"))
+    )
     try:
         with pytest.raises(NameTakenError, match="a gateway of cell c1 is already running"):
             claim_name(sole, KEYS, "gateway", "0", sole=True)
         assert len(holds) == 1, "the settling start holds"
         rival_id = str(rival.info.zid())
         wait_until(  # the withdrawn tokens leave the router: one holder remains
-            lambda: {c.session for c in looked_up(onlooker, KEYS, "gateway", "0")} == {rival_id},
+            lambda: (
+                {c.session for c in claim._claims(onlooker, KEYS, "gateway", "0")} == {rival_id}
+            ),
             SEEN_TIMEOUT_S,
             "the sole start's tokens gone",
         )
