@@ -38,7 +38,7 @@ from motocell.shared.bus.keys import CellKeys
 from motocell.shared.bus.schemas import Decoder, Tick
 from motocell.shared.bus.session import open_session
 from motocell.shared.config import PORT_COUNT, Cell, load_cell
-from motocell.shared.launcher_names import WARM_PARENT_MODULE
+from motocell.shared.launcher_names import WARM_PARENT_MODULE, launcher_command
 from motocell.shared.ports import free_port, free_port_block, port_free
 from motocell.shared.protocol.codec import ByteOrder
 from motocell.shared.protocol.constants import Command, NotReadySubcode, Result
@@ -48,8 +48,9 @@ from motocell.testing.client import MotionClient, StateListener, smooth_move, st
 from motocell.testing.ports import PortTakenError, on_free_port
 from motocell.testing.processes import alive, cmdline, connectable, descendants, wait_until
 
-LAUNCHER = (sys.executable, "-m", "motocell.services.launcher")
-"""What ``motocell up`` runs, by the Python that runs the harness."""
+LAUNCHER = tuple(launcher_command())
+"""What ``motocell up`` runs, by the Python that runs the harness, with the room its forks need
+(``launcher_names.ROOM``), so that it does not start its interpreter again to make it."""
 ROUTER = (sys.executable, "-m", "motocell.tools.cli", "router")
 """``motocell router``: a Zenoh router of its own, for cells that join one."""
 

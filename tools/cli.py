@@ -7,8 +7,7 @@ import argparse
 import importlib
 import logging
 import sys
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Sequence
 from typing import Any, cast
 
 from motocell import __version__
@@ -67,17 +66,13 @@ class CommandParser(argparse.ArgumentParser):
 
 def fill(command: str, parser: argparse.ArgumentParser) -> None:
     """``command``'s description, options and ``run``, imported now."""
-    if command in {"up", "router"}:
-        # The launcher (its child processes, the router's configuration): `up` and `router`.
+    if command == "router":
+        # The launcher's router (its configuration, its process).
         from motocell.services.launcher import cli as launcher_cli  # noqa: PLC0415
         from motocell.services.launcher import up as launcher  # noqa: PLC0415
 
-        if command == "up":
-            launcher_cli.add_arguments(parser)
-            parser.set_defaults(run=launcher.run)
-        else:
-            launcher_cli.add_router_arguments(parser)
-            parser.set_defaults(run=launcher.router)
+        launcher_cli.add_router_arguments(parser)
+        parser.set_defaults(run=launcher.router)
         return
     # Imported here, not at the top: only the command that runs (CommandParser).
     module = importlib.import_module(f"motocell.tools.{command}")
@@ -119,28 +114,15 @@ OWN_SIGNALS = frozenset({"up", "router", "watch", "echo", "hz", "record", "servi
 stay held (``tools.__main__``), so one that comes while they start stops them there, cleanly."""
 
 
-@contextmanager
-def warm_parent(words: Sequence[str]) -> Iterator[object]:
-    """``motocell up``'s warm parent, started before the launcher loads
-    (``services.launcher.warm_parent``); None for every other command."""
-    if list(words[:1]) != ["up"]:
-        yield None
-        return
-    from motocell.services.launcher.warm_parent import started_zygote  # noqa: PLC0415
-
-    with started_zygote(words[1:]) as zygote:
-        yield zygote
-
-
 def main(argv: Sequence[str] | None = None) -> None:
-    words = sys.argv[1:] if argv is None else argv
-    with warm_parent(words) as zygote:
-        _main(words, zygote)
+    words = list(sys.argv[1:] if argv is None else argv)
+    if words[:1] == ["up"]:
+        # The launcher's own ``__main__``: it forks its warm parent once its modules are in,
+        # before anything of this module's parser would load (docs/startup.md).
+        from motocell.services.launcher.__main__ import launch  # noqa: PLC0415
 
-
-def _main(words: Sequence[str], zygote: object) -> None:
+        launch(words[1:])
     args = build_parser().parse_args(words)
-    args.warm_parent = zygote  # ``up`` takes it (services.launcher.cli)
     if args.command not in OWN_SIGNALS:
         # Held while the command loaded (tools.__main__); it stops on them from here on.
         release_stop_signals()

@@ -1,57 +1,67 @@
 """``python -m motocell.services.launcher`` (``motocell up``): the options in ``cli``, the cell
 in ``up``; this module wires them. As ``motocell`` does (``tools.__main__``), it holds SIGINT
 and SIGTERM from its first line until the launcher's handlers are in place, and stops on SIGINT
-whatever disposition it inherits. It imports only what starting the warm parent needs before it
-starts it (``warm_parent``): even ``argparse`` and ``logging`` would make it start 5 ms later."""
+whatever disposition it inherits.
+
+A run that forks services needs room in its arguments for theirs (``launcher_names.ROOM``):
+started without it, the launcher starts its own interpreter again with it, before it loads
+anything. Once its modules are loaded it forks its warm parent (``warm_parent``), then writes
+its own command line back without the room."""
 
 from __future__ import annotations
 
 import gc
+import os
 import sys
-from collections.abc import Sequence
 
-from motocell.services.launcher.warm_parent import started_zygote
+from motocell.services.launcher.warm_parent import NOTHING_TO_FORK, fork_zygote
+from motocell.shared.launcher_names import LAUNCHER_MODULE, ROOM_OPTION, launcher_command
 from motocell.shared.signals import hold_stop_signals
 
 
-def main(argv: Sequence[str] | None = None) -> None:
+def main() -> None:
     # Before the imports below, where a signal would land in the middle of loading Zenoh;
     # ``up.run`` takes them (shared.service.stop_on_signals), then they stay held while the
     # interpreter shuts down.
     hold_stop_signals()
     try:
-        _main(argv)
+        launch(sys.argv[1:])
     finally:
         hold_stop_signals()
 
 
-def _main(argv: Sequence[str] | None) -> None:
-    words = sys.argv[1:] if argv is None else argv
-    # The warm parent first, so that its imports run beside the launcher's (warm_parent).
-    with started_zygote(words) as zygote:
-        # Zenoh and the launcher load only once the signals are held, with the collector
-        # paused, as the warm parent's imports are (``zygote.warm_up`` says why).
-        gc.disable()
-        try:
-            import argparse  # noqa: PLC0415
-            import logging  # noqa: PLC0415
+def launch(words: list[str]) -> None:
+    """Run the launcher with ``words``, its signals held (also ``motocell up``'s, which
+    ``tools.cli`` hands here); it ends by ``sys.exit``."""
+    if ROOM_OPTION not in sys._xoptions and not NOTHING_TO_FORK.intersection(words):
+        os.execv(sys.executable, [*launcher_command(), *words])  # the held signals stay held
+    # Zenoh and the launcher load with the collector paused, as the warm parent's imports
+    # are (``zygote.warm_up`` says why); frozen after, so that neither process's collections
+    # write to the pages the two share.
+    gc.disable()
+    try:
+        import logging  # noqa: PLC0415
 
-            from motocell.services.launcher.cli import add_arguments  # noqa: PLC0415
-            from motocell.services.launcher.up import run  # noqa: PLC0415
-        finally:
-            gc.enable()
-        parser = argparse.ArgumentParser(
-            prog="python -m motocell.services.launcher",
-            description="Run a whole cell.",
-            allow_abbrev=False,
-        )
-        add_arguments(parser)
-        args = parser.parse_args(words)
+        from motocell.services.launcher.cli import parser  # noqa: PLC0415
+        from motocell.services.launcher.command_line import rewrite_command_line  # noqa: PLC0415
+        from motocell.services.launcher.core.forks import nul_ended  # noqa: PLC0415
+        from motocell.services.launcher.up import run  # noqa: PLC0415
+    finally:
+        gc.enable()
+    gc.freeze()
+    zygote = fork_zygote(words)  # outside any block: in the zygote it ends the process
+    if ROOM_OPTION in sys._xoptions:
+        rewrite_command_line(nul_ended((sys.executable, "-m", LAUNCHER_MODULE, *words)))
+    try:
+        args = parser().parse_args(words)
         args.warm_parent = zygote
         logging.basicConfig(
             level=logging.INFO, format="%(asctime)s motocell %(levelname)s %(message)s"
         )
         sys.exit(run(args))
+    finally:
+        if zygote is not None:
+            zygote.close()
 
 
 if __name__ == "__main__":

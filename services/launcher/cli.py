@@ -1,18 +1,28 @@
-"""The options of ``motocell up`` and ``motocell router`` (``python -m
-motocell.services.launcher``): ``tools.cli`` builds its subcommands from these."""
+"""The options of ``motocell up`` (``python -m motocell.services.launcher``, which ``motocell
+up`` runs: ``parser``) and ``motocell router`` (a subcommand ``tools.cli`` builds from
+``add_router_arguments``)."""
 
 from __future__ import annotations
 
 import argparse
 
+from motocell import __version__
 from motocell.services.launcher.core.endpoints import WELL_KNOWN_ENDPOINT
 from motocell.services.launcher.core.tcp_ports import PORT_BASE_AUTO
 from motocell.services.launcher.lifeline import lifeline_argument
 from motocell.shared.service import add_cell_arguments
 
 
+def parser() -> argparse.ArgumentParser:
+    """``motocell up``'s parser."""
+    up = argparse.ArgumentParser(prog="motocell up", allow_abbrev=False)
+    add_arguments(up)
+    up.add_argument("--version", action="version", version=f"motocell {__version__}")
+    return up
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """The options of ``motocell up`` and ``python -m motocell.services.launcher``."""
+    """The options of ``motocell up``."""
     parser.description = (
         "Run a whole cell in the foreground until Ctrl-C (or SIGTERM): its Zenoh router and "
         "every service as a process of its own. One line, `cell NAME ready: ...` with its "
@@ -76,8 +86,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="start every service as a fresh interpreter instead of a fork of the warm parent "
         "that has imported them (slower; for comparison and debugging, docs/startup.md)",
     )
-    # The warm parent, started before this parser existed (``warm_parent.started_zygote``):
-    # the command's ``main`` puts it here, and ``up.run`` takes it; None runs the cell cold.
+    # The warm parent, forked before this parser existed (``warm_parent.fork_zygote``): the
+    # launcher's ``__main__`` puts it here, and ``up.run`` takes it; None runs the cell cold.
     parser.set_defaults(warm_parent=None)
     add_lifeline_argument(parser, "cell")
     parser.add_argument(

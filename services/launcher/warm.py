@@ -38,7 +38,7 @@ from motocell.services.launcher.core.forks import (
     encode,
 )
 from motocell.services.launcher.loop import Stop
-from motocell.services.launcher.warm_parent import StartedZygote
+from motocell.services.launcher.warm_parent import ForkedProcess, StartedZygote
 from motocell.shared.bus.session import StoppedWaiting
 from motocell.shared.launcher_names import PARENT_PID_ENV
 from motocell.shared.service_names import WARM_MODULES
@@ -69,50 +69,6 @@ class Process(Protocol):
     def send_signal(self, sig: int) -> None: ...
 
     def kill(self) -> None: ...
-
-
-class ForkedProcess:
-    """A service the zygote forked, now the launcher's child: ``Popen``'s ways, by pid."""
-
-    def __init__(self, pid: int) -> None:
-        self.pid = pid
-        self.returncode: int | None = None
-
-    def poll(self) -> int | None:
-        if self.returncode is None:
-            pid, status = os.waitpid(self.pid, os.WNOHANG)
-            if pid == self.pid:
-                self.returncode = os.waitstatus_to_exitcode(status)
-        return self.returncode
-
-    def wait(self, timeout: float | None = None) -> int:
-        if self.poll() is None:
-            if timeout is None:
-                _, status = os.waitpid(self.pid, 0)
-                self.returncode = os.waitstatus_to_exitcode(status)
-            else:
-                _wait_for_exit(self.pid, timeout)
-        code = self.poll()
-        if code is None:
-            raise subprocess.TimeoutExpired(str(self.pid), timeout or 0.0)
-        return code
-
-    def send_signal(self, sig: int) -> None:
-        if self.poll() is None:  # not reaped, so the pid is still this process's
-            os.kill(self.pid, sig)
-
-    def kill(self) -> None:
-        self.send_signal(signal.SIGKILL)
-
-
-def _wait_for_exit(pid: int, timeout: float) -> None:
-    exited = os.pidfd_open(pid)
-    try:
-        poller = select.poll()
-        poller.register(exited, select.POLLIN)
-        poller.poll(max(0, round(timeout * 1000)))
-    finally:
-        os.close(exited)
 
 
 class ZygoteGoneError(Exception):

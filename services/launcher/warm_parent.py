@@ -1,54 +1,80 @@
-"""The warm parent's process (``launcher.zygote``), started as the launcher's first act.
+"""The warm parent (``launcher.zygote``), forked from the launcher once the launcher's own
+modules are loaded, before it starts a thread or opens its router (docs/startup.md).
 
-The zygote's imports take 0.15-0.3 s; the launcher's own (Zenoh, its cell file's loader) take
-0.1-0.2 s and its router opens after them. Started before those, on a machine of two cores or
-more, the zygote imports beside them instead of after them (measured in docs/startup.md). So
-this module imports a few modules of the standard library and ``shared.launcher_names`` alone
-(the services' names, with ``dataclasses``, would hold the zygote's start back by 11 ms of
-CPU), and the zygote holds every service it can fork (``service_names.WARM_MODULES``, which it
-reads itself) whatever the cell turns out to run: the cell's file is not read yet.
+A fork shares its parent's pages: the interpreter, Zenoh's library with its relocations and
+every module the launcher has loaded are in memory once for the launcher, the zygote and every
+service the zygote forks, where a zygote of its own would hold a second copy. The zygote then
+imports the services' modules while the launcher reads its cell file and opens its router, so
+the two still load at once on two cores.
+
+The zygote rewrites its command line in the room the launcher started with
+(``launcher_names.ROOM_OPTION``), and so does every service it forks.
 """
 
 from __future__ import annotations
 
 import os
+import select
+import signal
 import socket
 import subprocess
 import sys
-from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
 
-from motocell.shared.launcher_names import PARENT_PID_ENV, WARM_PARENT_MODULE
-
-ROOM = 8192
-"""Bytes of command line the zygote holds for a service's (``zygote.rewrite_command_line``):
-a cell's longest, with its paths, is a few hundred."""
 NOTHING_TO_FORK = frozenset({"--cold", "-h", "--help", "--version"})
 """Words of a launcher's command line after which it forks no service."""
+
+
+class ForkedProcess:
+    """A process this launcher forked, or adopted from its zygote: ``Popen``'s ways, by pid."""
+
+    def __init__(self, pid: int) -> None:
+        self.pid = pid
+        self.returncode: int | None = None
+
+    def poll(self) -> int | None:
+        if self.returncode is None:
+            pid, status = os.waitpid(self.pid, os.WNOHANG)
+            if pid == self.pid:
+                self.returncode = os.waitstatus_to_exitcode(status)
+        return self.returncode
+
+    def wait(self, timeout: float | None = None) -> int:
+        if self.poll() is None:
+            if timeout is None:
+                _, status = os.waitpid(self.pid, 0)
+                self.returncode = os.waitstatus_to_exitcode(status)
+            else:
+                _wait_for_exit(self.pid, timeout)
+        code = self.poll()
+        if code is None:
+            raise subprocess.TimeoutExpired(str(self.pid), timeout or 0.0)
+        return code
+
+    def send_signal(self, sig: int) -> None:
+        if self.poll() is None:  # not reaped, so the pid is still this process's
+            os.kill(self.pid, sig)
+
+    def kill(self) -> None:
+        self.send_signal(signal.SIGKILL)
+
+
+def _wait_for_exit(pid: int, timeout: float) -> None:
+    exited = os.pidfd_open(pid)
+    try:
+        poller = select.poll()
+        poller.register(exited, select.POLLIN)
+        poller.poll(max(0, round(timeout * 1000)))
+    finally:
+        os.close(exited)
 
 
 class StartedZygote:
     """The zygote's process and the launcher's end of its socket, until ``warm.Zygote`` takes
     them; ``close`` kills it, for a launcher that ends before it asks for anything."""
 
-    def __init__(self) -> None:
-        ours, theirs = socket.socketpair()
-        env = {**os.environ, PARENT_PID_ENV: str(os.getpid())}
-        command = [
-            *(sys.executable, "-m", WARM_PARENT_MODULE),
-            *("--channel", str(theirs.fileno()), "--room", " " * ROOM),
-        ]
-        try:
-            # A process group of its own, as every service has: a Ctrl-C reaches the launcher.
-            self.process = subprocess.Popen(
-                command, env=env, pass_fds=(theirs.fileno(),), process_group=0
-            )
-        except BaseException:
-            ours.close()
-            raise
-        finally:
-            theirs.close()
-        self.channel = ours
+    def __init__(self, pid: int, channel: socket.socket) -> None:
+        self.process = ForkedProcess(pid)
+        self.channel = channel
 
     def close(self) -> None:
         if self.process.poll() is None:
@@ -57,20 +83,30 @@ class StartedZygote:
         self.channel.close()
 
 
-@contextmanager
-def started_zygote(words: Sequence[str]) -> Iterator[StartedZygote | None]:
-    """The zygote for a launcher run with ``words``, None where that run forks nothing; the
-    zygote is killed at the block's end (``warm.Zygote`` has usually done so by then)."""
+def fork_zygote(words: list[str]) -> StartedZygote | None:
+    """The zygote for a launcher run with ``words``, None where that run forks nothing or no
+    process is to be had. Call it where nothing is to be undone below it (the launcher's
+    ``__main__``, outside its blocks): in the zygote, and in every service it forks, this
+    returns only by ending the process as the interpreter ends, with the service's exit status.
+    """
     if NOTHING_TO_FORK.intersection(words):
-        yield None
-        return
+        return None
+    # The zygote's module, with the services' names it holds, loads after the fork, in the
+    # zygote alone: the launcher needs none of it.
+    ours, theirs = socket.socketpair()
+    launcher = os.getpid()
     try:
-        zygote = StartedZygote()
-    except OSError as exc:  # no process to be had (EAGAIN, ENOMEM): the cell starts cold
+        pid = os.fork()
+    except OSError as exc:  # EAGAIN, ENOMEM: the cell starts cold
+        ours.close()
+        theirs.close()
         print(f"motocell up: no warm parent ({exc}); services start cold", file=sys.stderr)
-        yield None
-        return
-    try:
-        yield zygote
-    finally:
-        zygote.close()
+        return None
+    if pid == 0:
+        ours.close()
+        from motocell.services.launcher.zygote import run  # noqa: PLC0415
+
+        run(theirs, launcher)
+        sys.exit(0)
+    theirs.close()
+    return StartedZygote(pid, ours)

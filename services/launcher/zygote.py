@@ -2,13 +2,13 @@
 modules, so that each service starts as a fork of it instead of a fresh interpreter that
 imports them again (docs/startup.md).
 
-    python -m motocell.services.launcher.zygote --channel FD --room PADDING
-
-It opens no Zenoh session and starts no thread (``OPENBLAS_NUM_THREADS=1``, set by
-``motocell.services``, keeps numpy's worker away), so a fork of it is as safe as a fork of a
-fresh interpreter, and a service opens its own session after the fork, as it would after
-``python -m``. It serves the launcher's requests (``core.forks``) on the socket ``FD`` until
-that closes, and dies with the launcher (``die_with_launcher``).
+The launcher forks it (``warm_parent.fork_zygote``) once its own modules are loaded, before it
+starts a thread: what both load is in memory once. It opens no Zenoh session and starts no
+thread (``OPENBLAS_NUM_THREADS=1``, set by ``motocell.services``, keeps numpy's worker away), so
+a fork of it is as safe as a fork of a fresh interpreter, and a service opens its own session
+after the fork, as it would after ``python -m``. It serves the launcher's requests
+(``core.forks``) on its socket until that closes, and dies with the launcher
+(``die_with_launcher``).
 
 Each service is forked twice: the first child forks the service and exits at once, so the
 service is re-parented to the launcher, which has made itself a subreaper
@@ -18,25 +18,23 @@ service started with ``python -m``. A zygote that dies takes no running service 
 service waits for the zygote's go (a byte on a pipe), written only once the launcher has its
 pid; a zygote gone before that closes the pipe, and the service, which nobody recorded, ends.
 
-``PADDING`` is room: the service rewrites its command line (``/proc/<pid>/cmdline``, what
+The zygote, and then each service, rewrites its command line (``/proc/<pid>/cmdline``, what
 ``ps``, the tests and the benchmarks read) to the ``python -m`` line it stands for, in the
-memory of the zygote's own arguments, which must be long enough to hold it.
+memory of the launcher's own arguments, which hold room for it (``launcher_names.ROOM``).
 """
 
 from __future__ import annotations
 
-import argparse
 import contextlib
-import ctypes
 import gc
 import importlib
 import os
 import socket
 import sys
 from collections.abc import Callable, Iterator, Sequence
-from pathlib import Path
 from typing import Protocol
 
+from motocell.services.launcher.command_line import rewrite_command_line, room
 from motocell.services.launcher.core.forks import (
     Forked,
     ForkProtocolError,
@@ -45,15 +43,12 @@ from motocell.services.launcher.core.forks import (
     command_line,
     decode_request,
     encode,
+    nul_ended,
 )
+from motocell.shared.launcher_names import PARENT_PID_ENV, WARM_PARENT_MODULE
 from motocell.shared.service import die_with_launcher
 from motocell.shared.service_names import WARM_MODULES
 from motocell.shared.signals import release_stop_signals
-
-ARG_START_FIELD = 45
-ARG_END_FIELD = 46
-"""arg_start and arg_end, fields 48 and 49 of /proc/<pid>/stat (stat(5)), counted from the
-field after the command's name."""
 
 
 class Held:
@@ -87,26 +82,6 @@ class Channel(Protocol):
     def write(self, data: bytes, /) -> int: ...
 
     def flush(self) -> None: ...
-
-
-def arguments_area() -> tuple[int, int]:
-    """Where this process's arguments are in its memory: the first byte and one past the last."""
-    fields = Path("/proc/self/stat").read_text().rsplit(")", 1)[-1].split()
-    return int(fields[ARG_START_FIELD]), int(fields[ARG_END_FIELD])
-
-
-def room() -> int:
-    start, end = arguments_area()
-    return end - start
-
-
-def rewrite_command_line(words: bytes) -> None:
-    """Make ``/proc/self/cmdline`` read ``words`` (NUL-ended words, no longer than ``room``),
-    the rest of the area zeroed. The interpreter keeps copies of its arguments (``sys.argv``),
-    nothing reads the originals again."""
-    start, end = arguments_area()
-    filled = words.ljust(end - start, b"\0")
-    ctypes.memmove(start, filled, len(filled))
 
 
 def serve(channel: Channel, fork: Fork, space: int, python: str) -> ForkRequest | None:
@@ -250,22 +225,30 @@ def warm_up(modules: Sequence[str]) -> None:
     gc.freeze()
 
 
-def main(argv: Sequence[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(prog="motocell zygote", allow_abbrev=False)
-    parser.add_argument("--channel", type=int, required=True)
-    parser.add_argument("--room", default="", help="padding: room for a service's arguments")
-    args = parser.parse_args(argv)
-    # The launcher starts it with SIGINT and SIGTERM held (``warm_parent``: before its own
-    # handlers exist), and a blocked mask survives the exec: released, SIGTERM ends it, the
-    # one its PR_SET_PDEATHSIG sends when the launcher dies.
+def run(channel: socket.socket, launcher: int) -> None:
+    """The zygote, just forked from ``launcher`` (``warm_parent.fork_zygote``) with its end of
+    the socket, ``channel``: serve the launcher until it closes the socket; in a forked
+    service, run the service."""
+    os.environ[PARENT_PID_ENV] = str(launcher)  # for ``die_with_launcher``, here and in forks
+    os.setpgid(0, 0)  # a process group of its own, as every service has: a Ctrl-C reaches
+    # the launcher alone, which stops the children in order
+    close_inherited(keep=channel.fileno())
+    rewrite_command_line(nul_ended((sys.executable, "-m", WARM_PARENT_MODULE)))
+    # Forked while the launcher holds SIGINT and SIGTERM (its ``__main__``: before its own
+    # handlers exist): released, SIGTERM ends it, the one its PR_SET_PDEATHSIG sends when the
+    # launcher dies.
     release_stop_signals()
     die_with_launcher()
     warm_up(WARM_MODULES)
-    with socket.socket(fileno=args.channel) as channel, channel.makefile("rwb") as lines:
+    with channel, channel.makefile("rwb") as lines:
         request = serve(lines, fork_service, room(), sys.executable)
     if request is not None:
         become(request, sys.executable)
 
 
-if __name__ == "__main__":
-    main()
+def close_inherited(keep: int) -> None:
+    """Close every descriptor of the launcher's but the standard streams and ``keep``: a
+    service started with ``python -m`` inherits none of them (the harness's lifeline among
+    them), and neither does a fork."""
+    os.closerange(3, keep)
+    os.closerange(keep + 1, os.sysconf("SC_OPEN_MAX"))

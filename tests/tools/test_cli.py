@@ -15,6 +15,7 @@ from pathlib import Path
 
 import pytest
 
+from motocell.services.launcher import cli as launcher_cli
 from motocell.services.launcher.core.endpoints import WELL_KNOWN_ENDPOINT
 from motocell.shared import registry
 from motocell.shared.registry import ENV as RUNTIME_DIR_ENV
@@ -48,6 +49,14 @@ CELL_FILE_READER = "motocell.shared.config"
 ``shared.service`` (their stop flag)."""
 
 
+def parse(words: list[str]) -> argparse.Namespace:
+    """``words`` parsed as ``motocell`` parses them: ``up`` by the launcher's own parser, which
+    ``tools.cli.main`` hands it to, every other command by the command's."""
+    if words[:1] == ["up"]:
+        return launcher_cli.parser().parse_args(words[1:])
+    return build_parser().parse_args(words)
+
+
 def unwanted(command: str) -> set[str]:
     return NOT_FOR_LIGHT | ({CELL_FILE_READER} if command in {"ps", "fault"} else set())
 
@@ -73,14 +82,14 @@ COMMANDS = (
 @pytest.mark.parametrize("command", COMMANDS)
 def test_every_command_has_help(command: str, capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as exit_:
-        build_parser().parse_args([command, "--help"])
+        parse([command, "--help"])
     assert exit_.value.code == 0
     assert capsys.readouterr().out.startswith(f"usage: motocell {command}")
 
 
 def help_of(command: str, capsys: pytest.CaptureFixture[str]) -> str:
     with pytest.raises(SystemExit):
-        build_parser().parse_args([command, "--help"])
+        parse([command, "--help"])
     return " ".join(capsys.readouterr().out.split())
 
 
@@ -137,8 +146,8 @@ def test_help_imports_none_of_the_tools_extra(tmp_path: Path) -> None:
 def test_up_imports_neither_numpy_nor_the_benchmarks_nor_cryptography(tmp_path: Path) -> None:
     # `motocell up` parses its arguments before it starts a single service.
     code = (
-        "from motocell.tools import cli\n"
-        "cli.build_parser().parse_args(['up', '--port-base', '51240'])"
+        "from motocell.services.launcher import cli\n"
+        "cli.parser().parse_args(['--port-base', '51240'])"
     )
     assert loaded_after(code, {"motocell.tools.bench", "cryptography", "numpy"}, tmp_path) == []
 
@@ -185,7 +194,7 @@ def test_a_deferred_command_has_its_options_when_run(capsys: pytest.CaptureFixtu
 
 def test_abbreviated_options_are_refused(capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as exit_status:
-        build_parser().parse_args(["up", "--port-bas", "51240"])
+        parse(["up", "--port-bas", "51240"])
     assert exit_status.value.code == 2
     assert "unrecognized arguments: --port-bas" in capsys.readouterr().err
 
@@ -199,7 +208,7 @@ def test_version_is_printed_by_every_command(
     command: list[str], capsys: pytest.CaptureFixture[str]
 ) -> None:
     with pytest.raises(SystemExit) as exit_status:
-        build_parser().parse_args([*command, "--version"])
+        parse([*command, "--version"])
     assert exit_status.value.code == 0
     assert capsys.readouterr().out.startswith("motocell ")
 

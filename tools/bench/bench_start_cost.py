@@ -12,8 +12,11 @@ zygote, every service):
 
 - CPU: utime + stime, plus what the process's reaped children used (cutime + cstime), summed
   over the cell; also by kind of process;
-- memory: PSS (its own pages and its share of the shared ones), its private pages (what a
-  further cell beside it costs: the shared ones are there already) and RSS, summed.
+- memory: PSS (its own pages and its share of the shared ones), private pages (those one
+  process alone maps) and RSS, summed; and the cell's own memory (``own_memory``: every
+  anonymous page that the cell's processes map and no other process does, counted once),
+  which is what a further cell costs: the private pages miss the warm parent's, which its
+  forks share until they write to them, and PSS counts a share of every library.
 
 Wall time is spawn -> motion-ready. Beside each cold run, one service's start is taken apart in
 a fresh interpreter of its own (``start_phases``): the interpreter, its imports, the cell
@@ -45,6 +48,7 @@ from motocell.tools.bench.measuring import (
     workdir,
     write_cell_file,
 )
+from motocell.tools.bench.own_memory import OwnMemory, own_memory
 
 FIGURE = 13
 RUNS = 3
@@ -91,17 +95,18 @@ def read_cell(cell: RunningCell) -> list[ProcessRead]:
 
 def once(
     config: Path, log: Path, *, cold: bool
-) -> tuple[dict[str, float], list[ProcessRead], dict[str, float]]:
-    """The way to motion-ready (figure 9's milestones, ms), every process read then, and one
-    service's phases."""
+) -> tuple[dict[str, float], list[ProcessRead], OwnMemory | None, dict[str, float]]:
+    """The way to motion-ready (figure 9's milestones, ms), every process read then, the
+    cell's own memory (None without root), and one service's phases."""
     cell = start_cell(config, log=log, cold=cold)
     try:
         times = milestones(cell)
         reads = read_cell(cell)
+        own = own_memory(list(process_kinds(cell)))
         phases = start_phases(cell) if cold else {}
     finally:
         cell.stop()
-    return times, reads, phases
+    return times, reads, own, phases
 
 
 def start_phases(cell: RunningCell) -> dict[str, float]:
@@ -144,8 +149,14 @@ class Runs:
     phases: dict[str, list[float]] = field(default_factory=dict)
     processes: int = 0
 
+    own: list[float] = field(default_factory=list)
+
     def add(
-        self, times: dict[str, float], reads: list[ProcessRead], phases: dict[str, float]
+        self,
+        times: dict[str, float],
+        reads: list[ProcessRead],
+        own: OwnMemory | None,
+        phases: dict[str, float],
     ) -> None:
         self.walls.append(times["motion_ready"])
         self.first_status.append(times["first_status"])
@@ -155,6 +166,8 @@ class Runs:
         self.pss.append(sum(r.pss_mib for r in reads))
         self.private.append(sum(r.private_mib for r in reads))
         self.rss.append(sum(r.rss_mib for r in reads))
+        if own is not None:
+            self.own.append(own.total_mib)
         for kind, cpu in by_kind(reads).items():
             self.kinds.setdefault(kind, []).append(cpu * 1000)
         for name, seconds in phases.items():
@@ -192,9 +205,11 @@ def rows_of(label: str, runs: Runs, goals: tuple[float, ...] | None) -> list[dic
     ]
     rows += [
         row("PSS once ready", "MiB", runs.pss, None),
-        row("private once ready (a further cell)", "MiB", runs.private, further_goal),
+        row("private once ready (pages one process alone maps)", "MiB", runs.private, None),
         row("RSS once ready", "MiB", runs.rss, None),
     ]
+    if runs.own:  # read only as root (own_memory)
+        rows.append(row("own memory once ready (a further cell)", "MiB", runs.own, further_goal))
     rows += [
         row(f"{PHASES_SERVICE} alone, CPU of {name}", "ms", values, None)
         for name, values in runs.phases.items()

@@ -59,5 +59,9 @@ def decode_reply(line: bytes) -> Reply:
 def command_line(python: str, request: ForkRequest) -> bytes:
     """What ``/proc/<pid>/cmdline`` of a service started with ``python -m`` holds: its words,
     each ended by a NUL."""
-    words: Sequence[str] = (python, "-m", request.module, *request.args)
+    return nul_ended((python, "-m", request.module, *request.args))
+
+
+def nul_ended(words: Sequence[str]) -> bytes:
+    """``words`` as ``/proc/<pid>/cmdline`` holds them: each ended by a NUL."""
     return b"".join(word.encode() + b"\0" for word in words)

@@ -1,25 +1,32 @@
-"""The warm parent started as the launcher's first act (services/launcher/warm_parent.py)."""
+"""The warm parent forked from the launcher (services/launcher/warm_parent.py), and the launcher's
+first lines before it (services/launcher/__main__.py)."""
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+from collections.abc import Iterator
 from pathlib import Path
 from typing import cast
 
 import pytest
 
 from motocell.services.launcher.up import warm_starter
-from motocell.services.launcher.warm_parent import StartedZygote, started_zygote
+from motocell.services.launcher.warm_parent import StartedZygote, fork_zygote
+from motocell.shared.launcher_names import WARM_PARENT_MODULE, launcher_command
 from motocell.shared.service import StopFlag
 from motocell.shared.service_names import ROS2_FACE, WARM_MODULES, ServiceName
-from motocell.shared.signals import STOP_SIGNALS, hold_stop_signals, release_stop_signals
-from motocell.testing.processes import wait_until
+from motocell.shared.signals import STOP_SIGNALS
+from motocell.testing.processes import cmdline, wait_until
 from tests.tools.test_cli import loaded_after
 
 HEAVY = {
     *("zenoh", "msgspec", "numpy", "dataclasses", "logging", "argparse"),
     *("motocell.shared.config", "motocell.shared.service", "motocell.shared.service_names"),
 }
-"""What the launcher loads after the zygote has started: loaded before, it would delay it."""
+"""What the launcher loads only once it knows it has room for its forks' command lines: loaded
+before, it would load them twice when it starts its interpreter again to make that room."""
 UNUSED = {
     *("importlib.resources", "zipfile", "tempfile", "difflib"),
     *("secrets", "hmac", "hashlib"),
@@ -47,9 +54,8 @@ DEADLINE_S = 30.0
 
 
 @pytest.mark.parametrize("word", ["--cold", "--help", "-h", "--version"])
-def test_a_run_that_forks_nothing_starts_no_zygote(word: str) -> None:
-    with started_zygote(["--name", "cell1", word]) as zygote:
-        assert zygote is None
+def test_a_run_that_forks_nothing_forks_no_zygote(word: str) -> None:
+    assert fork_zygote(["--name", "cell1", word]) is None
 
 
 def test_the_zygote_holds_every_service_but_the_ros2_face() -> None:
@@ -79,25 +85,65 @@ def blocked_signals(pid: int) -> int:
     )
 
 
+FORKING = (
+    "import sys\n"
+    "from motocell.shared.signals import hold_stop_signals\n"
+    "hold_stop_signals()\n"
+    "from motocell.services.launcher.warm_parent import fork_zygote\n"
+    "zygote = fork_zygote([])\n"
+    "print(zygote.process.pid, flush=True)\n"
+    "sys.stdin.read()\n"
+    "zygote.close()\n"
+)
+"""A launcher's first lines: its signals held, its zygote forked; it ends, with its zygote, when
+its standard input does."""
+
+
+@pytest.fixture
+def forking_launcher() -> Iterator[tuple[subprocess.Popen[str], int]]:
+    """A process that has forked a zygote, and the zygote's pid."""
+    with subprocess.Popen(
+        [*launcher_command()[:-2], "-c", FORKING],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+    ) as launcher:
+        assert launcher.stdin is not None and launcher.stdout is not None
+        try:
+            yield launcher, int(launcher.stdout.readline())
+        finally:
+            launcher.stdin.close()
+            launcher.wait(DEADLINE_S)
+
+
 @pytest.mark.cell
-def test_the_zygote_takes_back_the_signals_its_launcher_held() -> None:
-    """Started while the launcher holds SIGINT and SIGTERM, it releases them, so that the
+def test_the_zygote_takes_back_the_signals_its_launcher_held(
+    forking_launcher: tuple[subprocess.Popen[str], int],
+) -> None:
+    """Forked while the launcher holds SIGINT and SIGTERM, it releases them, so that the
     SIGTERM its PR_SET_PDEATHSIG sends when the launcher dies ends it."""
+    _, zygote = forking_launcher
     stop_bits = sum(1 << (sig - 1) for sig in STOP_SIGNALS)
-    hold_stop_signals()
-    try:
-        zygote = StartedZygote()
-    finally:
-        release_stop_signals()
-    try:
-        assert blocked_signals(zygote.process.pid) & stop_bits == stop_bits  # as it started
-        wait_until(
-            lambda: blocked_signals(zygote.process.pid) & stop_bits == 0,
-            DEADLINE_S,
-            "the zygote to release SIGINT and SIGTERM",
-        )
-    finally:
-        zygote.close()
+    wait_until(
+        lambda: blocked_signals(zygote) & stop_bits == 0,
+        DEADLINE_S,
+        "the zygote to release SIGINT and SIGTERM",
+    )
+
+
+@pytest.mark.cell
+def test_the_zygote_names_its_module_and_holds_nothing_of_its_launchers(
+    forking_launcher: tuple[subprocess.Popen[str], int],
+) -> None:
+    launcher, zygote = forking_launcher
+    wait_until(
+        lambda: cmdline(zygote) == [sys.executable, "-m", WARM_PARENT_MODULE],
+        DEADLINE_S,
+        "the zygote to write its command line",
+    )
+    held = {int(fd) for fd in os.listdir(f"/proc/{zygote}/fd")}
+    assert len(held) == 4  # its standard streams and its end of the socket
+    assert os.readlink(f"/proc/{zygote}/fd/0") == os.readlink(f"/proc/{launcher.pid}/fd/0")
 
 
 class UnusedZygote:
