@@ -26,3 +26,12 @@ def hold_stop_signals() -> None:
 def release_stop_signals() -> None:
     """Deliver what was held, and any that come later, to the handlers now in place."""
     signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)
+
+
+def drop_held_stop_signals() -> None:
+    """Discard a SIGINT or SIGTERM held and not yet delivered, the handlers kept: setting a
+    signal's action to ignore discards it even while blocked (POSIX, and Linux's
+    ``do_sigaction``). For a process forked while they were held, which is not who they were
+    meant for."""
+    for sig in STOP_SIGNALS:
+        signal.signal(sig, signal.signal(sig, signal.SIG_IGN))

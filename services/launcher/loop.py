@@ -59,12 +59,15 @@ def supervise(
     policy: RestartPolicy,
     stop: Stop,
     look: Callable[[], float | None],
+    *,
     reap: Callable[[], None] | None = None,
+    started: Callable[[], None] | None = None,
 ) -> int:
     """Start every child at once, then restart those that die, until ``stop`` (status 0) or
     until one cannot start as configured (EXIT_CONFIG: it has said why on stderr). ``reap``,
     after each wake-up's restarts: what else the caller tends (the launcher reaps the
-    processes it adopted and no child knows).
+    processes it adopted and no child knows). ``started``, once every child has had its
+    first start (the launcher lets its warm parent go).
 
     Sleeps until a child exits, a restart is due, ``stop``, or the time ``look`` asked to run
     again: it runs once at the start and returns the next time.monotonic() it wants, or None
@@ -74,6 +77,8 @@ def supervise(
     try:
         for child in children:
             child.start()  # a start a stop interrupts raises (StoppedWaiting)
+        if started is not None:
+            started()
         next_look = look()
         while True:
             _sleep(children, stop, [next_look, policy.next_restart()])

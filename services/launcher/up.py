@@ -297,7 +297,8 @@ def run_children(
             RestartPolicy(),
             stop,
             lambda: _look(ready, notice),
-            lambda: _reap_strays(children, starter),
+            reap=lambda: _reap_strays(children, starter),
+            started=starter.retire,
         )
     finally:
         ready.close()

@@ -173,6 +173,18 @@ class Zygote:
         """The zygote's pid until it is reaped (a poll reaps it once dead)."""
         return set() if self.process.poll() is not None else {self.process.pid}
 
+    def retire(self) -> None:
+        """Let it end by itself, with nothing asked of it: the end of its socket ends it once
+        it has let the last service it forked go (it writes the go after its reply, so a kill
+        now could come between the two, and that service would end unstarted); killed if it
+        has not ended within ``REPLY_S``."""
+        self._channel.close()
+        try:
+            self.process.wait(REPLY_S)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            self.process.wait()
+
     def close(self) -> None:
         """Kill it: it holds nothing that needs an orderly end, and it may be stuck or stopped
         (SIGSTOP), or in the middle of its imports. A service it forked and answered for
@@ -198,6 +210,8 @@ class WarmParent(Protocol):
     def fork(self, module: str, args: Sequence[str]) -> Process: ...
 
     def pids(self) -> set[int]: ...
+
+    def retire(self) -> None: ...
 
     def close(self) -> None: ...
 
@@ -237,7 +251,7 @@ def spawn(argv: Sequence[str]) -> subprocess.Popen[bytes]:
 
 class Starter:
     """Starts a service's command line (``python -m module ...``): a fork of the zygote for the
-    modules it holds while it answers, else a process of its own."""
+    modules it holds while it answers, until it is retired, else a process of its own."""
 
     def __init__(
         self,
@@ -267,6 +281,14 @@ class Starter:
     def pids(self) -> set[int]:
         """The processes it holds that are not services: its zygote's, until reaped."""
         return set() if self._zygote is None else self._zygote.pids()
+
+    def retire(self) -> None:
+        """Every service has had its first start: the zygote goes, and with it the pages of
+        its heap that only it still maps, 6 MiB a cell (docs/startup.md, The warm parent
+        retired); a restart from here on is a process of its own."""
+        if self._zygote is not None:
+            self._zygote.retire()
+            self._zygote = None
 
     def close(self) -> None:
         if self._zygote is not None:

@@ -48,7 +48,7 @@ from motocell.services.launcher.core.forks import (
 from motocell.shared.launcher_names import PARENT_PID_ENV, WARM_PARENT_MODULE
 from motocell.shared.service import die_with_launcher
 from motocell.shared.service_names import WARM_MODULES
-from motocell.shared.signals import release_stop_signals
+from motocell.shared.signals import drop_held_stop_signals, release_stop_signals
 
 
 class Held:
@@ -235,15 +235,20 @@ def run(channel: socket.socket, launcher: int) -> None:
     close_inherited(keep=channel.fileno())
     rewrite_command_line(nul_ended((sys.executable, "-m", WARM_PARENT_MODULE)))
     # Forked while the launcher holds SIGINT and SIGTERM (its ``__main__``: before its own
-    # handlers exist): released, SIGTERM ends it, the one its PR_SET_PDEATHSIG sends when the
-    # launcher dies.
+    # handlers exist). One sent to the launcher's process group before the line above is held
+    # here too, and is the launcher's: dropped. Then released, SIGTERM ends it, the one its
+    # PR_SET_PDEATHSIG sends when the launcher dies.
+    drop_held_stop_signals()
     release_stop_signals()
     die_with_launcher()
     warm_up(WARM_MODULES)
     with channel, channel.makefile("rwb") as lines:
         request = serve(lines, fork_service, room(), sys.executable)
-    if request is not None:
-        become(request, sys.executable)
+    if request is None:
+        # The launcher is done with it: nothing of its own to flush or undo, and tearing its
+        # modules down would only cost the CPU the launcher waits for (``warm.Zygote.retire``).
+        os._exit(0)
+    become(request, sys.executable)
 
 
 def close_inherited(keep: int) -> None:

@@ -1,7 +1,8 @@
 """The launcher's loop with scripted children, no processes: each child's exit descriptor is a
 pipe the test makes readable when it "dies". The loop starts every child, sleeps until an exit,
-restarts by the policy, gives up on EXIT_CONFIG, calls ``look`` only while it asks to be, calls
-``reap`` after each wake-up, and leaves no descriptor open, a start a stop interrupts too."""
+restarts by the policy, gives up on EXIT_CONFIG, calls ``look`` only while it asks to be,
+``reap`` after each wake-up and ``started`` once after the first starts, and leaves no
+descriptor open, a start a stop interrupts too."""
 
 from __future__ import annotations
 
@@ -152,9 +153,30 @@ def test_reap_runs_after_each_wake_ups_restarts() -> None:
         if children[0].starts == 3:
             stop.set()
 
-    assert supervise(children, RestartPolicy(delay_s=0.0), stop, lambda: None, reap) == 0
+    assert supervise(children, RestartPolicy(delay_s=0.0), stop, lambda: None, reap=reap) == 0
     # Each death: a wake-up that notices it, one that restarts it; reap sees the restart.
     assert reaped_at == [1, 2, 2, 3]
+
+
+def test_started_is_told_once_after_every_first_start_and_before_any_restart() -> None:
+    stop = StopFlag()
+    children = [
+        ScriptedChild("gateway/0", lambda child: child.die(1) if child.starts < 2 else None),
+        ScriptedChild("controller/0"),
+    ]
+    told: list[list[int]] = []
+
+    def reap() -> None:
+        if children[0].starts == 2:
+            stop.set()
+
+    def started() -> None:
+        told.append([child.starts for child in children])
+
+    policy = RestartPolicy(delay_s=0.0)
+    assert supervise(children, policy, stop, lambda: None, reap=reap, started=started) == 0
+    assert told == [[1, 1]]  # once, before the gateway's restart
+    assert children[0].starts == 2
 
 
 def test_a_start_a_stop_interrupts_leaves_no_descriptor_open() -> None:

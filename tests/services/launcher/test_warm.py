@@ -157,15 +157,19 @@ class ScriptedZygote:
         self.modules = frozenset({GATEWAY})
         self.failures = list(failures)
         self.closed = False
+        self.retired = False
 
     def pids(self) -> set[int]:
-        return set() if self.closed else {7}
+        return set() if self.closed or self.retired else {7}
+
+    def retire(self) -> None:
+        self.retired = True
 
     def close(self) -> None:
         self.closed = True
 
     def fork(self, module: str, args: Sequence[str]) -> Process:
-        assert not self.closed
+        assert not (self.closed or self.retired)
         if self.failures:
             raise self.failures.pop(0)
         return Started("forked", (module, *args))
@@ -216,6 +220,18 @@ def test_a_stop_while_waiting_gives_the_zygote_up_and_starts_nothing() -> None:
         start(command(GATEWAY))
     assert zygote.closed
     assert start.pids() == set()
+
+
+def test_a_retired_zygote_is_let_go_and_every_later_start_spawned() -> None:
+    zygote = ScriptedZygote()
+    start = Starter(zygote, plain)
+    assert how(start(command(GATEWAY))) == "forked"
+    start.retire()
+    assert zygote.retired and not zygote.closed  # it ends by itself, not killed
+    assert start.pids() == set()
+    assert how(start(command(GATEWAY))) == "spawned"
+    start.close()
+    assert not zygote.closed  # retired: nothing left to close
 
 
 def test_without_a_zygote_everything_is_spawned() -> None:
