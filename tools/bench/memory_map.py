@@ -3,10 +3,12 @@
     python -m motocell.tools.bench.memory_map PID [PID ...]
     python -m motocell.tools.bench.memory_map --cell single-arm|four-group
 
-Figure 13 says what a cell's processes hold in all (PSS, private pages); this says which of
-their mappings hold it, so that a saving can be aimed. ``--cell`` starts a cell as figure 13
-does (the launcher's default start), waits until it is motion-ready and maps every process
-of it by kind (launcher+router, zygote, each service).
+Figure 13 says what a cell's processes hold in all (PSS, private pages, its own memory); this
+says which of their mappings hold it, so that a saving can be aimed. ``--cell`` starts a cell
+as figure 13 does (the launcher's default start), waits until it is motion-ready and maps
+every process of it by kind (launcher+router, each service). As root it also gives, from
+``own_memory``, the pages each process alone maps on the machine and the group's own memory
+in all (the pages only its processes map, counted once).
 
 The kinds:
 
@@ -33,6 +35,8 @@ import sys
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+
+from motocell.tools.bench.own_memory import OwnMemory, own_memory
 
 KINDS = ("heap", "arena", "stack", "anon", "file", "kernel")
 ARENA_ALIGN = 64 << 20
@@ -133,19 +137,18 @@ def inherited_kib(mappings: Iterable[Mapping], parent: Iterable[Mapping]) -> int
 class ProcessMap:
     name: str
     totals: dict[str, KindTotal]
-    inherited_kib: int | None = None
-    """Of its private dirty pages, those in mappings from the zygote (``inherited_kib``); None
-    for a process that is not a fork of it."""
+    alone_mib: float | None = None
+    """Its anonymous pages no other process maps (``own_memory``); None without root."""
 
 
 def read_mappings(pid: int | str) -> list[Mapping]:
     return parse_smaps(Path(f"/proc/{pid}/smaps").read_text())
 
 
-def table(rows: Iterable[ProcessMap]) -> str:
-    """Private MiB per kind (dirty in brackets), then private and PSS in all, and the private
-    MiB in mappings inherited from the zygote, a line each."""
-    heading = ["process", *KINDS, "private", "PSS", "from zygote"]
+def table(rows: Iterable[ProcessMap], own: OwnMemory | None) -> str:
+    """Private MiB per kind (dirty in brackets), then private and PSS in all, and the pages it
+    alone maps, a line each; then the group's own memory."""
+    heading = ["process", *KINDS, "private", "PSS", "alone"]
     lines = [" ".join(f"{word:>13}" for word in heading)]
     for row in rows:
         cells = [
@@ -153,27 +156,35 @@ def table(rows: Iterable[ProcessMap]) -> str:
             for t in row.totals.values()
         ]
         whole = sum(row.totals.values(), KindTotal())
-        inherited = "" if row.inherited_kib is None else f"{row.inherited_kib / 1024:.1f}"
-        cells += [f"{whole.private_kib / 1024:.1f}", f"{whole.pss_kib / 1024:.1f}", inherited]
+        alone = "" if row.alone_mib is None else f"{row.alone_mib:.1f}"
+        cells += [f"{whole.private_kib / 1024:.1f}", f"{whole.pss_kib / 1024:.1f}", alone]
         lines.append(" ".join(f"{cell:>13}" for cell in [row.name, *cells]))
+    if own is not None:
+        lines.append(
+            f"their own memory: {own.total_mib:.1f} MiB, of it {own.among_mib:.1f} MiB that "
+            "two or more of them map and no other process does"
+        )
     return "\n".join(lines)
 
 
-def as_json(rows: Iterable[ProcessMap]) -> str:
+def as_json(rows: Iterable[ProcessMap], own: OwnMemory | None) -> str:
     return json.dumps(
-        [
-            {
-                "process": row.name,
-                **{kind: vars(total) for kind, total in row.totals.items()},
-                "inherited_kib": row.inherited_kib,
-            }
-            for row in rows
-        ]
+        {
+            "processes": [
+                {
+                    "process": row.name,
+                    **{kind: vars(total) for kind, total in row.totals.items()},
+                    "alone_mib": row.alone_mib,
+                }
+                for row in rows
+            ],
+            "own_mib": None if own is None else own.total_mib,
+        }
     )
 
 
-def cell_rows(label: str) -> list[ProcessMap]:
-    """Start a cell as figure 13 does, motion-ready, and map each of its processes."""
+def mapped_cell(label: str) -> tuple[list[ProcessMap], OwnMemory | None]:
+    """Start a cell as figure 13 does and map each of its processes once it is motion-ready."""
     # The harness only for --cell: mapping given pids needs none of it.
     from motocell.testing.running_cell import start_cell  # noqa: PLC0415
     from motocell.tools.bench.bench_start_cost import CELLS  # noqa: PLC0415
@@ -190,25 +201,19 @@ def cell_rows(label: str) -> list[ProcessMap]:
         cell = start_cell(config, log=directory / "cell.log")
         try:
             milestones(cell)
-            kinds = sorted(process_kinds(cell).items(), key=lambda item: item[1])
-            maps = [(kind, read_mappings(pid)) for pid, kind in kinds]
+            return mapped(dict(sorted(process_kinds(cell).items(), key=lambda item: item[1])))
         finally:
             cell.stop()
-    zygote = next((mappings for kind, mappings in maps if kind == "zygote"), None)
-    return [
-        ProcessMap(
-            kind,
-            by_kind(mappings),
-            None
-            if zygote is None or kind in ("zygote", "launcher+router")
-            else inherited_kib(mappings, zygote),
-        )
-        for kind, mappings in maps
+
+
+def mapped(names: dict[int, str]) -> tuple[list[ProcessMap], OwnMemory | None]:
+    """Each process of ``names`` mapped, and what the group holds alone (None without root)."""
+    own = own_memory(list(names))
+    rows = [
+        ProcessMap(name, by_kind(read_mappings(pid)), None if own is None else own.alone_mib[pid])
+        for pid, name in names.items()
     ]
-
-
-def given(pid: int) -> ProcessMap:
-    return ProcessMap(str(pid), by_kind(read_mappings(pid)))
+    return rows, own
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -220,11 +225,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     if bool(args.pids) == bool(args.cell):
         parser.error("give either PIDs or --cell")
     try:
-        rows = cell_rows(args.cell) if args.cell else [given(pid) for pid in args.pids]
+        if args.cell:
+            rows, own = mapped_cell(args.cell)
+        else:
+            rows, own = mapped({pid: str(pid) for pid in args.pids})
     except OSError as exc:
         print(f"memory_map: cannot read {exc.filename}: {exc.strerror}", file=sys.stderr)
         return 2
-    print(as_json(rows) if args.json else table(rows))
+    print(as_json(rows, own) if args.json else table(rows, own))
     return 0
 
 
