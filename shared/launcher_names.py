@@ -16,12 +16,30 @@ of the cell beside them, but no service."""
 LAUNCHER_MODULE = "motocell.services.launcher"
 ROOM_OPTION = "motocell_room"
 """An interpreter option (``-X``, which ``sys.argv`` does not show) whose value is only room: a
-forked service writes its own command line over its launcher's (``zygote.rewrite_command_line``),
-and a cell's longest, with its paths, is a few hundred bytes."""
+forked service writes its own command line over its launcher's
+(``command_line.rewrite_command_line``), and a cell's longest, with its paths, is a few hundred
+bytes."""
 ROOM = 8192
 
 
 def launcher_command() -> list[str]:
     """``python -m motocell.services.launcher`` with the room its forks write their command
     lines into; its arguments follow."""
-    return [sys.executable, "-X", f"{ROOM_OPTION}={' ' * ROOM}", "-m", LAUNCHER_MODULE]
+    return with_room([sys.executable, "-m", LAUNCHER_MODULE])
+
+
+def with_room(command: list[str]) -> list[str]:
+    """An interpreter's ``command`` (as ``sys.orig_argv``: the interpreter, its options, what
+    it runs and its arguments) with the room as its first option."""
+    return [sys.executable, "-X", f"{ROOM_OPTION}={' ' * ROOM}", *command[1:]]
+
+
+def without_room(command: list[str]) -> list[str]:
+    """``command`` as it was before ``with_room``."""
+    room = f"{ROOM_OPTION}="
+    kept = list(command)
+    for index, word in enumerate(command):
+        if index and word.startswith(room) and command[index - 1] == "-X":
+            del kept[index - 1 : index + 1]
+            break
+    return kept

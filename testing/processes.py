@@ -51,8 +51,8 @@ def cmdline(pid: int) -> list[str]:
         raw = Path(f"/proc/{pid}/cmdline").read_bytes()
     except OSError:
         return []
-    # A service forked by its launcher's warm parent rewrote its arguments in the room that
-    # parent's held (services/launcher/zygote.py): the rest of that room reads as NULs. A last
+    # A service forked by its launcher's warm parent rewrote its arguments in the room its
+    # launcher started with (services/launcher/command_line.py): the rest reads as NULs. A last
     # argument that is empty reads the same, and is dropped with them: only PR_SET_MM, which
     # needs CAP_SYS_RESOURCE, could shrink the room to tell them apart.
     return raw.rstrip(b"\0").decode(errors="replace").split("\0") if raw else []

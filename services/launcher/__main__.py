@@ -14,9 +14,12 @@ import gc
 import os
 import sys
 
-from motocell.services.launcher.warm_parent import NOTHING_TO_FORK, fork_zygote
-from motocell.shared.launcher_names import LAUNCHER_MODULE, ROOM_OPTION, launcher_command
+from motocell.services.launcher.warm_parent import fork_zygote
+from motocell.shared.launcher_names import ROOM_OPTION, with_room, without_room
 from motocell.shared.signals import hold_stop_signals
+
+NOTHING_TO_FORK = frozenset({"--cold", "-h", "--help", "--version"})
+"""Words of a launcher's command line after which it forks no service, so needs no room."""
 
 
 def main() -> None:
@@ -33,8 +36,9 @@ def main() -> None:
 def launch(words: list[str]) -> None:
     """Run the launcher with ``words``, its signals held (also ``motocell up``'s, which
     ``tools.cli`` hands here); it ends by ``sys.exit``."""
-    if ROOM_OPTION not in sys._xoptions and not NOTHING_TO_FORK.intersection(words):
-        os.execv(sys.executable, [*launcher_command(), *words])  # the held signals stay held
+    if ROOM_OPTION not in sys._xoptions and needs_room(words):
+        # The same command, its interpreter's options kept; the held signals stay held.
+        os.execv(sys.executable, with_room(sys.orig_argv))
     # Zenoh and the launcher load with the collector paused, as the warm parent's imports
     # are (``zygote.warm_up`` says why); frozen after, so that neither process's collections
     # write to the pages the two share.
@@ -48,12 +52,13 @@ def launch(words: list[str]) -> None:
         from motocell.services.launcher.up import run  # noqa: PLC0415
     finally:
         gc.enable()
+    args = parser().parse_args(words)  # a wrong option, --help and --version end here
     gc.freeze()
-    zygote = fork_zygote(words)  # outside any block: in the zygote it ends the process
+    # Outside any block: in the zygote, this ends the process.
+    zygote = None if args.cold else fork_zygote()
     if ROOM_OPTION in sys._xoptions:
-        rewrite_command_line(nul_ended((sys.executable, "-m", LAUNCHER_MODULE, *words)))
+        rewrite_command_line(nul_ended(without_room(sys.orig_argv)))
     try:
-        args = parser().parse_args(words)
         args.warm_parent = zygote
         logging.basicConfig(
             level=logging.INFO, format="%(asctime)s motocell %(levelname)s %(message)s"
@@ -62,6 +67,11 @@ def launch(words: list[str]) -> None:
     finally:
         if zygote is not None:
             zygote.close()
+
+
+def needs_room(words: list[str]) -> bool:
+    """Whether a launcher run with ``words`` forks services."""
+    return not NOTHING_TO_FORK.intersection(words)
 
 
 if __name__ == "__main__":

@@ -157,6 +157,7 @@ class Zygote:
     def __init__(self, started: StartedZygote, stop: Stop) -> None:
         self.modules = frozenset(WARM_MODULES)
         self.process = started.process
+        self._stop = stop
         self._channel = ZygoteChannel(started.channel, stop)
 
     def fork(self, module: str, args: Sequence[str]) -> Process:
@@ -177,13 +178,11 @@ class Zygote:
         """Let it end by itself, with nothing asked of it: the end of its socket ends it once
         it has let the last service it forked go (it writes the go after its reply, so a kill
         now could come between the two, and that service would end unstarted); killed if it
-        has not ended within ``REPLY_S``."""
+        has not ended within ``REPLY_S``, or at once on a stop (everything stops then)."""
         self._channel.close()
-        try:
-            self.process.wait(REPLY_S)
-        except subprocess.TimeoutExpired:
+        if not _ends_by_itself(self.process.pid, self._stop):
             self.process.kill()
-            self.process.wait()
+        self.process.wait()
 
     def close(self) -> None:
         """Kill it: it holds nothing that needs an orderly end, and it may be stuck or stopped
@@ -199,6 +198,19 @@ class Zygote:
             with contextlib.suppress(ProcessLookupError):
                 os.kill(late, signal.SIGKILL)
             os.waitpid(late, 0)
+
+
+def _ends_by_itself(pid: int, stop: Stop) -> bool:
+    """Whether child ``pid`` ends within ``REPLY_S`` with no stop meanwhile."""
+    ended = os.pidfd_open(pid)
+    try:
+        poller = select.poll()
+        poller.register(ended, select.POLLIN)
+        poller.register(stop.fileno(), select.POLLIN)
+        ready = {fd for fd, _ in poller.poll(math.ceil(REPLY_S * 1000))}
+        return ended in ready and not stop.is_set()
+    finally:
+        os.close(ended)
 
 
 class WarmParent(Protocol):

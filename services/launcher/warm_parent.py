@@ -20,9 +20,6 @@ import socket
 import subprocess
 import sys
 
-NOTHING_TO_FORK = frozenset({"--cold", "-h", "--help", "--version"})
-"""Words of a launcher's command line after which it forks no service."""
-
 
 class ForkedProcess:
     """A process this launcher forked, or adopted from its zygote: ``Popen``'s ways, by pid."""
@@ -83,14 +80,11 @@ class StartedZygote:
         self.channel.close()
 
 
-def fork_zygote(words: list[str]) -> StartedZygote | None:
-    """The zygote for a launcher run with ``words``, None where that run forks nothing or no
-    process is to be had. Call it where nothing is to be undone below it (the launcher's
-    ``__main__``, outside its blocks): in the zygote, and in every service it forks, this
-    returns only by ending the process as the interpreter ends, with the service's exit status.
-    """
-    if NOTHING_TO_FORK.intersection(words):
-        return None
+def fork_zygote() -> StartedZygote | None:
+    """The launcher's zygote, None where no process is to be had. Call it where nothing is to
+    be undone below it (the launcher's ``__main__``, outside its blocks): in the zygote, and in
+    every service it forks, this returns only by ending the process as the interpreter ends,
+    with the service's exit status."""
     # The zygote's module, with the services' names it holds, loads after the fork, in the
     # zygote alone: the launcher needs none of it.
     ours, theirs = socket.socketpair()

@@ -45,10 +45,13 @@ from motocell.services.launcher.core.forks import (
     encode,
     nul_ended,
 )
-from motocell.shared.launcher_names import PARENT_PID_ENV, WARM_PARENT_MODULE
+from motocell.shared.launcher_names import PARENT_PID_ENV, ROOM_OPTION, WARM_PARENT_MODULE
 from motocell.shared.service import die_with_launcher
 from motocell.shared.service_names import WARM_MODULES
 from motocell.shared.signals import drop_held_stop_signals, release_stop_signals
+
+STANDARD_STREAMS = 2
+"""The highest of stdin, stdout and stderr's descriptors."""
 
 
 class Held:
@@ -230,6 +233,7 @@ def run(channel: socket.socket, launcher: int) -> None:
     the socket, ``channel``: serve the launcher until it closes the socket; in a forked
     service, run the service."""
     os.environ[PARENT_PID_ENV] = str(launcher)  # for ``die_with_launcher``, here and in forks
+    sys._xoptions.pop(ROOM_OPTION, None)  # the launcher's: not for a Python its forks start
     os.setpgid(0, 0)  # a process group of its own, as every service has: a Ctrl-C reaches
     # the launcher alone, which stops the children in order
     close_inherited(keep=channel.fileno())
@@ -254,6 +258,11 @@ def run(channel: socket.socket, launcher: int) -> None:
 def close_inherited(keep: int) -> None:
     """Close every descriptor of the launcher's but the standard streams and ``keep``: a
     service started with ``python -m`` inherits none of them (the harness's lifeline among
-    them), and neither does a fork."""
-    os.closerange(3, keep)
-    os.closerange(keep + 1, os.sysconf("SC_OPEN_MAX"))
+    them), and neither does a fork. Those open, as listed, not a range up to the limit: where
+    the kernel has no ``close_range`` (or a sandbox refuses it) that is one ``close`` per
+    number, a million of them under a container's usual limit."""
+    for name in os.listdir("/proc/self/fd"):
+        fd = int(name)
+        if fd > STANDARD_STREAMS and fd != keep:
+            with contextlib.suppress(OSError):  # the listing's own, closed by then
+                os.close(fd)

@@ -70,9 +70,7 @@ def test_the_launchers_main_thread_is_ordinary_and_its_router_threads_are_not(
     assert launcher.pop(cell.process.pid) == (os.SCHED_OTHER, 0)
     assert launcher, "the router's threads"
     assert set(launcher.values()) == {(os.SCHED_RR, SERVICE_PRIORITY)}
-    for zygote in cell.children() - cell.services():
-        # The services' imports are its own: they must not run at the cells' priority.
-        assert set(policies(zygote).values()) == {(os.SCHED_OTHER, 0)}
+    assert cell.children() == cell.services(), "the zygote let go (test_warm_start: its policy)"
 
 
 def test_every_service_thread_runs_at_the_services_priority_but_the_clock(

@@ -122,6 +122,9 @@ def test_a_sigterm_while_the_launcher_waits_for_a_stopped_zygote_stops_everythin
         # Nothing forked yet (a fork in progress would show its first child or its service):
         # every start from here on waits for a zygote that cannot answer.
         assert descendants(up.pid) == {zygote}, "the zygote was stopped before it forked"
+        # Forked before the launcher took the services' priority: the services' imports are
+        # the zygote's, and must not run at the cell's priority.
+        assert os.sched_getscheduler(zygote) == os.SCHED_OTHER
         wait_until(lambda: OPEN_BUS in output.read_text(), DEADLINE_S, "the services' start")
         processes = descendants(up.pid) | {up.pid}
         up.send_signal(signal.SIGTERM)

@@ -1,10 +1,11 @@
 """The stop signals held and released (shared/signals.py): one held is delivered at the release,
-unless dropped first, and dropping keeps the handlers."""
+unless dropped first, and dropping keeps the handlers. Each is sent to this thread, the one
+that holds them: sent to the process, another thread of the test run could take it."""
 
 from __future__ import annotations
 
-import os
 import signal
+import threading
 from collections.abc import Iterator
 
 import pytest
@@ -30,7 +31,7 @@ def counted() -> Iterator[list[int]]:
 
 def test_a_held_signal_comes_at_the_release(counted: list[int]) -> None:
     hold_stop_signals()
-    os.kill(os.getpid(), signal.SIGTERM)
+    signal.pthread_kill(threading.get_ident(), signal.SIGTERM)
     assert counted == []
     release_stop_signals()
     assert counted == [signal.SIGTERM]
@@ -38,9 +39,11 @@ def test_a_held_signal_comes_at_the_release(counted: list[int]) -> None:
 
 def test_a_dropped_signal_never_comes_and_the_handler_stays(counted: list[int]) -> None:
     hold_stop_signals()
-    os.kill(os.getpid(), signal.SIGTERM)
+    signal.pthread_kill(threading.get_ident(), signal.SIGTERM)
     drop_held_stop_signals()
     release_stop_signals()
     assert counted == []
-    os.kill(os.getpid(), signal.SIGTERM)  # one that comes after: handled as before
+    signal.pthread_kill(
+        threading.get_ident(), signal.SIGTERM
+    )  # one that comes after: handled as before
     assert counted == [signal.SIGTERM]

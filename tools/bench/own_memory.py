@@ -13,7 +13,8 @@ objects, thread stacks) whose mappings are all this group's is the group's own, 
 
 Reading physical page numbers needs CAP_SYS_ADMIN (root): without it the kernel reads them as
 0, and ``own_memory`` says so (None) instead of guessing. File-backed pages (the interpreter,
-libraries, the page cache) are left out: a further cell shares them.
+libraries, the page cache) are left out: a further cell shares them; so are pages swapped out
+and shared memory segments. The processes are read one after another, not at one instant.
 """
 
 from __future__ import annotations
@@ -127,10 +128,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         print("own_memory: physical frames are unreadable here (needs root)")
         return 1
     for pid, mib in own.alone_mib.items():
-        command = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")[:3]
-        print(f"{pid:>8}  {mib:6.1f} MiB alone  {b' '.join(command).decode(errors='replace')}")
+        print(f"{pid:>8}  {mib:6.1f} MiB alone  {_command(pid)}")
     print(f"shared among them alone: {own.among_mib:.1f} MiB; in all: {own.total_mib:.1f} MiB")
     return 0
+
+
+def _command(pid: int) -> str:
+    """The start of its command line; "(gone)" once it has ended."""
+    try:
+        words = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")[:3]
+    except OSError:
+        return "(gone)"
+    return b" ".join(words).decode(errors="replace")
 
 
 if __name__ == "__main__":

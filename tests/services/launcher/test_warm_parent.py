@@ -12,9 +12,17 @@ from typing import cast
 
 import pytest
 
+from motocell.services.launcher.__main__ import needs_room
 from motocell.services.launcher.up import warm_starter
-from motocell.services.launcher.warm_parent import StartedZygote, fork_zygote
-from motocell.shared.launcher_names import WARM_PARENT_MODULE, launcher_command
+from motocell.services.launcher.warm_parent import StartedZygote
+from motocell.shared.launcher_names import (
+    LAUNCHER_MODULE,
+    ROOM,
+    WARM_PARENT_MODULE,
+    launcher_command,
+    with_room,
+    without_room,
+)
 from motocell.shared.service import StopFlag
 from motocell.shared.service_names import ROS2_FACE, WARM_MODULES, ServiceName
 from motocell.shared.signals import STOP_SIGNALS
@@ -54,8 +62,19 @@ DEADLINE_S = 30.0
 
 
 @pytest.mark.parametrize("word", ["--cold", "--help", "-h", "--version"])
-def test_a_run_that_forks_nothing_forks_no_zygote(word: str) -> None:
-    assert fork_zygote(["--name", "cell1", word]) is None
+def test_a_run_that_forks_nothing_needs_no_room(word: str) -> None:
+    assert not needs_room(["--name", "cell1", word])
+    assert needs_room(["--name", "cell1"])
+
+
+def test_the_room_comes_and_goes_with_the_interpreters_own_options() -> None:
+    command = ["python3", "-W", "error", "-m", LAUNCHER_MODULE, "--name", "cell1"]
+    roomy = with_room(command)
+    assert roomy[:2] == [sys.executable, "-X"]
+    assert len(roomy[2]) > ROOM
+    assert roomy[3:] == command[1:]
+    assert without_room(roomy) == [sys.executable, *command[1:]]
+    assert without_room(command) == command
 
 
 def test_the_zygote_holds_every_service_but_the_ros2_face() -> None:
@@ -90,7 +109,7 @@ FORKING = (
     "from motocell.shared.signals import hold_stop_signals\n"
     "hold_stop_signals()\n"
     "from motocell.services.launcher.warm_parent import fork_zygote\n"
-    "zygote = fork_zygote([])\n"
+    "zygote = fork_zygote()\n"
     "print(zygote.process.pid, flush=True)\n"
     "sys.stdin.read()\n"
     "zygote.close()\n"
