@@ -92,8 +92,8 @@ def take_holes(
     that size is left: that one is freed again), keeping at most ``most`` bytes."""
     kept = 0
     for size in request_sizes():
+        start = top()  # taking a hole leaves the top where it is
         while kept + size <= most:
-            start = top()
             chunk = malloc(size)
             if chunk is None:
                 return kept
