@@ -40,8 +40,7 @@ def launch(words: list[str]) -> None:
         # The same command, its interpreter's options kept; the held signals stay held.
         os.execv(sys.executable, with_room(sys.orig_argv))
     # Zenoh and the launcher load with the collector paused, as the warm parent's imports
-    # are (``zygote.warm_up`` says why); frozen after, so that neither process's collections
-    # write to the pages the two share.
+    # are (``zygote.warm_up`` says why).
     gc.disable()
     try:
         import logging  # noqa: PLC0415
@@ -49,13 +48,19 @@ def launch(words: list[str]) -> None:
         from motocell.services.launcher.cli import parser  # noqa: PLC0415
         from motocell.services.launcher.command_line import rewrite_command_line  # noqa: PLC0415
         from motocell.services.launcher.core.forks import nul_ended  # noqa: PLC0415
+        from motocell.services.launcher.heap_holes import fill_heap_holes  # noqa: PLC0415
         from motocell.services.launcher.up import run  # noqa: PLC0415
     finally:
         gc.enable()
     args = parser().parse_args(words)  # a wrong option, --help and --version end here
-    gc.freeze()
-    # Outside any block: in the zygote, this ends the process.
-    zygote = None if args.cold else fork_zygote()
+    zygote = None
+    if not args.cold:
+        # The launcher's own allocations from here on would otherwise fill its heap's holes,
+        # on pages the zygote and every service share with it (``heap_holes``); frozen,
+        # neither process's collections write to the pages they share.
+        fill_heap_holes()
+        gc.freeze()
+        zygote = fork_zygote()  # outside any with or try: in the zygote, this ends the process
     if ROOM_OPTION in sys._xoptions:
         rewrite_command_line(nul_ended(without_room(sys.orig_argv)))
     try:
