@@ -1,5 +1,5 @@
-"""The C heap's free chunks, taken by the warm parent before it forks (docs/startup.md, "Where
-a cell's memory is").
+"""The C heap's free chunks, taken by the launcher and its warm parent before each forks
+(docs/startup.md, "What a fork copies, and the heap's holes").
 
 The zygote's imports leave a few hundred small free chunks scattered through glibc's heap
 (temporaries freed along the way). A fork's first allocations of the C heap (CPython's for

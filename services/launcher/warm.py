@@ -38,7 +38,7 @@ from motocell.services.launcher.core.forks import (
     encode,
 )
 from motocell.services.launcher.loop import Stop
-from motocell.services.launcher.warm_parent import ForkedProcess, StartedZygote
+from motocell.services.launcher.warm_parent import ForkedProcess, StartedZygote, exits_within
 from motocell.shared.bus.session import StoppedWaiting
 from motocell.shared.launcher_names import PARENT_PID_ENV
 from motocell.shared.service_names import WARM_MODULES
@@ -180,7 +180,7 @@ class Zygote:
         now could come between the two, and that service would end unstarted); killed if it
         has not ended within ``REPLY_S``, or at once on a stop (everything stops then)."""
         self._channel.close()
-        if not _ends_by_itself(self.process.pid, self._stop):
+        if not exits_within(self.process.pid, REPLY_S, interrupt=self._stop.fileno()):
             self.process.kill()
         self.process.wait()
 
@@ -198,19 +198,6 @@ class Zygote:
             with contextlib.suppress(ProcessLookupError):
                 os.kill(late, signal.SIGKILL)
             os.waitpid(late, 0)
-
-
-def _ends_by_itself(pid: int, stop: Stop) -> bool:
-    """Whether child ``pid`` ends within ``REPLY_S`` with no stop meanwhile."""
-    ended = os.pidfd_open(pid)
-    try:
-        poller = select.poll()
-        poller.register(ended, select.POLLIN)
-        poller.register(stop.fileno(), select.POLLIN)
-        ready = {fd for fd, _ in poller.poll(math.ceil(REPLY_S * 1000))}
-        return ended in ready and not stop.is_set()
-    finally:
-        os.close(ended)
 
 
 class WarmParent(Protocol):

@@ -13,6 +13,7 @@ The zygote rewrites its command line in the room the launcher started with
 
 from __future__ import annotations
 
+import math
 import os
 import select
 import signal
@@ -41,7 +42,7 @@ class ForkedProcess:
                 _, status = os.waitpid(self.pid, 0)
                 self.returncode = os.waitstatus_to_exitcode(status)
             else:
-                _wait_for_exit(self.pid, timeout)
+                exits_within(self.pid, timeout)
         code = self.poll()
         if code is None:
             raise subprocess.TimeoutExpired(str(self.pid), timeout or 0.0)
@@ -55,12 +56,17 @@ class ForkedProcess:
         self.send_signal(signal.SIGKILL)
 
 
-def _wait_for_exit(pid: int, timeout: float) -> None:
+def exits_within(pid: int, timeout: float, interrupt: int | None = None) -> bool:
+    """Whether child ``pid`` exits within ``timeout`` s; the wait ends early, False, once the
+    descriptor ``interrupt`` is readable (a stop's)."""
     exited = os.pidfd_open(pid)
     try:
         poller = select.poll()
         poller.register(exited, select.POLLIN)
-        poller.poll(max(0, round(timeout * 1000)))
+        if interrupt is not None:
+            poller.register(interrupt, select.POLLIN)
+        ready = {fd for fd, _ in poller.poll(max(0, math.ceil(timeout * 1000)))}
+        return exited in ready
     finally:
         os.close(exited)
 

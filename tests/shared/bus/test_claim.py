@@ -72,29 +72,42 @@ def test_a_held_name_is_refused(endpoint: str) -> None:
         second.close()
 
 
-def test_of_simultaneous_claims_exactly_one_wins(endpoint: str) -> None:
-    sessions = [open_session("client", [endpoint], wait=False) for _ in range(4)]
-    outcomes: list[str] = []
+def claimed_at_once(
+    sessions: list[zenoh.Session],
+    claim_with: Callable[[zenoh.Session], claim.HeldName],
+    timeout: float,
+) -> list[claim.HeldName | None]:
+    """Each session's claim, all let go at once: for each that ended within ``timeout``, the
+    name it holds, or None where it was refused."""
+    outcomes: list[claim.HeldName | None] = []
     lock = threading.Lock()
     start = threading.Barrier(len(sessions))
 
     def race(session: zenoh.Session) -> None:
         start.wait()
         try:
-            claim_name(session, KEYS, "interpolator", "1")
-            result = "won"
+            held: claim.HeldName | None = claim_with(session)
         except NameTakenError:
-            result = "lost"
+            held = None
         with lock:
-            outcomes.append(result)
+            outcomes.append(held)
 
-    threads = [threading.Thread(target=race, args=(s,)) for s in sessions]
+    threads = [threading.Thread(target=race, args=(session,)) for session in sessions]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(timeout)
+    return outcomes
+
+
+def test_of_simultaneous_claims_exactly_one_wins(endpoint: str) -> None:
+    sessions = [open_session("client", [endpoint], wait=False) for _ in range(4)]
     try:
-        for thread in threads:
-            thread.start()
-        for thread in threads:
-            thread.join(10.0)
-        assert sorted(outcomes) == ["lost", "lost", "lost", "won"]
+        outcomes = claimed_at_once(
+            sessions, lambda session: claim_name(session, KEYS, "interpolator", "1"), 10.0
+        )
+        results = ["lost" if held is None else "won" for held in outcomes]
+        assert sorted(results) == ["lost", "lost", "lost", "won"]
     finally:
         for session in sessions:
             session.close()
@@ -206,24 +219,13 @@ def holders_of_a_sole_race(endpoint: str, instance: str, starts: int = 4) -> int
     """How many of ``starts`` sole claims made at once hold the name."""
     sessions = [open_session("client", [endpoint], wait=False) for _ in range(starts)]
     holds: list[claim.HeldName] = []
-    lock = threading.Lock()
-    start = threading.Barrier(starts)
-
-    def race(session: zenoh.Session) -> None:
-        start.wait()
-        try:
-            held = claim_name(session, KEYS, "interpolator", instance, sole=True)
-        except NameTakenError:
-            return
-        with lock:
-            holds.append(held)
-
-    threads = [threading.Thread(target=race, args=(session,)) for session in sessions]
     try:
-        for thread in threads:
-            thread.start()
-        for thread in threads:
-            thread.join(SEEN_TIMEOUT_S)
+        outcomes = claimed_at_once(
+            sessions,
+            lambda session: claim_name(session, KEYS, "interpolator", instance, sole=True),
+            SEEN_TIMEOUT_S,
+        )
+        holds = [held for held in outcomes if held is not None]
         return len(holds)
     finally:
         for held in holds:
